@@ -1,0 +1,5 @@
+import sys
+
+from scangeo.cli import main
+
+sys.exit(main())

@@ -1,0 +1,74 @@
+"""The ``scangeo`` command: one module per subcommand, each a thin shell over a library call.
+
+A command module defines ``add_parser(subparsers, common)`` which adds its sub-parser (with
+``parents=[common]`` for the shared options) and sets ``func`` to a handler ``run(args) -> int``.
+To add a command, add its module name to ``COMMANDS``.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+
+from scangeo import __version__
+from scangeo.errors import ScangeoError
+from scangeo.progress import TextProgress, no_progress
+
+#: Sub-command modules of scangeo.cli, in the order ``--help`` lists them.
+COMMANDS = [
+    "info",
+    "locate",
+]
+
+
+def common_options() -> argparse.ArgumentParser:
+    """The options every command shares (``--verbose``, ``--progress/--no-progress``)."""
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv: debug)")
+    common.add_argument(
+        "--progress", dest="progress", action=argparse.BooleanOptionalAction, default=None,
+        help="show a progress bar (default: when stderr is a terminal)",
+    )
+    return common
+
+
+def progress_of(args: argparse.Namespace):
+    """The progress callback for a command's arguments."""
+    enabled = args.progress if args.progress is not None else sys.stderr.isatty()
+    return TextProgress(enabled=True) if enabled else no_progress
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="scangeo", description="Georeferencing of airborne line-scanner imagery."
+    )
+    parser.add_argument("--version", action="version", version=f"scangeo {__version__}")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+    common = common_options()
+    for name in COMMANDS:
+        module = importlib.import_module(f"scangeo.cli.{name}")
+        module.add_parser(subparsers, common)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    level = logging.WARNING - 10 * min(getattr(args, "verbose", 0), 2)
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return int(args.func(args) or 0)
+    except ScangeoError as exc:
+        print(f"scangeo {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"scangeo {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
