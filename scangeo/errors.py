@@ -38,6 +38,10 @@ class AdjustmentError(ScangeoError):
     """The adjustment cannot be set up or solved."""
 
 
+class LidarError(ScangeoError):
+    """A laser-scanner computation is given inconsistent input (geometry, errors, strips, budget)."""
+
+
 def where(path: object, line: int | None = None, key: str | None = None) -> str:
     """Format a location prefix for messages: ``file line N`` or ``file [key]``."""
     text = str(path)

@@ -19,6 +19,7 @@ from scangeo.progress import TextProgress, no_progress
 COMMANDS = [
     "info",
     "locate",
+    "lidar",
 ]
 
 
