@@ -177,7 +177,7 @@ class MapFrame:
         self.frame = frame
         self.geoid = geoid or Geoid(0.0)
         self._to_geo = pyproj.Transformer.from_crs(crs, GEOGRAPHIC_CRS, always_xy=True)
-        self._from_geo = pyproj.Transformer.from_crs(GEOGRAPHIC_CRS, crs, always_xy=True)
+        self._exact_inverse = crs.geodetic_crs is not None and crs.geodetic_crs.datum == GEOGRAPHIC_CRS.datum
 
     @classmethod
     def centred_on(cls, crs, x: float, y: float, H: float = 0.0, geoid: Geoid | None = None) -> "MapFrame":
@@ -194,8 +194,16 @@ class MapFrame:
 
     def geodetic_to_map_2d(self, lat, lon) -> tuple[np.ndarray, np.ndarray]:
         """Map x, y of geodetic lat, lon (rad)."""
-        x, y = self._from_geo.transform(np.degrees(lon), np.degrees(lat))
-        return np.asarray(x), np.asarray(y)
+        lon_deg, lat_deg = np.degrees(lon), np.degrees(lat)
+        x, y = self._to_geo.transform(lon_deg, lat_deg, direction="INVERSE")
+        x, y = np.asarray(x), np.asarray(y)
+        if self._exact_inverse:
+            return x, y
+        # A datum shift done in 2D is not exactly invertible by PROJ (about 1 mm for MGI): one
+        # fixed-point step makes geodetic -> map the exact inverse of map -> geodetic.
+        lo2, la2 = self._to_geo.transform(x, y)
+        x2, y2 = self._to_geo.transform(lo2, la2, direction="INVERSE")
+        return 2 * x - np.asarray(x2), 2 * y - np.asarray(y2)
 
     def map_to_project(self, x, y, H) -> np.ndarray:
         """p_P (n, 3) of map points (x, y in the map CRS, H orthometric metres)."""

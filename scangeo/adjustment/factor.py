@@ -1,0 +1,178 @@
+"""Sparse LDL^T / Cholesky factorisation of symmetric positive (semi)definite normal matrices.
+
+Two backends, chosen by measurement (docs/performance.md, tests/benchmarks/solver.py):
+
+- ``cholmod``: CHOLMOD's supernodal Cholesky with AMD ordering (scikit-sparse, optional dependency;
+  the fastest by a factor 1.5-5 on our normal matrices);
+- ``superlu``: scipy's SuperLU in symmetric mode (minimum-degree ordering on A^T + A, diagonal
+  pivots only), which then computes ``A = L D L^T``. Always available; scipy's default (COLAMD,
+  partial pivoting) is 10-100 times slower on these matrices and is not used.
+
+Both give pivots per unknown (for detecting rank defects) and an explicit ``(perm, L, d)`` for
+selected inversion.
+"""
+from __future__ import annotations
+
+import logging
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from scangeo.errors import AdjustmentError
+
+log = logging.getLogger(__name__)
+
+#: Diagonal shift used only to locate the zero pivots of an exactly singular (unit-diagonal) matrix.
+_SHIFT = 1e-13
+
+try:  # optional: CHOLMOD through scikit-sparse
+    from sksparse.cholmod import CholmodNotPositiveDefiniteError, analyze as _cholmod_analyze
+except ImportError:  # pragma: no cover - depends on the machine
+    _cholmod_analyze = None
+
+
+class NotPositiveDefinite(AdjustmentError):
+    """The matrix is not positive definite.
+
+    ``pivots`` are LDL^T pivots of every unknown (original numbering) from a factorisation that went
+    through (without pivoting, or of a slightly shifted matrix): the small or negative ones name the
+    unknowns to regularise.
+    """
+
+    def __init__(self, message: str, pivots: np.ndarray) -> None:
+        super().__init__(message)
+        self.pivots = pivots
+
+
+@dataclass
+class LDL:
+    """``A[perm][:, perm] = (I + L) diag(d) (I + L)^T`` with ``L`` strictly lower triangular (CSC)."""
+
+    perm: np.ndarray
+    L: sp.csc_matrix
+    d: np.ndarray
+
+
+class Factor(ABC):
+    """A factorisation of a symmetric matrix ``A`` (n x n)."""
+
+    backend: str
+
+    @abstractmethod
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """``A^-1 b``."""
+
+    @abstractmethod
+    def pivots(self) -> np.ndarray:
+        """The LDL^T pivot of every unknown, in the original numbering (n,)."""
+
+    @abstractmethod
+    def ldl(self) -> LDL:
+        """The explicit factor, for selected inversion."""
+
+
+def available_backends() -> list[str]:
+    """The backends usable on this machine, fastest first."""
+    return (["cholmod"] if _cholmod_analyze is not None else []) + ["superlu"]
+
+
+def _strict_lower(L: sp.spmatrix) -> sp.csc_matrix:
+    L = sp.tril(sp.csc_matrix(L), k=-1, format="csc")
+    L.sort_indices()
+    return L
+
+
+class CholmodFactor(Factor):
+    backend = "cholmod"
+
+    def __init__(self, factor) -> None:
+        self._f = factor
+
+    def solve(self, b):
+        return self._f(b)
+
+    def pivots(self):
+        d = np.empty(self._f.D().size)
+        d[self._f.P()] = self._f.D()
+        return d
+
+    def ldl(self):
+        f = self._f.copy()
+        L, D = f.L_D()
+        return LDL(np.asarray(f.P(), dtype=np.int64), _strict_lower(L), np.asarray(D.diagonal()))
+
+
+class SuperLUFactor(Factor):
+    backend = "superlu"
+
+    def __init__(self, lu) -> None:
+        self._lu = lu
+        if not np.array_equal(lu.perm_r, lu.perm_c):
+            raise AdjustmentError("SuperLU chose off-diagonal pivots on a symmetric matrix")
+        self._q = lu.perm_c  # position of each original index
+
+    def solve(self, b):
+        return self._lu.solve(b)
+
+    def pivots(self):
+        return self._lu.U.diagonal()[self._q]
+
+    def ldl(self):
+        return LDL(np.argsort(self._q).astype(np.int64), _strict_lower(self._lu.L), self._lu.U.diagonal().copy())
+
+
+class Factorizer:
+    """Factorises a sequence of matrices of one sparsity pattern, reusing the symbolic analysis."""
+
+    def __init__(self, backend: str = "auto") -> None:
+        if backend == "auto":
+            backend = available_backends()[0]
+        if backend not in ("cholmod", "superlu"):
+            raise AdjustmentError(f"unknown solver backend {backend!r} (expected auto, cholmod or superlu)")
+        if backend not in available_backends():
+            raise AdjustmentError("solver backend 'cholmod' needs scikit-sparse, which is not installed")
+        self.backend = backend
+        self._symbolic = None
+        self._pattern: tuple[np.ndarray, np.ndarray] | None = None
+
+    def factorize(self, A: sp.spmatrix) -> Factor:
+        """Factorise the symmetric matrix ``A`` (both triangles stored).
+
+        Raises :class:`NotPositiveDefinite` when a pivot is not positive and the backend stops there.
+        """
+        A = sp.csc_matrix(A)
+        A.sort_indices()
+        if self.backend == "cholmod":
+            return self._cholmod(A)
+        return self._superlu(A)
+
+    def _cholmod(self, A: sp.csc_matrix) -> Factor:
+        same = (self._pattern is not None and self._pattern[0].shape == A.indptr.shape
+                and np.array_equal(self._pattern[0], A.indptr) and np.array_equal(self._pattern[1], A.indices))
+        if not same:
+            self._symbolic = _cholmod_analyze(A, mode="supernodal", ordering_method="amd")
+            self._pattern = (A.indptr.copy(), A.indices.copy())
+        try:
+            return CholmodFactor(self._symbolic.cholesky(A))
+        except CholmodNotPositiveDefiniteError:
+            pass
+        # LDL^T without pivoting goes through indefinite matrices and shows every bad pivot
+        simplicial = _cholmod_analyze(A, mode="simplicial", ordering_method="amd")
+        try:
+            pivots = CholmodFactor(simplicial.cholesky(A)).pivots()
+        except CholmodNotPositiveDefiniteError:  # an exactly zero pivot: look at a shifted matrix
+            pivots = CholmodFactor(simplicial.cholesky(A, beta=_SHIFT)).pivots()
+        raise NotPositiveDefinite("normal matrix not positive definite", pivots)
+
+    def _superlu(self, A: sp.csc_matrix) -> Factor:
+        try:
+            lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                           options=dict(SymmetricMode=True))
+        except RuntimeError as exc:  # "Factor is exactly singular": look at a shifted matrix
+            shifted = spla.splu(A + _SHIFT * sp.eye(A.shape[0], format="csc"), permc_spec="MMD_AT_PLUS_A",
+                                diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+            raise NotPositiveDefinite(f"normal matrix singular ({exc})", SuperLUFactor(shifted).pivots()) from None
+        return SuperLUFactor(lu)

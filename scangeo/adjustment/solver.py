@@ -1,0 +1,249 @@
+"""Gauss-Newton with Levenberg-Marquardt damping, sparse normal equations, regularisation on the fly.
+
+Every iteration linearises all observation groups at the current values, forms the normal equations
+``N dx = -J^T r`` (Jacobi-scaled to a unit diagonal), factorises them by sparse Cholesky and steps. A
+step that does not lower the cost is retried with damping ``(N + lambda I)``. The iteration stops when
+the largest step is below ``step_tolerance`` in units of ``1/sqrt(N_ii)`` (a lower bound of each
+unknown's standard deviation) or the cost no longer decreases.
+
+Regularisation on the fly: an unknown without any observation (zero column), or whose scaled pivot
+falls below ``pivot_tolerance`` (it is, numerically, a combination of others), gets the
+pseudo-observation ``x = current value`` with its block's ``regularisation_sigma``; the solution
+lists every such unknown with the sigma used and the reason. The adjustment never fails on a rank
+defect.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+import scipy.sparse as sp
+
+from scangeo.adjustment.factor import Factor, Factorizer, NotPositiveDefinite
+from scangeo.adjustment.keys import Key
+from scangeo.adjustment.observations import ObservationGroup, PseudoObservations
+from scangeo.adjustment.parameters import Layout, Parameters
+from scangeo.progress import ProgressCallback, no_progress
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Options of the Gauss-Newton iteration.
+
+    backend : ``"auto"`` (CHOLMOD when installed, else SuperLU), ``"cholmod"`` or ``"superlu"``.
+    pivot_tolerance : scaled pivots below it mark an unknown as undetermined (regularised).
+    """
+
+    max_iterations: int = 30
+    step_tolerance: float = 1e-6
+    cost_tolerance: float = 1e-12
+    backend: str = "auto"
+    pivot_tolerance: float = 1e-10
+    damping: bool = True
+    max_damping_steps: int = 12
+
+
+@dataclass(frozen=True)
+class RegularisationNote:
+    """One unknown the solver had to regularise: ``key[component] = value +- sigma``."""
+
+    key: Key
+    component: str
+    sigma: float
+    reason: str
+
+
+@dataclass(frozen=True)
+class IterationInfo:
+    number: int
+    cost: float
+    max_scaled_step: float
+    damping: float
+    seconds: float
+
+
+@dataclass
+class System:
+    """The stacked, whitened system at one point: residuals, Jacobian, scaled normal matrix."""
+
+    residuals: np.ndarray          # (m,) whitened, rejected rows set to 0
+    jacobian: sp.csr_matrix        # (m, n), rejected rows zero
+    scale: np.ndarray              # (n,) sqrt(diag N), the Jacobi scaling
+    normal: sp.csc_matrix          # D^-1 N D^-1
+    gradient: np.ndarray           # D^-1 J^T r
+    row_slices: list[slice]        # rows of each group in the stack
+
+    @property
+    def cost(self) -> float:
+        return float(self.residuals @ self.residuals)
+
+
+@dataclass
+class Solution:
+    """The adjusted unknowns and the final system, input to the statistics."""
+
+    parameters: Parameters
+    layout: Layout
+    groups: list[ObservationGroup]      # observation and pseudo-observation groups, priors and regularisation last
+    active: list[np.ndarray]            # per group, rows in the adjustment (data snooping removes rows)
+    system: System
+    factor: Factor
+    iterations: list[IterationInfo]
+    converged: bool
+    regularisation: list[RegularisationNote] = field(default_factory=list)
+
+    def values(self) -> dict[Key, np.ndarray]:
+        return self.parameters.values()
+
+
+def prior_group(parameters: Parameters) -> PseudoObservations | None:
+    """The pseudo-observations of every free component that has a finite prior sigma."""
+    keys, comps, vals, sig, names = [], [], [], [], []
+    for b in parameters:
+        if b.prior_sigma is None:
+            continue
+        for i in np.flatnonzero(b.free & np.isfinite(b.prior_sigma)):
+            keys.append(b.key), comps.append(i), vals.append(b.prior_values[i])
+            sig.append(b.prior_sigma[i]), names.append(b.names[i])
+    if not keys:
+        return None
+    return PseudoObservations("priors", keys, np.array(comps), np.array(vals), np.array(sig), names)
+
+
+class Solver:
+    """Solves ``min sum ||r_g(x)||^2`` over the free unknowns of ``parameters``."""
+
+    def __init__(self, parameters: Parameters, groups: Sequence[ObservationGroup],
+                 options: SolverOptions = SolverOptions(), callback: ProgressCallback = no_progress) -> None:
+        self.parameters = parameters.copy()
+        self.layout = Layout.of(self.parameters)
+        self.groups = list(groups)
+        prior = prior_group(self.parameters)
+        if prior is not None:
+            self.groups.append(prior)
+        self.options = options
+        self.callback = callback
+        self.factorizer = Factorizer(options.backend)
+        self.regularisation: list[RegularisationNote] = []
+        self._regularised: set[int] = set()
+
+    # -- assembly -------------------------------------------------------------------------------
+    def system(self, values, active: list[np.ndarray]) -> System:
+        res, jac, slices, start = [], [], [], 0
+        for group, act in zip(self.groups, active):
+            lin = group.linearise(values)
+            J = self.layout.matrix(lin.parts, group.n_rows)
+            r = np.where(act, lin.residuals, 0.0)
+            if not act.all():
+                J = sp.diags(act.astype(float)) @ J
+            res.append(r), jac.append(J)
+            slices.append(slice(start, start + group.n_rows))
+            start += group.n_rows
+        J = sp.vstack(jac, format="csr") if jac else sp.csr_matrix((0, self.layout.n))
+        r = np.concatenate(res) if res else np.zeros(0)
+        N = (J.T @ J).tocsc()
+        d = np.sqrt(np.maximum(N.diagonal(), 0.0))
+        scale = np.where(d > 0, d, 1.0)
+        Dinv = sp.diags(1.0 / scale)
+        return System(r, J, scale, (Dinv @ N @ Dinv).tocsc(), (J.T @ r) / scale, slices)
+
+    def _regularise(self, values, columns: np.ndarray, reason: str) -> PseudoObservations:
+        keys, comps, vals, sig, names = [], [], [], [], []
+        for col in columns:
+            key, i = self.layout.locate(int(col))
+            block = self.parameters[key]
+            keys.append(key), comps.append(i), vals.append(values[key][i])
+            sig.append(block.regularisation_sigma[i]), names.append(block.names[i])
+            self.regularisation.append(RegularisationNote(key, block.names[i], float(block.regularisation_sigma[i]), reason))
+            self._regularised.add(int(col))
+            log.warning("regularised %s[%s] with sigma %g: %s", key.label, block.names[i],
+                        block.regularisation_sigma[i], reason)
+        return PseudoObservations("regularisation", keys, np.array(comps), np.array(vals), np.array(sig), names)
+
+    def factorize(self, values, active: list[np.ndarray]) -> tuple[System, Factor]:
+        """The system at ``values`` and its factor, regularising undetermined unknowns as needed."""
+        while True:
+            system = self.system(values, active)
+            raw_diag = np.asarray((system.jacobian.multiply(system.jacobian)).sum(axis=0)).ravel()
+            empty = np.flatnonzero(raw_diag <= 0.0)
+            reason = "no observation determines it"
+            if empty.size == 0:
+                try:
+                    factor = self.factorizer.factorize(system.normal)
+                    pivots = factor.pivots()
+                except NotPositiveDefinite as exc:
+                    factor, pivots = None, exc.pivots
+                bad = np.flatnonzero(~(pivots > self.options.pivot_tolerance))
+                if bad.size == 0 and factor is not None:
+                    return system, factor
+                empty = bad
+                reason = "singular or nearly singular normal equations (scaled pivot below %g)" % self.options.pivot_tolerance
+            empty = np.array([c for c in empty if int(c) not in self._regularised], dtype=np.int64)
+            if empty.size == 0:
+                raise NotPositiveDefinite("regularisation did not make the normal equations regular", pivots)
+            group = self._regularise(values, empty, reason)
+            self.groups.append(group)
+            active = active + [np.ones(group.n_rows, bool)]
+
+    # -- iteration ------------------------------------------------------------------------------
+    def solve(self, active: list[np.ndarray] | None = None) -> Solution:
+        """Iterate to convergence from the current values; ``active`` rows per group (default all)."""
+        opts = self.options
+        values = self.parameters.values()
+        active = [np.ones(g.n_rows, bool) for g in self.groups] if active is None else list(active)
+        active += [np.ones(g.n_rows, bool) for g in self.groups[len(active):]]
+        iterations: list[IterationInfo] = []
+        converged = False
+        lam = 0.0
+        for it in range(1, opts.max_iterations + 1):
+            t0 = time.perf_counter()
+            n_groups = len(self.groups)
+            system, factor = self.factorize(values, active)
+            active += [np.ones(g.n_rows, bool) for g in self.groups[n_groups:]]
+            cost = system.cost
+            step = factor.solve(-system.gradient)
+            new_values = self.layout.add_step(values, step / system.scale)
+            new_cost = self._cost(new_values, active)
+            lam = 0.0
+            if opts.damping and new_cost > cost * (1 + 1e-12) + 1e-300:
+                lam = 1e-4
+                for _ in range(opts.max_damping_steps):
+                    damped = self.factorizer.factorize(system.normal + lam * sp.eye(self.layout.n, format="csc"))
+                    step = damped.solve(-system.gradient)
+                    new_values = self.layout.add_step(values, step / system.scale)
+                    new_cost = self._cost(new_values, active)
+                    if new_cost <= cost:
+                        break
+                    lam *= 10.0
+            max_step = float(np.max(np.abs(step), initial=0.0))
+            accepted = new_cost <= cost * (1 + 1e-12)
+            if accepted:
+                values = new_values
+            iterations.append(IterationInfo(it, min(new_cost, cost), max_step, lam, time.perf_counter() - t0))
+            log.info("iteration %d: cost %.6g, max scaled step %.3g, damping %g", it, new_cost, max_step, lam)
+            self.callback(it, opts.max_iterations, f"iteration {it}: cost {min(new_cost, cost):.6g}")
+            if not accepted:  # no step lowers the cost: a minimum to numerical precision
+                converged = max_step < opts.step_tolerance or abs(cost - new_cost) <= 1e-9 * max(cost, 1e-300)
+                break
+            if max_step < opts.step_tolerance or abs(cost - new_cost) <= opts.cost_tolerance * max(cost, 1e-300):
+                converged = True
+                break
+        self.callback(opts.max_iterations, opts.max_iterations, "adjusted" if converged else "not converged")
+        n_groups = len(self.groups)
+        system, factor = self.factorize(values, active)
+        active += [np.ones(g.n_rows, bool) for g in self.groups[n_groups:]]
+        self.parameters.set_values(values)
+        return Solution(self.parameters, self.layout, list(self.groups), active, system, factor,
+                        iterations, converged, list(self.regularisation))
+
+    def _cost(self, values, active) -> float:
+        total = 0.0
+        for group, act in zip(self.groups, active):
+            r = group.residuals(values)
+            total += float(np.sum(r[act] ** 2))
+        return total

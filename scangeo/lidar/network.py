@@ -1,0 +1,134 @@
+"""Network design of a 1D strip adjustment: a block of parallel strips, cross strips, control areas.
+
+A regular block: ``n_strips`` parallel strips flown north-south (x east, y north, metres), spaced
+``swath * (1 - overlap)``, of length ``length``; ``n_cross`` east-west cross strips evenly spread
+along the block. Tie areas sit in every side overlap every ``tie_spacing`` metres and at every
+crossing of a cross strip with a parallel strip; a control area is seen by every strip covering it.
+The precision of the strip offsets then follows from the configuration alone
+(:func:`scangeo.lidar.strip_adjustment.offset_covariance`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from scangeo.errors import LidarError
+from scangeo.lidar.strip_adjustment import ControlArea, Strip, TieArea, offset_covariance
+
+
+@dataclass(frozen=True)
+class BlockLayout:
+    """A regular block (metres). Control positions are ``(x, y)`` pairs."""
+
+    n_strips: int = 21
+    n_cross: int = 4
+    length: float = 20000.0
+    swath: float = 1000.0
+    overlap: float = 0.3
+    tie_spacing: float = 1000.0
+    sigma_tie: float = 0.03
+    sigma_control: float = 0.03
+
+    @property
+    def spacing(self) -> float:
+        return self.swath * (1.0 - self.overlap)
+
+    @property
+    def width(self) -> float:
+        return (self.n_strips - 1) * self.spacing
+
+    def corner_controls(self) -> list[tuple[float, float]]:
+        """Four control areas near the block corners (inside the outer strips)."""
+        return [(x, y) for x in (0.0, self.width) for y in (0.0, self.length)]
+
+    def ends_controls(self, every: int = 4) -> list[tuple[float, float]]:
+        """Control areas at both strip ends of every ``every``-th strip (and of the last one)."""
+        idx = sorted(set(range(0, self.n_strips, every)) | {self.n_strips - 1})
+        return [(i * self.spacing, y) for i in idx for y in (0.0, self.length)]
+
+
+def build_block(layout: BlockLayout, controls: list[tuple[float, float]]) -> tuple[list[Strip], list[TieArea], list[ControlArea]]:
+    """Strips, tie areas and control areas (observations zero) of a regular block."""
+    if layout.n_strips < 1 or not 0.0 <= layout.overlap < 1.0:
+        raise LidarError(f"block layout: {layout.n_strips} strips, overlap {layout.overlap} (expected >= 1 strip, 0 <= overlap < 1)")
+    strips = [Strip(f"L{i + 1}", i * layout.spacing, layout.length / 2, 0.0) for i in range(layout.n_strips)]
+    cross_y = (np.arange(layout.n_cross) + 0.5) * layout.length / max(layout.n_cross, 1)
+    strips += [
+        Strip(f"Q{k + 1}", layout.width / 2, float(y), np.pi / 2) for k, y in enumerate(cross_y)
+    ]
+    ties: list[TieArea] = []
+    n_along = max(int(round(layout.length / layout.tie_spacing)), 1)
+    ys = (np.arange(n_along) + 0.5) * layout.length / n_along
+    for i in range(layout.n_strips - 1):
+        x = (i + 0.5) * layout.spacing
+        ties += [TieArea(i, i + 1, x, float(y), sigma=layout.sigma_tie) for y in ys]
+    for k, y in enumerate(cross_y):
+        ties += [
+            TieArea(layout.n_strips + k, i, i * layout.spacing, float(y), sigma=layout.sigma_tie)
+            for i in range(layout.n_strips)
+        ]
+    ctl: list[ControlArea] = []
+    for x, y in controls:
+        for s, strip in enumerate(strips):
+            u, v = strip.along_across(x, y)
+            half_length = (layout.width if s >= layout.n_strips else layout.length) / 2
+            if abs(v) <= layout.swath / 2 and abs(u) <= half_length + 1e-6:
+                ctl.append(ControlArea(s, x, y, sigma=layout.sigma_control))
+    return strips, ties, ctl
+
+
+def offset_precision(layout: BlockLayout, controls: list[tuple[float, float]], tilts: bool = False) -> np.ndarray:
+    """Standard deviation (m) of each strip offset (parallel strips first, then cross strips)."""
+    strips, ties, ctl = build_block(layout, controls)
+    Q = offset_covariance(strips, ties, ctl, tilts=tilts)
+    k = 3 if tilts else 1
+    return np.sqrt(np.diag(Q)[::k])
+
+
+def design_scenarios(layout: BlockLayout) -> dict[str, np.ndarray]:
+    """Offset precision (m) of the parallel strips for the standard comparison of configurations."""
+    no_cross = BlockLayout(**{**layout.__dict__, "n_cross": 0})
+    return {
+        f"{layout.n_strips} strips, no cross strips, 4 corner controls":
+            offset_precision(no_cross, no_cross.corner_controls())[: layout.n_strips],
+        f"{layout.n_strips} strips, {layout.n_cross} cross strips, 4 corner controls":
+            offset_precision(layout, layout.corner_controls())[: layout.n_strips],
+        f"{layout.n_strips} strips, {layout.n_cross} cross strips, controls at both ends of every 4th strip":
+            offset_precision(layout, layout.ends_controls(4))[: layout.n_strips],
+    }
+
+
+def plot_design(layout: BlockLayout, path: str) -> dict[str, np.ndarray]:
+    """Plot the block layout and the offset precision per strip of :func:`design_scenarios` (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scenarios = design_scenarios(layout)
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4.8), gridspec_kw={"width_ratios": [1, 1.4]})
+    strips, ties, _ = build_block(layout, [])
+    for s in strips[: layout.n_strips]:
+        ax0.plot([s.x0, s.x0], [0, layout.length], color="0.6", lw=4, alpha=0.5)
+    for s in strips[layout.n_strips:]:
+        ax0.plot([0, layout.width], [s.y0, s.y0], color="tab:orange", lw=4, alpha=0.6)
+    ax0.plot([t.x for t in ties], [t.y for t in ties], "k.", ms=2, label="tie areas")
+    for xy, marker, label in ((layout.corner_controls(), "^", "corner controls"),
+                              (layout.ends_controls(4), "v", "end controls (every 4th strip)")):
+        ax0.plot(*np.array(xy).T, marker, ms=8, mfc="none", label=label)
+    ax0.set_xlabel("x (m)")
+    ax0.set_ylabel("y (m)")
+    ax0.set_title(f"{layout.n_strips} strips, {layout.n_cross} cross strips")
+    ax0.legend(fontsize=7, loc="upper right")
+    for name, sig in scenarios.items():
+        ax1.plot(np.arange(1, layout.n_strips + 1), 100 * sig, "o-", ms=3, label=name)
+    ax1.set_xlabel("strip")
+    ax1.set_ylabel("sigma of strip offset (cm)")
+    ax1.set_title(f"tie sigma {100 * layout.sigma_tie:g} cm, control sigma {100 * layout.sigma_control:g} cm")
+    ax1.legend(fontsize=7)
+    ax1.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return scenarios

@@ -1,0 +1,170 @@
+"""GeoTIFF outputs: a profile with sane defaults, band descriptions, atomic COG finalisation.
+
+Tiles are first written into an uncompressed tiled GeoTIFF beside the output (a hidden
+``.NAME.partial-*`` file), then copied by GDAL's COG driver into a second hidden file (tiled,
+compressed, overviews, cloud-optimised layout), which is renamed to the final name only when
+complete. A run killed at any point leaves only hidden partial files, which the next run removes.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import rasterio
+import rasterio.shutil
+
+from scangeo.errors import ScangeoError
+from scangeo.rectify.output_grid import OutputGrid
+
+_COMPRESSIONS = ("deflate", "zstd", "lzw", "none")
+
+
+@dataclass(frozen=True)
+class GeoTiffProfile:
+    """How output GeoTIFFs are laid out (copied from rasterio's ``Profile`` idea).
+
+    Parameters
+    ----------
+    blocksize : internal tile size, pixels.
+    compress : ``deflate`` (default, readable everywhere), ``zstd``, ``lzw`` or ``none``.
+    level : compression level (None: GDAL's default).
+    predictor : horizontal differencing for integers, floating-point predictor for floats.
+    overviews : build internal overviews (COG layout).
+    cog : write with GDAL's COG driver (cloud-optimised layout); else a plain tiled GeoTIFF.
+    threads : compression threads (``ALL_CPUS`` or a number).
+    """
+
+    blocksize: int = 512
+    compress: str = "deflate"
+    level: int | None = None
+    predictor: bool = True
+    overviews: bool = True
+    cog: bool = True
+    threads: str = "ALL_CPUS"
+
+    def __post_init__(self) -> None:
+        if self.compress not in _COMPRESSIONS:
+            raise ScangeoError(f"GeoTIFF profile: compress {self.compress!r} is not one of {', '.join(_COMPRESSIONS)}")
+        if self.blocksize < 16 or self.blocksize % 16:
+            raise ScangeoError(f"GeoTIFF profile: blocksize must be a multiple of 16, got {self.blocksize}")
+
+    def creation_options(self, dtype: np.dtype) -> dict:
+        """GDAL creation options for the final file."""
+        opts: dict = {"BIGTIFF": "IF_SAFER", "NUM_THREADS": self.threads, "COMPRESS": self.compress.upper()}
+        if self.compress != "none":
+            if self.level is not None:
+                opts["LEVEL" if self.cog else _level_key(self.compress)] = str(self.level)
+            if self.predictor:
+                floating = np.issubdtype(np.dtype(dtype), np.floating)
+                if self.cog:
+                    opts["PREDICTOR"] = "FLOATING_POINT" if floating else "STANDARD"
+                else:
+                    opts["PREDICTOR"] = "3" if floating else "2"
+        if self.cog:
+            opts["BLOCKSIZE"] = str(self.blocksize)
+            opts["OVERVIEWS"] = "AUTO" if self.overviews else "NONE"
+        else:
+            opts.update(TILED="YES", BLOCKXSIZE=str(self.blocksize), BLOCKYSIZE=str(self.blocksize))
+        return opts
+
+
+def _level_key(compress: str) -> str:
+    return {"deflate": "ZLEVEL", "zstd": "ZSTD_LEVEL", "lzw": "ZLEVEL"}.get(compress, "ZLEVEL")
+
+
+@dataclass(frozen=True)
+class BandInfo:
+    """A band's name and centre wavelength (with its unit, as the source states it)."""
+
+    name: str
+    wavelength: float | None = None
+    wavelength_units: str | None = None
+
+    def tags(self) -> dict[str, str]:
+        out = {}
+        if self.wavelength is not None:
+            out["wavelength"] = repr(float(self.wavelength))
+            out["wavelength_units"] = self.wavelength_units or "unknown"
+        return out
+
+
+def bands_of(src: rasterio.io.DatasetReader) -> list[BandInfo]:
+    """Band names and wavelengths of a source image (descriptions and ENVI-style band tags)."""
+    out = []
+    for b in range(1, src.count + 1):
+        tags = {k.lower(): v for k, v in src.tags(b).items()}
+        name = src.descriptions[b - 1] or f"band {b}"
+        wl = tags.get("wavelength")
+        try:
+            wavelength = float(wl) if wl is not None else None
+        except ValueError:
+            wavelength = None
+        out.append(BandInfo(name, wavelength, tags.get("wavelength_units")))
+    return out
+
+
+def partial_path(final: Path, suffix: str = "") -> Path:
+    """A hidden temporary name beside ``final`` that never looks like a finished output."""
+    final = Path(final)
+    return final.parent / f".{final.name}.partial-{os.getpid()}-{uuid.uuid4().hex[:8]}{suffix}"
+
+
+def remove_partials(final: Path) -> int:
+    """Delete partial files a killed run left beside ``final``; returns how many."""
+    final = Path(final)
+    n = 0
+    if final.parent.is_dir():
+        for p in final.parent.glob(f".{final.name}.partial-*"):
+            if p.is_dir():
+                shutil.rmtree(p, ignore_errors=True)
+            else:
+                p.unlink(missing_ok=True)
+            n += 1
+    return n
+
+
+def working_profile(grid: OutputGrid, count: int, dtype, nodata) -> dict:
+    """Profile of the uncompressed tiled working file the tiles are written into."""
+    return {
+        "driver": "GTiff",
+        "width": grid.width,
+        "height": grid.height,
+        "count": count,
+        "dtype": np.dtype(dtype).name,
+        "crs": grid.crs,
+        "transform": grid.transform,
+        "nodata": nodata,
+        "tiled": True,
+        "blockxsize": 256,
+        "blockysize": 256,
+        "compress": "none",
+        "BIGTIFF": "IF_SAFER",
+        "interleave": "band",
+    }
+
+
+def describe(dst, bands: list[BandInfo], tags: dict[str, object]) -> None:
+    """Write band descriptions, band tags and dataset tags into an open dataset."""
+    for b, info in enumerate(bands, start=1):
+        dst.set_band_description(b, info.name)
+        band_tags = info.tags()
+        if band_tags:
+            dst.update_tags(b, **band_tags)
+    dst.update_tags(**{k: str(v) for k, v in tags.items()})
+
+
+def finalise(working: Path, final: Path, profile: GeoTiffProfile, dtype) -> None:
+    """Copy the working file into the final layout under a hidden name, then rename it."""
+    final = Path(final)
+    tmp = partial_path(final, ".tif")
+    driver = "COG" if profile.cog else "GTiff"
+    try:
+        rasterio.shutil.copy(str(working), str(tmp), driver=driver, **profile.creation_options(dtype))
+        os.replace(tmp, final)
+    finally:
+        if tmp.exists():
+            tmp.unlink()

@@ -1,0 +1,391 @@
+"""Compiled kernels (numba) for the hot loops: spline pose, ground -> image, ray casting on a DTM.
+
+The Python-facing API is ``scangeo.sensors.strip``; these functions take plain arrays:
+
+* spline: ``t0, dt, coef (K, 6)``: uniform cubic B-spline of x, y, z, roll, pitch, heading (project
+  frame, angles w.r.t. the project NED frame);
+* mounting: ``lever (3,)`` body frame metres, ``R_BS (3, 3)``, ``time_offset`` seconds
+  (navigation time = sensor time + time_offset);
+* sensor: ``kind, sp (params), table (n, 2)`` from ``SensorModel.kernel_params()``;
+* timing: ``lt0, lrate, ltable``: ``t0 + line / rate`` when ``ltable`` is empty, else the table.
+"""
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+# status codes (see scangeo.sensors.strip.STATUS)
+OK = 0
+NOT_SEEN = 1  # no time at which the point is in the scan plane (before/after the strip)
+OUTSIDE_SWATH = 2
+BEHIND = 3
+NO_CONVERGENCE = 4
+LEAVES_DTM = 5
+NODATA = 6
+UPWARD = 7
+MULTIPLE = 16  # flag bit: several solutions (over-scanning); the first in time is returned
+
+_opts = dict(cache=True)
+
+
+@nb.njit(inline="always", **_opts)
+def _spline_component(coef, j, c, b0, b1, b2, b3, d0, d1, d2, d3):
+    c0, c1, c2, c3 = coef[j, c], coef[j + 1, c], coef[j + 2, c], coef[j + 3, c]
+    return b0 * c0 + b1 * c1 + b2 * c2 + b3 * c3, d0 * c0 + d1 * c1 + d2 * c2 + d3 * c3
+
+
+@nb.njit(**_opts)
+def spline_pose(t, t0, dt, coef, lever, R_BS, time_offset, R, p, dR, dp):
+    """R_PS (3,3), p_S (3,) and their time derivatives at sensor time t; writes into the outputs.
+
+    No heap allocation: it runs in the innermost loops.
+    """
+    tn = t + time_offset
+    K = coef.shape[0]
+    s = (tn - t0) / dt
+    j = int(math.floor(s))
+    if j < 0:
+        j = 0
+    elif j > K - 4:
+        j = K - 4
+    u = s - j
+    u2 = u * u
+    u3 = u2 * u
+    b0 = (1 - u) ** 3 / 6.0
+    b1 = (3 * u3 - 6 * u2 + 4) / 6.0
+    b2 = (-3 * u3 + 3 * u2 + 3 * u + 1) / 6.0
+    b3 = u3 / 6.0
+    d0 = -((1 - u) ** 2) / 2.0 / dt
+    d1 = (3 * u2 - 4 * u) / 2.0 / dt
+    d2 = (-3 * u2 + 2 * u + 1) / 2.0 / dt
+    d3 = u2 / 2.0 / dt
+    x, wx = _spline_component(coef, j, 0, b0, b1, b2, b3, d0, d1, d2, d3)
+    y, wy = _spline_component(coef, j, 1, b0, b1, b2, b3, d0, d1, d2, d3)
+    z, wz = _spline_component(coef, j, 2, b0, b1, b2, b3, d0, d1, d2, d3)
+    r, wr = _spline_component(coef, j, 3, b0, b1, b2, b3, d0, d1, d2, d3)
+    pi_, wp = _spline_component(coef, j, 4, b0, b1, b2, b3, d0, d1, d2, d3)
+    h, wh = _spline_component(coef, j, 5, b0, b1, b2, b3, d0, d1, d2, d3)
+    cr, sr = math.cos(r), math.sin(r)
+    cp, spp = math.cos(pi_), math.sin(pi_)
+    ch, sh = math.cos(h), math.sin(h)
+    # A = Rz(h) Ry(p) Rx(r) (body -> project NED)
+    a00 = ch * cp
+    a01 = ch * spp * sr - sh * cr
+    a02 = ch * spp * cr + sh * sr
+    a10 = sh * cp
+    a11 = sh * spp * sr + ch * cr
+    a12 = sh * spp * cr - ch * sr
+    a20 = -spp
+    a21 = cp * sr
+    a22 = cp * cr
+    # dA/dt = (A Kx) wr + (Rz dRy Rx) wp + (Kz A) wh
+    e00 = -ch * spp * wp - a10 * wh
+    e01 = a02 * wr + ch * cp * sr * wp - a11 * wh
+    e02 = -a01 * wr + ch * cp * cr * wp - a12 * wh
+    e10 = -sh * spp * wp + a00 * wh
+    e11 = a12 * wr + sh * cp * sr * wp + a01 * wh
+    e12 = -a11 * wr + sh * cp * cr * wp + a02 * wh
+    e20 = -cp * wp
+    e21 = a22 * wr - spp * sr * wp
+    e22 = -a21 * wr - spp * cr * wp
+    # R_PB = E A with E = [[0,1,0],[1,0,0],[0,0,-1]]: rows (A1, A0, -A2)
+    l0, l1, l2 = lever[0], lever[1], lever[2]
+    p[0] = x + a10 * l0 + a11 * l1 + a12 * l2
+    p[1] = y + a00 * l0 + a01 * l1 + a02 * l2
+    p[2] = z - (a20 * l0 + a21 * l1 + a22 * l2)
+    dp[0] = wx + e10 * l0 + e11 * l1 + e12 * l2
+    dp[1] = wy + e00 * l0 + e01 * l1 + e02 * l2
+    dp[2] = wz - (e20 * l0 + e21 * l1 + e22 * l2)
+    for k in range(3):
+        b0k, b1k, b2k = R_BS[0, k], R_BS[1, k], R_BS[2, k]
+        R[0, k] = a10 * b0k + a11 * b1k + a12 * b2k
+        R[1, k] = a00 * b0k + a01 * b1k + a02 * b2k
+        R[2, k] = -(a20 * b0k + a21 * b1k + a22 * b2k)
+        dR[0, k] = e10 * b0k + e11 * b1k + e12 * b2k
+        dR[1, k] = e00 * b0k + e01 * b1k + e02 * b2k
+        dR[2, k] = -(e20 * b0k + e21 * b1k + e22 * b2k)
+
+
+@nb.njit(**_opts)
+def sensor_pixel(kind, sp, table, vy, vz):
+    """Fractional pixel of a sensor-frame direction (vy, vz) (its across-track angle)."""
+    if kind == 0:
+        theta = math.atan2(vy, vz)
+        return sp[0] + sp[2] * (theta - sp[3]) / sp[1]
+    tx = vy / vz
+    if kind == 2:
+        pp, pitch, f, k1, k2, y0 = sp[0], sp[1], sp[2], sp[3], sp[4], sp[5]
+        xu = tx * f
+        xd = xu
+        for _ in range(30):
+            r2 = xd * xd + y0 * y0
+            g = xd * (1 + k1 * r2 + k2 * r2 * r2) - xu
+            dg = 1 + k1 * (r2 + 2 * xd * xd) + k2 * (r2 * r2 + 4 * xd * xd * r2)
+            step = g / dg
+            xd -= step
+            if abs(step) < 1e-15:
+                break
+        return xd / pitch + pp
+    # table: monotonic tan(across) in column 1
+    n = table.shape[0]
+    inc = table[n - 1, 1] > table[0, 1]
+    lo = 0
+    hi = n - 1
+    if (inc and tx <= table[0, 1]) or ((not inc) and tx >= table[0, 1]):
+        lo, hi = 0, 1
+    elif (inc and tx >= table[n - 1, 1]) or ((not inc) and tx <= table[n - 1, 1]):
+        lo, hi = n - 2, n - 1
+    else:
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if (table[mid, 1] <= tx) == inc:
+                lo = mid
+            else:
+                hi = mid
+    return lo + (tx - table[lo, 1]) / (table[hi, 1] - table[lo, 1])
+
+
+@nb.njit(**_opts)
+def sensor_along_tan(kind, sp, table, pixel):
+    """tan of the along-track look angle of a pixel (0 for a whiskbroom)."""
+    if kind == 0:
+        return 0.0
+    if kind == 2:
+        return sp[5] / sp[2]
+    n = table.shape[0]
+    j = int(math.floor(pixel))
+    if j < 0:
+        j = 0
+    elif j > n - 2:
+        j = n - 2
+    f = pixel - j
+    return table[j, 0] + f * (table[j + 1, 0] - table[j, 0])
+
+
+@nb.njit(**_opts)
+def sensor_look(kind, sp, table, pixel, out):
+    """Unit look direction of a (fractional) pixel in the sensor frame."""
+    if kind == 0:
+        theta = sp[2] * (pixel - sp[0]) * sp[1] + sp[3]
+        out[0] = 0.0
+        out[1] = math.sin(theta)
+        out[2] = math.cos(theta)
+        return
+    if kind == 2:
+        pp, pitch, f, k1, k2, y0 = sp[0], sp[1], sp[2], sp[3], sp[4], sp[5]
+        xd = (pixel - pp) * pitch
+        r2 = xd * xd + y0 * y0
+        a = y0 / f
+        b = xd * (1 + k1 * r2 + k2 * r2 * r2) / f
+    else:
+        n = table.shape[0]
+        j = int(math.floor(pixel))
+        if j < 0:
+            j = 0
+        elif j > n - 2:
+            j = n - 2
+        fr = pixel - j
+        a = table[j, 0] + fr * (table[j + 1, 0] - table[j, 0])
+        b = table[j, 1] + fr * (table[j + 1, 1] - table[j, 1])
+    norm = math.sqrt(a * a + b * b + 1.0)
+    out[0] = a / norm
+    out[1] = b / norm
+    out[2] = 1.0 / norm
+
+
+@nb.njit(**_opts)
+def time_to_line(t, lt0, lrate, ltable):
+    n = ltable.shape[0]
+    if n == 0:
+        return (t - lt0) * lrate
+    if t <= ltable[0]:
+        return (t - ltable[0]) / (ltable[1] - ltable[0])
+    if t >= ltable[n - 1]:
+        return (n - 1) + (t - ltable[n - 1]) / (ltable[n - 1] - ltable[n - 2])
+    lo, hi = 0, n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if ltable[mid] <= t:
+            lo = mid
+        else:
+            hi = mid
+    return lo + (t - ltable[lo]) / (ltable[hi] - ltable[lo])
+
+
+@nb.njit(**_opts)
+def _condition(t, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp):
+    """f(t) = (R_PS[:,0] - tan_a R_PS[:,2]) . (P - p_S) and df/dt."""
+    spline_pose(t, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+    f = 0.0
+    df = 0.0
+    for i in range(3):
+        d = P[i] - p[i]
+        gi = R[i, 0] - tan_a * R[i, 2]
+        dgi = dR[i, 0] - tan_a * dR[i, 2]
+        f += gi * d
+        df += dgi * d - gi * dp[i]
+    return f, df
+
+
+@nb.njit(**_opts)
+def _coarse_g(k, P, tan_a, cR, cp):
+    g = 0.0
+    for i in range(3):
+        g += (cR[k, i, 0] - tan_a * cR[k, i, 2]) * (P[i] - cp[k, i])
+    return g
+
+
+@nb.njit(parallel=True, **_opts)
+def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, table,
+                           lt0, lrate, ltable, n_lines, ctimes, cR, cp, window, tol_t, n_chunks,
+                           out_line, out_pixel, out_status):
+    """Solve (line, pixel) for ground points (n, 3) in the project frame, in parallel chunks.
+
+    ``ctimes, cR, cp``: coarse sensor times with R_PS and p_S there (bracketing); ``window``: number
+    of coarse intervals searched around a solution for further solutions (0 = strip monotonic).
+    """
+    n = points.shape[0]
+    M = ctimes.shape[0]
+    chunk = (n + n_chunks - 1) // n_chunks
+    npix = sp[sp.shape[0] - 1] if kind != 1 else sp[0]
+    for c in nb.prange(n_chunks):
+        R = np.empty((3, 3))
+        dR = np.empty((3, 3))
+        p = np.empty(3)
+        dp = np.empty(3)
+        look = np.empty(3)
+        k = M // 2
+        for q in range(c * chunk, min(n, (c + 1) * chunk)):
+            P = points[q]
+            out_line[q] = np.nan
+            out_pixel[q] = np.nan
+            if not (np.isfinite(P[0]) and np.isfinite(P[1]) and np.isfinite(P[2])):
+                out_status[q] = NOT_SEEN
+                continue
+            tan_a = sensor_along_tan(kind, sp, table, 0.5 * (npix - 1))
+            # bracket: g decreasing in time; find k with g_k >= 0 > g_{k+1}
+            if _coarse_g(0, P, tan_a, cR, cp) < 0 or _coarse_g(M - 1, P, tan_a, cR, cp) > 0:
+                # maybe non-monotonic: search the whole grid for a first crossing
+                found = -1
+                if window > 0:
+                    for kk in range(M - 1):
+                        if _coarse_g(kk, P, tan_a, cR, cp) >= 0 and _coarse_g(kk + 1, P, tan_a, cR, cp) < 0:
+                            found = kk
+                            break
+                if found < 0:
+                    out_status[q] = NOT_SEEN
+                    continue
+                k = found
+            else:
+                if k > M - 2:
+                    k = M - 2
+                # gallop from the warm start
+                if _coarse_g(k, P, tan_a, cR, cp) >= 0:
+                    lo = k
+                    step = 1
+                    hi = min(M - 1, lo + step)
+                    while _coarse_g(hi, P, tan_a, cR, cp) >= 0:
+                        lo = hi
+                        step *= 2
+                        hi = min(M - 1, lo + step)
+                else:
+                    hi = k
+                    step = 1
+                    lo = max(0, hi - step)
+                    while _coarse_g(lo, P, tan_a, cR, cp) < 0:
+                        hi = lo
+                        step *= 2
+                        lo = max(0, hi - step)
+                while hi - lo > 1:
+                    mid = (lo + hi) // 2
+                    if _coarse_g(mid, P, tan_a, cR, cp) >= 0:
+                        lo = mid
+                    else:
+                        hi = mid
+                k = lo
+            flag = 0
+            if window > 0:
+                # earlier crossings (over-scanning) within the window: keep the first in time
+                for kk in range(max(0, k - window), k):
+                    if _coarse_g(kk, P, tan_a, cR, cp) >= 0 and _coarse_g(kk + 1, P, tan_a, cR, cp) < 0:
+                        flag = MULTIPLE
+                        k = kk
+                        break
+                if flag == 0:
+                    for kk in range(k + 1, min(M - 1, k + window)):
+                        if _coarse_g(kk, P, tan_a, cR, cp) < 0 and _coarse_g(kk + 1, P, tan_a, cR, cp) >= 0:
+                            flag = MULTIPLE
+                            break
+            status = OK
+            pixel = 0.0
+            t = 0.0
+            for outer in range(6):  # pushbroom: iterate the along-track angle of the pixel
+                a = ctimes[k]
+                b = ctimes[k + 1]
+                fa = _coarse_g(k, P, tan_a, cR, cp)  # the coarse poses are the spline's poses
+                fb = _coarse_g(k + 1, P, tan_a, cR, cp)
+                if fa < 0 or fb > 0:  # the fine condition moved the bracket: widen
+                    a = ctimes[max(0, k - 1)]
+                    b = ctimes[min(M - 1, k + 2)]
+                    fa, _ = _condition(a, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+                    fb, _ = _condition(b, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+                    if fa < 0 or fb > 0:
+                        status = NO_CONVERGENCE
+                        break
+                t = a - fa * (b - a) / (fb - fa)
+                converged = False
+                for it in range(60):
+                    f, df = _condition(t, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+                    if f >= 0:
+                        a = t
+                    else:
+                        b = t
+                    tn = t - f / df if df != 0 else 0.5 * (a + b)
+                    if not (a < tn < b):
+                        tn = 0.5 * (a + b)
+                    if abs(tn - t) < tol_t:
+                        t = tn
+                        converged = True
+                        break
+                    t = tn
+                if not converged:
+                    status = NO_CONVERGENCE
+                    break
+                spline_pose(t, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+                vx = 0.0
+                vy = 0.0
+                vz = 0.0
+                for i in range(3):
+                    d = P[i] - p[i]
+                    vx += R[i, 0] * d
+                    vy += R[i, 1] * d
+                    vz += R[i, 2] * d
+                if vz <= 0:
+                    status = BEHIND
+                    break
+                pixel = sensor_pixel(kind, sp, table, vy, vz)
+                if kind == 0:
+                    break
+                new_tan = sensor_along_tan(kind, sp, table, pixel)
+                if abs(new_tan - tan_a) < 1e-13:
+                    break
+                tan_a = new_tan
+            if status != OK:
+                out_status[q] = status | flag
+                continue
+            if kind == 0:
+                t_line = t - (pixel - sp[0]) * sp[4]
+            else:
+                t_line = t
+            line = time_to_line(t_line, lt0, lrate, ltable)
+            if pixel < -0.5 or pixel > npix - 0.5:
+                out_status[q] = OUTSIDE_SWATH | flag
+                continue
+            if line < -0.5 or line > n_lines - 0.5:
+                out_status[q] = NOT_SEEN | flag
+                continue
+            out_line[q] = line
+            out_pixel[q] = pixel
+            out_status[q] = flag

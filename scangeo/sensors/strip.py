@@ -1,0 +1,225 @@
+"""The geometry of one strip: sensor model + orientation spline + mounting + line timing.
+
+``StripGeometry`` answers image -> ground (rays intersected with the DTM) and ground -> image
+(the time at which a ground point lies in the scan plane, then the pixel), vectorised, with a
+status code per point whose text is ``STATUS[code]``; the bit ``MULTIPLE`` marks points seen more
+than once (pitch-induced over-scanning; the first time is returned).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numba as nb
+import numpy as np
+
+from scangeo.dtm import DTM
+from scangeo.rotation import small_rotation
+from scangeo.sensors import kernels as K
+from scangeo.sensors.models import SensorModel
+from scangeo.sensors.raycast import ray_cast_kernel
+from scangeo.timing import LineTiming
+from scangeo.trajectory.spline import OrientationSpline
+
+STATUS = {
+    K.OK: "",
+    K.NOT_SEEN: "not seen by the strip",
+    K.OUTSIDE_SWATH: "outside the swath",
+    K.BEHIND: "behind the sensor or below the terrain",
+    K.NO_CONVERGENCE: "no convergence",
+    K.LEAVES_DTM: "the ray leaves the DTM",
+    K.NODATA: "the DTM has no data there",
+    K.UPWARD: "the ray does not point downwards",
+}
+MULTIPLE = K.MULTIPLE
+
+
+def status_text(codes: np.ndarray) -> list[str]:
+    """Human-readable reasons for status codes (with the over-scanning flag)."""
+    out = []
+    for c in np.asarray(codes, dtype=int):
+        text = STATUS.get(int(c) & ~MULTIPLE, f"status {c}")
+        if c & MULTIPLE:
+            text = (text + "; " if text else "") + "seen more than once (over-scanning), first kept"
+        out.append(text)
+    return out
+
+
+@dataclass(frozen=True)
+class Mounting:
+    """Sensor mounting: lever arm (body frame, m), boresight angles (rad), time offset (s).
+
+    ``R_BS = Rz(b[2]) Ry(b[1]) Rx(b[0])``; sensor pose ``p_S = p_nav + R_PB l_B``,
+    ``R_PS = R_PB R_BS``; the navigation time of sensor time t is ``t + time_offset``.
+    """
+
+    lever_arm_B: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    boresight: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    time_offset: float = 0.0
+
+    @property
+    def R_BS(self) -> np.ndarray:
+        return small_rotation(np.asarray(self.boresight, float))
+
+
+@nb.njit(parallel=True, cache=True)
+def _poses(times, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp):
+    for i in nb.prange(times.shape[0]):
+        K.spline_pose(times[i], t0, dt, coef, lever, R_BS, toff, R[i], p[i], dR[i], dp[i])
+
+
+class StripGeometry:
+    """Geometry of one strip.
+
+    Parameters
+    ----------
+    sensor : Whiskbroom or Pushbroom.
+    spline : orientation spline of the navigation reference point (project frame).
+    timing : line timing.
+    n_lines : lines in the image.
+    mounting : lever arm, boresight, time offset.
+    """
+
+    def __init__(self, sensor: SensorModel, spline: OrientationSpline, timing: LineTiming, n_lines: int,
+                 mounting: Mounting | None = None, strip_id: str = "") -> None:
+        self.sensor = sensor
+        self.spline = spline
+        self.timing = timing
+        self.n_lines = int(n_lines)
+        self.mounting = mounting or Mounting()
+        self.strip_id = strip_id
+
+    # --- poses ----------------------------------------------------------------------------------
+    def _mount_args(self):
+        m = self.mounting
+        return (self.spline.t0, self.spline.spacing, np.ascontiguousarray(self.spline.coef),
+                np.asarray(m.lever_arm_B, float), np.ascontiguousarray(m.R_BS), float(m.time_offset))
+
+    def pose(self, t: np.ndarray, derivatives: bool = False):
+        """Sensor pose at sensor times t: p_S (n, 3) m and R_PS (n, 3, 3); with derivatives also
+        their time derivatives."""
+        t = np.ascontiguousarray(np.atleast_1d(np.asarray(t, dtype=float)))
+        n = len(t)
+        R, dR = np.empty((n, 3, 3)), np.empty((n, 3, 3))
+        p, dp = np.empty((n, 3)), np.empty((n, 3))
+        _poses(t, *self._mount_args(), R, p, dR, dp)
+        return (p, R, dp, dR) if derivatives else (p, R)
+
+    def time_of(self, line, pixel) -> np.ndarray:
+        """Sensor time (s) at which (line, pixel) was recorded."""
+        return self.timing.time_of_line(line) + self.sensor.time_offset(pixel)
+
+    def rays(self, line, pixel) -> tuple[np.ndarray, np.ndarray]:
+        """Ray origins p_S (n, 3) and unit directions (n, 3) in the project frame."""
+        line = np.atleast_1d(np.asarray(line, dtype=float))
+        pixel = np.atleast_1d(np.asarray(pixel, dtype=float))
+        line, pixel = np.broadcast_arrays(line, pixel)
+        p, R = self.pose(self.time_of(line, pixel).ravel())
+        d = np.einsum("nij,nj->ni", R, self.sensor.look_S(pixel.ravel()))
+        return p, d
+
+    # --- image -> ground ------------------------------------------------------------------------
+    def image_to_ground(self, line, pixel, dtm: DTM, step: float | None = None):
+        """Ground points (n, 3) in P seen by (line, pixel) on the DTM, and status codes.
+
+        The first intersection along each ray; NaN with a status where there is none.
+        """
+        o, d = self.rays(line, pixel)
+        return cast_rays(o, d, dtm, step)
+
+    # --- ground -> image ------------------------------------------------------------------------
+    @cached_property
+    def _coarse(self):
+        rate = self.timing.mean_rate
+        half_scan = abs(float(self.sensor.time_offset(np.array([0.0]))[0]))
+        t_first = float(self.timing.time_of_line(np.array([-0.5]))[0]) - half_scan - 2.0 / rate
+        t_last = float(self.timing.time_of_line(np.array([self.n_lines - 0.5]))[0]) + half_scan + 2.0 / rate
+        n = max(3, int(np.ceil((t_last - t_first) * rate)) + 1)
+        times = np.linspace(t_first, t_last, n)
+        p, R, dp, dR = self.pose(times, derivatives=True)
+        return times, R, p, dR, dp
+
+    def overscan_window(self, p_P: np.ndarray) -> int:
+        """Coarse intervals to search for further solutions: 0 when the scan plane sweeps the ground
+        monotonically for points at the given points' distances, else about 2 s worth."""
+        times, R, p, dR, dp = self._coarse
+        z = p_P[:, 2][np.isfinite(p_P[:, 2])]
+        if z.size == 0:
+            return 0
+        looks = self.sensor.look_S(np.array([0.0, (self.sensor.pixels - 1) / 2, self.sensor.pixels - 1.0]))
+        worst = -np.inf
+        for look in looks:
+            for z_ground in (z.min(), z.max()):
+                vec = np.einsum("nij,j->ni", R, look)
+                rho = (p[:, 2] - z_ground) / np.maximum(-vec[:, 2], 1e-3)
+                ta = look[0] / look[2]
+                g_dot = (np.einsum("ni,ni->n", dR[:, :, 0] - ta * dR[:, :, 2], rho[:, None] * vec)
+                         - np.einsum("ni,ni->n", R[:, :, 0] - ta * R[:, :, 2], dp))
+                worst = max(worst, float(g_dot.max()))
+        if worst <= 0:
+            return 0
+        return int(np.ceil(2.0 * self.timing.mean_rate)) + 2
+
+    def ground_to_image(self, p_P: np.ndarray, tol_line: float = 1e-6):
+        """(line, pixel) that saw project-frame points (n, 3), and status codes.
+
+        Bracketing on a line-spaced grid of sensor poses (warm-started from the previous point),
+        then safeguarded Newton on time to ``tol_line`` lines.
+        """
+        p_P = np.ascontiguousarray(np.atleast_2d(np.asarray(p_P, dtype=float)))
+        n = len(p_P)
+        times, R, p, _, _ = self._coarse
+        kind, sp, table = self.sensor.kernel_params()
+        ltable = self.timing.table if self.timing.table is not None else np.zeros(0)
+        line = np.empty(n)
+        pixel = np.empty(n)
+        status = np.empty(n, dtype=np.int64)
+        window = self.overscan_window(p_P)
+        K.ground_to_image_kernel(
+            p_P, *self._mount_args(), kind, sp, np.ascontiguousarray(table, dtype=float),
+            float(self.timing.first_line_time), float(self.timing.line_rate), np.asarray(ltable, float),
+            float(self.n_lines), times, np.ascontiguousarray(R), np.ascontiguousarray(p), window,
+            tol_line / self.timing.mean_rate, max(1, min(n, 256)), line, pixel, status,
+        )
+        return line, pixel, status
+
+    def footprint_box(self, dtm: DTM, margin: float = 200.0) -> np.ndarray:
+        """(3, 2) project-frame box holding the strip's rays down to the DTM's lowest point."""
+        lines = np.linspace(0, self.n_lines - 1, 9)
+        pix = np.array([0.0, self.sensor.pixels - 1.0])
+        L, J = np.meshgrid(lines, pix)
+        o, d = self.rays(L.ravel(), J.ravel())
+        return rays_box(o, d, dtm, margin)
+
+
+def rays_box(o: np.ndarray, d: np.ndarray, dtm: DTM, margin: float = 200.0) -> np.ndarray:
+    """(3, 2) box in P (rounded out to 1 km) holding rays from their origins down to the DTM's low."""
+    z_low = dtm.h_min - 300.0
+    ok = np.isfinite(o).all(1) & (d[:, 2] < -1e-6)
+    lam = (o[ok, 2] - z_low) / (-d[ok, 2]) * 1.05
+    ends = o[ok] + lam[:, None] * d[ok]
+    pts = np.vstack([o[ok], ends])
+    lo = np.floor((pts.min(0) - margin) / 1000.0) * 1000.0
+    hi = np.ceil((pts.max(0) + margin) / 1000.0) * 1000.0
+    lo[2] = np.floor((z_low - 200.0) / 100.0) * 100.0
+    hi[2] = np.ceil((o[ok, 2].max() + margin) / 100.0) * 100.0
+    return np.column_stack([lo, hi])
+
+
+def cast_rays(o: np.ndarray, d: np.ndarray, dtm: DTM, step: float | None = None):
+    """First intersections (n, 3) of rays (origins, unit directions in P) with the DTM, and status."""
+    o = np.ascontiguousarray(o, dtype=float)
+    d = np.ascontiguousarray(d, dtype=float)
+    n = len(o)
+    out = np.full((n, 3), np.nan)
+    status = np.full(n, K.NO_CONVERGENCE, dtype=np.int64)
+    ok = np.isfinite(o).all(1) & np.isfinite(d).all(1)
+    if not ok.any():
+        return out, status
+    local = dtm.local_map(rays_box(o[ok], d[ok], dtm))
+    inv = ~dtm.grid.transform
+    inv_arr = np.array([inv.a, inv.b, inv.c, inv.d, inv.e, inv.f])
+    ray_cast_kernel(o, d, local.coef, local.exps, local.centre, local.scale,
+                    np.ascontiguousarray(dtm.grid.values), inv_arr, dtm.h_min, dtm.h_max,
+                    step if step is not None else 0.25 * dtm.cell_size(), out, status)
+    return out, status

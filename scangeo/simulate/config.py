@@ -1,0 +1,364 @@
+"""Configuration of a simulated block: typed frozen dataclasses read from a preset TOML file.
+
+Presets are data: ``data/presets/NAME.toml`` at the top of the source tree (``small``,
+``vienna2000``, ``block24``); a user's own TOML file works the same way. Every key is documented in
+docs/simulate.md; an unknown key is an error naming it. Angles are in degrees in the file and
+stay so in these dataclasses (the simulator converts at use); lengths in metres, times in seconds.
+"""
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import scangeo
+from scangeo.errors import ProjectFileError
+
+PRESET_DIR = Path(scangeo.__file__).resolve().parents[1] / "data" / "presets"
+
+
+@dataclass(frozen=True)
+class BlockConfig:
+    """Where the block lies and its time base.
+
+    ``crs = "auto"`` picks the UTM zone of the centre; ``centre`` is given in the map CRS (or, with
+    ``centre_lonlat``, in degrees); with a DTM file and no explicit centre the DTM's centre is used.
+    """
+
+    name: str = "block"
+    crs: str = "auto"
+    centre: tuple[float, ...] = ()
+    centre_lonlat: tuple[float, ...] = ()
+    geoid_undulation_m: float = 0.0
+    time_start_s: float = 300000.0
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """The scanner (whiskbroom) and its mounting; ``boresight_error_deg`` is the true
+    misalignment that project.toml does not know (uncalibrated), roll/pitch/heading order."""
+
+    kind: str = "whiskbroom"
+    pixels: int = 716
+    fov_deg: float = 42.9
+    line_rate_hz: float = 25.0
+    pixel_timing: bool = True
+    boresight_deg: tuple[float, ...] = (0.0, 0.0, 0.0)
+    lever_arm_m: tuple[float, ...] = (0.0, 0.0, 0.0)
+    boresight_error_deg: tuple[float, ...] = (0.0, 0.0, 0.0)
+    noise_dn: float = 0.0
+
+
+@dataclass(frozen=True)
+class TerrainConfig:
+    """True terrain (``fractal`` hills, ``urban`` flat, or ``file``) and the project DTM's error."""
+
+    kind: str = "fractal"
+    file: str = ""
+    mean_height_m: float = 200.0
+    relief_m: float = 60.0
+    min_wavelength_m: float = 150.0
+    max_wavelength_m: float = 8000.0
+    resolution_m: float = 10.0
+    margin_m: float = 1500.0
+    dtm_error_sigma_m: float = 1.5
+    dtm_error_wavelength_m: float = 400.0
+    dtm_resolution_m: float = 10.0
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """What the ground looks like: procedural ``landcover`` or an orthophoto ``texture``."""
+
+    kind: str = "landcover"
+    texture: str = ""
+    texture_pixel_m: float = 0.0
+    urban_fraction: float = 0.3
+    forest_fraction: float = 0.15
+    river: bool = True
+
+
+@dataclass(frozen=True)
+class TurbulenceConfig:
+    """Attitude and position dynamics of the true flight: ``spectral`` (random sinusoids with a
+    turbulence-like spectrum between ``period_s``) or ``replay`` of a real trajectory's dynamics."""
+
+    kind: str = "spectral"
+    file: str = ""
+    roll_deg: float = 1.0
+    pitch_deg: float = 0.5
+    heading_deg: float = 0.4
+    crab_deg: float = 2.0
+    pitch_trim_deg: float = 1.5
+    lateral_m: float = 4.0
+    vertical_m: float = 2.5
+    along_m: float = 3.0
+    period_s: tuple[float, ...] = (2.0, 60.0)
+    components: int = 48
+
+
+@dataclass(frozen=True)
+class FlightConfig:
+    """Flight planning: north-south strips with sidelap, height above ground, speed, timing."""
+
+    strips: int = 3
+    lines: int = 7000
+    height_above_ground_m: float = 2200.0
+    sidelap: float = 0.35
+    ground_speed_mps: float = 62.5
+    direction: str = "alternate"
+    run_in_s: float = 8.0
+    turn_s: float = 150.0
+    gpsimu_rate_hz: float = 50.0
+    turbulence: TurbulenceConfig = TurbulenceConfig()
+
+
+@dataclass(frozen=True)
+class StripErrorConfig:
+    """GPS/IMU errors of one strip (or the defaults of every strip).
+
+    ``excursion_lines`` are the epochs (image lines) between which the excursions are piecewise
+    smooth: values at the epochs (``excursion_*_m``, ``excursion_roll_deg``) are joined linearly,
+    and each piece gets a half-sine bulge (``bulge_*``, one per piece): continuous, with kinks at
+    the inner epochs. Empty lists mean no excursion. Position components in the project frame
+    (x east, y north, z up).
+    """
+
+    strip: int = 0
+    shift_m: tuple[float, ...] = (1.0, 3.0)
+    rotation_deg: float = 0.001
+    attitude_offset_deg: float = 0.02
+    drift_m: float = 0.3
+    drift_deg: float = 0.002
+    drift_degree: int = 2
+    random_walk_m: float = 0.005
+    random_walk_deg: float = 0.00005
+    jumps: int = 0
+    jump_m: float = 0.3
+    white_noise_m: float = 0.03
+    white_noise_deg: float = 0.002
+    height_wander_m: float = 1.0
+    excursion_lines: tuple[float, ...] = ()
+    excursion_x_m: tuple[float, ...] = ()
+    excursion_y_m: tuple[float, ...] = ()
+    excursion_z_m: tuple[float, ...] = ()
+    excursion_roll_deg: tuple[float, ...] = ()
+    bulge_x_m: tuple[float, ...] = ()
+    bulge_y_m: tuple[float, ...] = ()
+    bulge_z_m: tuple[float, ...] = ()
+    bulge_roll_deg: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class GpsImuErrorConfig:
+    """Defaults for every strip, and overrides for chosen strips (1-based ``strip``)."""
+
+    defaults: StripErrorConfig = StripErrorConfig()
+    strip: tuple[StripErrorConfig, ...] = ()
+    problem_strip: int = 0
+    breaks_lines: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class PointsConfig:
+    """Control, check, tie and height points and their image measurements."""
+
+    measurement_sigma_px: float = 0.3
+    edge_margin_px: float = 10.0
+    control_band_lines: float = 500.0
+    control_per_band_per_strip: int = 5
+    break_points_per_band_per_strip: int = 4
+    break_band_lines: float = 400.0
+    check_per_strip: int = 60
+    tie_per_overlap: int = 60
+    height_per_strip: int = 5
+    control_sigma_xy_m: float = 0.05
+    control_sigma_z_m: float = 0.08
+    height_sigma_z_m: float = 0.1
+    blunders: int = 0
+    blunder_px: tuple[float, ...] = (10.0, 40.0)
+
+
+@dataclass(frozen=True)
+class OutputConfig:
+    """What is written: image format (``GTiff`` or ``ENVI``), the ortho grid, DTM grid."""
+
+    image_format: str = "GTiff"
+    ortho_resolution_m: float = 2.5
+    truth_ortho: bool = True
+    line_chunk: int = 256
+
+
+@dataclass(frozen=True)
+class SimulationConfig:
+    """A whole simulated block."""
+
+    block: BlockConfig = BlockConfig()
+    sensor: SensorConfig = SensorConfig()
+    terrain: TerrainConfig = TerrainConfig()
+    scene: SceneConfig = SceneConfig()
+    flight: FlightConfig = FlightConfig()
+    gpsimu_errors: GpsImuErrorConfig = GpsImuErrorConfig()
+    points: PointsConfig = PointsConfig()
+    output: OutputConfig = OutputConfig()
+    seed: int = 1
+    source: str = field(default="<config>", compare=False)
+
+    def strip_errors(self, strip: int) -> StripErrorConfig:
+        """The error configuration of strip number ``strip`` (1-based): an override or the defaults."""
+        for override in self.gpsimu_errors.strip:
+            if override.strip == strip:
+                return override
+        return dataclasses.replace(self.gpsimu_errors.defaults, strip=strip)
+
+
+# --- reading ------------------------------------------------------------------------------------
+def _convert(value, hint, where: str):
+    origin = typing.get_origin(hint)
+    if dataclasses.is_dataclass(hint):
+        if not isinstance(value, dict):
+            raise ProjectFileError(f"{where}: expected a table, found {value!r}")
+        return _build(hint, value, where)
+    if origin is tuple:
+        if not isinstance(value, list):
+            raise ProjectFileError(f"{where}: expected a list, found {value!r}")
+        (item,) = {a for a in typing.get_args(hint) if a is not Ellipsis}
+        return tuple(_convert(v, item, f"{where}[{i}]") for i, v in enumerate(value))
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise ProjectFileError(f"{where}: expected true or false, found {value!r}")
+        return value
+    if hint is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ProjectFileError(f"{where}: expected an integer, found {value!r}")
+        return value
+    if hint is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ProjectFileError(f"{where}: expected a number, found {value!r}")
+        return float(value)
+    if hint is str:
+        if not isinstance(value, str):
+            raise ProjectFileError(f"{where}: expected a string, found {value!r}")
+        return value
+    raise TypeError(f"unsupported type {hint}")  # pragma: no cover - a programming error
+
+
+def _build(cls, data: dict, where: str):
+    hints = typing.get_type_hints(cls)
+    names = {f.name for f in dataclasses.fields(cls) if f.init and f.name != "source"}
+    unknown = sorted(set(data) - names)
+    if unknown:
+        raise ProjectFileError(f"{where}: unknown key {unknown[0]!r} (expected one of {', '.join(sorted(names))})")
+    kwargs = {}
+    for key, value in data.items():
+        hint = hints[key]
+        if key == "strip" and cls is GpsImuErrorConfig:  # [[gpsimu_errors.strip]] tables
+            value = value if isinstance(value, list) else [value]
+        kwargs[key] = _convert(value, hint, f"{where}.{key}" if where else key)
+    return cls(**kwargs)
+
+
+def merge(base: dict, overrides: dict) -> dict:
+    """Deep merge of nested dictionaries (``overrides`` wins); lists are replaced, not merged."""
+    out = dict(base)
+    for key, value in overrides.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = merge(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def config_from_dict(data: dict, source: str = "<config>") -> SimulationConfig:
+    """A SimulationConfig from a parsed TOML dictionary; errors name ``source`` and the key."""
+    config = _build(SimulationConfig, data, "")
+    config = dataclasses.replace(config, source=source)
+    validate(config)
+    return config
+
+
+def preset_path(name: str | Path) -> Path:
+    """The TOML file of a preset name (``small``) or a user's file path."""
+    candidate = Path(name)
+    if candidate.suffix == ".toml" or candidate.exists():
+        if not candidate.is_file():
+            raise ProjectFileError(f"{candidate}: preset file not found")
+        return candidate
+    path = PRESET_DIR / f"{name}.toml"
+    if not path.is_file():
+        known = ", ".join(available_presets()) or "none"
+        raise ProjectFileError(f"unknown preset {name!r} (known presets: {known}; or give a .toml file)")
+    return path
+
+
+def available_presets() -> list[str]:
+    """Names of the presets shipped in data/presets."""
+    return sorted(p.stem for p in PRESET_DIR.glob("*.toml"))
+
+
+def load_preset(name: str | Path, overrides: dict | None = None) -> SimulationConfig:
+    """Read a preset (name or TOML path), apply nested ``overrides`` (same keys as the file)."""
+    path = preset_path(name)
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ProjectFileError(f"{path}: not valid TOML ({exc})") from exc
+    if overrides:
+        data = merge(data, overrides)
+    try:
+        return config_from_dict(data, source=str(path))
+    except ProjectFileError as exc:
+        raise ProjectFileError(f"{path}: {exc}") from exc
+
+
+def validate(config: SimulationConfig) -> None:
+    """Raise ProjectFileError for values that cannot make a block."""
+    checks = [
+        (config.sensor.kind == "whiskbroom", "sensor.kind", "whiskbroom (the simulator renders whiskbroom scanners)"),
+        (config.sensor.pixels >= 16, "sensor.pixels", "at least 16"),
+        (0 < config.sensor.fov_deg < 120, "sensor.fov_deg", "between 0 and 120"),
+        (config.sensor.line_rate_hz > 0, "sensor.line_rate_hz", "positive"),
+        (config.terrain.kind in ("fractal", "urban", "file"), "terrain.kind", "fractal, urban or file"),
+        (config.terrain.kind != "file" or bool(config.terrain.file), "terrain.file", "a DTM path with kind = 'file'"),
+        (config.scene.kind in ("landcover", "texture"), "scene.kind", "landcover or texture"),
+        (config.scene.kind != "texture" or bool(config.scene.texture), "scene.texture", "an image path with kind = 'texture'"),
+        (config.flight.strips >= 1, "flight.strips", "at least 1"),
+        (config.flight.lines >= 50, "flight.lines", "at least 50"),
+        (0.0 <= config.flight.sidelap < 0.9, "flight.sidelap", "between 0 and 0.9"),
+        (config.flight.direction in ("alternate", "north", "south"), "flight.direction", "alternate, north or south"),
+        (config.flight.gpsimu_rate_hz >= 1, "flight.gpsimu_rate_hz", "at least 1 Hz"),
+        (config.flight.turbulence.kind in ("spectral", "replay"), "flight.turbulence.kind", "spectral or replay"),
+        (len(config.flight.turbulence.period_s) == 2, "flight.turbulence.period_s", "two periods [shortest, longest]"),
+        (config.output.image_format in ("GTiff", "ENVI"), "output.image_format", "GTiff or ENVI"),
+        (len(config.points.blunder_px) == 2, "points.blunder_px", "two sizes [smallest, largest]"),
+        (0 <= config.gpsimu_errors.problem_strip <= config.flight.strips, "gpsimu_errors.problem_strip",
+         "0 (none) or a strip number"),
+    ]
+    for ok, key, expected in checks:
+        if not ok:
+            raise ProjectFileError(f"{config.source} [{key}]: expected {expected}")
+    for triple in ("boresight_deg", "lever_arm_m", "boresight_error_deg"):
+        if len(getattr(config.sensor, triple)) != 3:
+            raise ProjectFileError(f"{config.source} [sensor.{triple}]: expected three values")
+    for errors in (config.gpsimu_errors.defaults, *config.gpsimu_errors.strip):
+        _validate_strip_errors(errors, config)
+
+
+def _validate_strip_errors(errors: StripErrorConfig, config: SimulationConfig) -> None:
+    key = f"gpsimu_errors.strip {errors.strip}" if errors.strip else "gpsimu_errors.defaults"
+    if errors.strip and not 1 <= errors.strip <= config.flight.strips:
+        raise ProjectFileError(f"{config.source} [{key}]: strip must be 1..{config.flight.strips}")
+    if len(errors.shift_m) != 2:
+        raise ProjectFileError(f"{config.source} [{key}.shift_m]: expected [smallest, largest] in metres")
+    n = len(errors.excursion_lines)
+    for name in ("excursion_x_m", "excursion_y_m", "excursion_z_m", "excursion_roll_deg"):
+        if len(getattr(errors, name)) not in (0, n):
+            raise ProjectFileError(f"{config.source} [{key}.{name}]: expected {n} values (one per excursion line)")
+    for name in ("bulge_x_m", "bulge_y_m", "bulge_z_m", "bulge_roll_deg"):
+        if len(getattr(errors, name)) not in (0, max(n - 1, 0)):
+            raise ProjectFileError(f"{config.source} [{key}.{name}]: expected {max(n - 1, 0)} values (one per piece)")
+    if n and any(b <= a for a, b in zip(errors.excursion_lines, errors.excursion_lines[1:])):
+        raise ProjectFileError(f"{config.source} [{key}.excursion_lines]: lines must increase")
+
