@@ -106,9 +106,18 @@ class Statistics:
                 if act.all():
                     continue
                 lin = group.linearise(values)
-                J = s.layout.matrix(lin.parts, group.n_rows).tocsr()[~act]
-                h[sl][~act] = self.inverse.quadratic_forms(J @ sp.diags(1.0 / s.system.scale))
+                J = (s.layout.matrix(lin.parts, group.n_rows).tocsr()[~act] @ sp.diags(1.0 / s.system.scale)).tocsr()
+                h[sl][~act] = self._solved_quadratic_forms(J)
         return h
+
+    def _solved_quadratic_forms(self, J: sp.csr_matrix, chunk: int = 64) -> np.ndarray:
+        """``diag(J N^-1 J^T)`` by solves (for rows whose couplings may be outside the pattern)."""
+        out = np.empty(J.shape[0])
+        for start in range(0, J.shape[0], chunk):
+            B = J[start:start + chunk].toarray().T
+            X = self.solution.factor.solve(B)
+            out[start:start + chunk] = np.einsum("ij,ij->j", B, X.reshape(B.shape))
+        return out
 
     def redundancy_numbers(self) -> list[np.ndarray]:
         """Per group, the redundancy number of each row (NaN for rejected rows)."""
