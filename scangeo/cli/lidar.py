@@ -9,6 +9,8 @@ import argparse
 import json
 import math
 
+import numpy as np
+
 from scangeo.errors import LidarError
 
 DEG = math.pi / 180.0
@@ -103,11 +105,116 @@ def run_errors(args: argparse.Namespace) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------------------- budget
+def _add_budget(sub, common) -> None:
+    from scangeo.lidar.budget import BudgetSigmas
+
+    d = BudgetSigmas()
+    p = sub.add_parser(
+        "budget", parents=[common], help="height precision of the mean terrain height of an area",
+        description="Error budget of an area's mean height: seasonal and daily variation (not reduced), "
+        "local variation and point noise (by the number of points), short-wave strip errors (by the "
+        "number of ~100 m strip pieces), long-wave strip errors (by the number of strips), strip offset "
+        "(by the factor alpha only). Sigmas in cm; defaults documented in docs/lidar.md.",
+    )
+    p.add_argument("--points", type=int, required=True, help="number of points in the area")
+    p.add_argument("--pieces", type=int, required=True, help="number of ~100 m strip pieces in the area")
+    p.add_argument("--strips", type=int, required=True, help="number of strips covering the area")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--alpha", type=float, default=None, help="offset reduction factor (default 1)")
+    g.add_argument("--offset-covariance", metavar="FILE",
+                   help="covariance (m^2) of the offsets of the covering strips (.npy or text matrix)")
+    for name in ("seasonal", "daily", "local", "noise", "short", "long", "offset"):
+        p.add_argument(f"--sigma-{name}", type=float, default=getattr(d, name), metavar="CM",
+                       help=f"sigma of the {name} component, cm (default {getattr(d, name):g})")
+    p.add_argument("--scenarios", action="store_true",
+                   help="also print the cost-benefit table of flight scenarios")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run_budget)
+
+
+def run_budget(args: argparse.Namespace) -> int:
+    from scangeo.lidar.budget import BudgetSigmas, alpha_from_covariance, area_mean_budget
+
+    sigmas = BudgetSigmas(**{n: getattr(args, f"sigma_{n}") for n in BudgetSigmas.__dataclass_fields__})
+    if args.offset_covariance:
+        alpha = alpha_from_covariance(args.offset_covariance, sigmas.offset)
+    else:
+        alpha = 1.0 if args.alpha is None else args.alpha
+    result = area_mean_budget(args.points, args.pieces, args.strips, alpha, sigmas)
+    table = _scenario_table(sigmas) if args.scenarios else None
+    if args.json:
+        out = {"total_cm": result["total_cm"], "components": result["components"]}
+        if table is not None:
+            out["scenarios"] = table
+        _print_json(out)
+        return 0
+    print(f"mean height of an area: {args.points} points, {args.pieces} strip pieces, {args.strips} strips, "
+          f"alpha {alpha:.3f}")
+    for name, cm in result["components"].items():
+        print(f"  {name:<9} {cm:7.3f} cm")
+    print(f"  {'total':<9} {result['total_cm']:7.3f} cm")
+    if table is not None:
+        print()
+        print(f"{'scenario':<40} {'points':>7} {'alpha':>6} {'total cm':>9} {'cost':>6}")
+        for row in table:
+            print(f"{row['name']:<40} {row['points']:7d} {row['alpha']:6.3f} {row['total_cm']:9.3f} {row['relative_cost']:6.2f}")
+    return 0
+
+
+def _scenario_table(sigmas) -> list[dict]:
+    from scangeo.lidar.budget import default_scenarios, scenario_row
+    from scangeo.lidar.network import BlockLayout, offset_precision
+
+    layout = BlockLayout()
+    few = float(offset_precision(layout, layout.corner_controls())[: layout.n_strips].mean()) * 100 / sigmas.offset
+    many = float(offset_precision(layout, layout.ends_controls(4))[: layout.n_strips].mean()) * 100 / sigmas.offset
+    return [scenario_row(s, sigmas=sigmas) for s in default_scenarios(few, many)]
+
+
+# -------------------------------------------------------------------------------------- network
+def _add_network(sub, common) -> None:
+    p = sub.add_parser(
+        "network", parents=[common], help="network design of a 1D strip adjustment (plot + table)",
+        description="Precision of the strip offsets of a regular block from its configuration alone: "
+        "without and with cross strips, with 4 corner control areas or control at both ends of every "
+        "4th strip.",
+    )
+    p.add_argument("--strips", type=int, default=21, help="parallel strips (default 21)")
+    p.add_argument("--cross", type=int, default=4, help="cross strips (default 4)")
+    p.add_argument("--length", type=float, default=20000.0, help="strip length, m (default 20000)")
+    p.add_argument("--swath", type=float, default=1000.0, help="swath width, m (default 1000)")
+    p.add_argument("--overlap", type=float, default=0.3, help="side overlap fraction (default 0.3)")
+    p.add_argument("--sigma-tie", type=float, default=3.0, metavar="CM", help="tie-area sigma, cm (default 3)")
+    p.add_argument("--sigma-control", type=float, default=3.0, metavar="CM", help="control-area sigma, cm (default 3)")
+    p.add_argument("--plot", metavar="PNG", help="write the design plot")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run_network)
+
+
+def run_network(args: argparse.Namespace) -> int:
+    from scangeo.lidar.network import BlockLayout, design_scenarios, plot_design
+
+    layout = BlockLayout(n_strips=args.strips, n_cross=args.cross, length=args.length, swath=args.swath,
+                         overlap=args.overlap, sigma_tie=args.sigma_tie / 100, sigma_control=args.sigma_control / 100)
+    scenarios = plot_design(layout, args.plot) if args.plot else design_scenarios(layout)
+    table = {name: [round(100 * float(v), 3) for v in sig] for name, sig in scenarios.items()}
+    if args.json:
+        _print_json({"offset_sigma_cm": table})
+        return 0
+    for name, sig in table.items():
+        print(f"{name}: mean {np.mean(sig):.2f} cm, max {np.max(sig):.2f} cm")
+        print("   " + " ".join(f"{v:.2f}" for v in sig))
+    return 0
+
+
 def add_parser(subparsers, common) -> None:
     """Add ``scangeo lidar`` and its sub-commands."""
     parser = subparsers.add_parser("lidar", help="laser scanners: error model, strip adjustment, budget")
     sub = parser.add_subparsers(dest="lidar_command", metavar="SUBCOMMAND")
     _add_errors(sub, common)
+    _add_budget(sub, common)
+    _add_network(sub, common)
     parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
 
 
