@@ -208,6 +208,42 @@ def run_network(args: argparse.Namespace) -> int:
     return 0
 
 
+# ---------------------------------------------------------------------------------- real data
+def _add_check(sub, common) -> None:
+    p = sub.add_parser(
+        "check-returns", parents=[common], help="recompute real returns from SBET, boresight, scan angle, range",
+        description="Recompute every LAS return from the SBET trajectory, the boresight and lever arm of a "
+        "leeward config.toml, the return's scan angle and its range, and report the rms of recomputed minus "
+        "given coordinates, before and after fitting small boresight rotations and a scan-angle scale.",
+    )
+    p.add_argument("--sbet", required=True, help="Applanix SBET (.out)")
+    p.add_argument("--las", required=True, help="LAS/LAZ returns with GPS time and scan angle")
+    p.add_argument("--config", required=True, help="leeward config.toml (boresight rad, lever arm m, utm_zone)")
+    p.add_argument("--heading", choices=("platform", "true"), default="platform",
+                   help="platform: SBET heading as is (default); true: heading minus wander angle")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run_check)
+
+
+def run_check(args: argparse.Namespace) -> int:
+    from scangeo.lidar.real_data import consistency
+
+    r = consistency(args.sbet, args.las, args.config, args.heading)
+    if args.json:
+        _print_json(r)
+        return 0
+    e, n, u = r["rms_enu_m"]
+    print(f"{r['returns']} returns, mean range {r['mean_range_m']:.1f} m, heading = {r['heading']}")
+    print(f"recomputed - given, configured boresight: rms east {e:.3f} north {n:.3f} up {u:.3f} m, 3D {r['rms_3d_m']:.3f} m")
+    f = r["fit_deg"]
+    print(f"fitted boresight corrections: roll {f['boresight_roll']:+.4f} pitch {f['boresight_pitch']:+.4f} "
+          f"yaw {f['boresight_yaw']:+.4f} deg, scan-angle scale {r['fit_scan_scale']:+.5f}")
+    e, n, u = r["fit_rms_enu_m"]
+    print(f"after the fit: rms east {e:.3f} north {n:.3f} up {u:.3f} m, 3D {r['fit_rms_3d_m']:.3f} m "
+          f"(whole-degree scan angles alone: {r['expected_rms_from_whole_degree_scan_angles_m']:.3f} m)")
+    return 0
+
+
 def add_parser(subparsers, common) -> None:
     """Add ``scangeo lidar`` and its sub-commands."""
     parser = subparsers.add_parser("lidar", help="laser scanners: error model, strip adjustment, budget")
@@ -215,6 +251,7 @@ def add_parser(subparsers, common) -> None:
     _add_errors(sub, common)
     _add_budget(sub, common)
     _add_network(sub, common)
+    _add_check(sub, common)
     parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
 
 
