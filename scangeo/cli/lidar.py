@@ -244,6 +244,53 @@ def run_check(args: argparse.Namespace) -> int:
     return 0
 
 
+# ---------------------------------------------------------------------------- forward/reverse
+def _add_forward_reverse(sub, common) -> None:
+    p = sub.add_parser(
+        "forward-reverse", parents=[common], help="recover attitude errors from forward/reverse flights",
+        description="Simulate a strip flown north (A), the same line flown south (B) and a parallel strip "
+        "flown north half a swath east (C) with the given errors, and recover roll and pitch from the A-B "
+        "differences at nadir and heading from the A-C difference.",
+    )
+    p.add_argument("--height", type=float, default=1500.0, help="flying height, m (default 1500)")
+    p.add_argument("--scan-angle", type=float, default=40.0, help="total scan angle, deg (default 40)")
+    p.add_argument("--imu", type=_floats(3), default=(0.03, -0.02, 0.05), metavar="DEG,DEG,DEG",
+                   help="IMU error roll, pitch, heading, deg (default 0.03,-0.02,0.05)")
+    p.add_argument("--mounting", type=_floats(3), default=(0.0, 0.0, 0.0), metavar="DEG,DEG,DEG")
+    p.add_argument("--range-error", type=float, default=0.2, metavar="M", help="default 0.2")
+    p.add_argument("--scan-angle-error", type=float, default=0.05, metavar="DEG", help="default 0.05")
+    p.add_argument("--gps", type=_floats(3), default=(0.3, -0.2, 0.4), metavar="M,M,M",
+                   help="north, east, down, m (default 0.3,-0.2,0.4)")
+    p.add_argument("--lever-arm", type=_floats(3), default=(0.0, 0.0, 0.1), metavar="M,M,M", help="default 0,0,0.1")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run_forward_reverse)
+
+
+def run_forward_reverse(args: argparse.Namespace) -> int:
+    from scangeo.lidar.calibration_flights import recover_attitude
+    from scangeo.lidar.laser_equation import FlightGeometry, SystematicErrors
+
+    geometry = FlightGeometry(height=args.height, fov=args.scan_angle * DEG, pulses=2001)
+    errors = SystematicErrors(
+        imu=tuple(v * DEG for v in args.imu), mounting=tuple(v * DEG for v in args.mounting),
+        range_offset=args.range_error, scan_angle_error=args.scan_angle_error * DEG,
+        gps=tuple(args.gps), lever_arm=tuple(args.lever_arm),
+    )
+    r = recover_attitude(geometry, errors)
+    got = {"roll": r.roll / DEG, "pitch": r.pitch / DEG, "heading": r.heading / DEG}
+    injected = dict(zip(("roll", "pitch", "heading"), (a + b for a, b in zip(args.imu, args.mounting))))
+    if args.json:
+        _print_json({"recovered_deg": got, "imu_plus_mounting_deg": injected,
+                     "heading_from_forward_reverse_edges_deg": r.heading_from_edges / DEG})
+        return 0
+    print(f"{'angle':<8} {'injected (IMU+mounting) deg':>28} {'recovered deg':>14} {'rel. error':>11}")
+    for k in got:
+        rel = (got[k] - injected[k]) / injected[k] if injected[k] else float("nan")
+        print(f"{k:<8} {injected[k]:28.5f} {got[k]:14.5f} {rel:11.2e}")
+    print(f"heading from the A-B edge differences: {r.heading_from_edges / DEG:.2e} deg (cancels)")
+    return 0
+
+
 def add_parser(subparsers, common) -> None:
     """Add ``scangeo lidar`` and its sub-commands."""
     parser = subparsers.add_parser("lidar", help="laser scanners: error model, strip adjustment, budget")
@@ -251,6 +298,7 @@ def add_parser(subparsers, common) -> None:
     _add_errors(sub, common)
     _add_budget(sub, common)
     _add_network(sub, common)
+    _add_forward_reverse(sub, common)
     _add_check(sub, common)
     parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
 

@@ -41,3 +41,10 @@ def test_body_fixed_errors_are_inseparable_from_imu_errors():
     np.testing.assert_allclose([r.roll, r.pitch, r.heading], expected, rtol=0.01)
     # and they differ from the IMU errors alone by more than 1 %: the mounting adds 0.01 deg
     assert abs(r.pitch - IMU[1]) > 0.1 * abs(IMU[1])
+
+
+def test_cli_forward_reverse_json(run_lidar_json):
+    out = run_lidar_json(["lidar", "forward-reverse", "--imu", "0.02,0.01,-0.04"])
+    np.testing.assert_allclose([out["recovered_deg"][k] for k in ("roll", "pitch", "heading")],
+                               [0.02, 0.01, -0.04], rtol=0.01)
+    assert abs(out["heading_from_forward_reverse_edges_deg"]) < 1e-9
