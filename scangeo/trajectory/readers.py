@@ -3,8 +3,9 @@
 CSV (docs/formats.md): a header line naming the columns, then one record per line, comma- or
 whitespace-separated. Columns (case-insensitive, quotes ignored, aliases in brackets):
 ``time`` [gpstime, gps_time, t], then either ``lat, lon, h`` [latitude, longitude, height, alt]
-in degrees and ellipsoidal metres, or ``x, y, z`` [easting, northing] in a map CRS with ellipsoidal
-``z``; and ``roll, pitch, heading`` [azimuth, yaw] in degrees. Other columns are ignored.
+in degrees and ellipsoidal metres, or ``x, y, z`` [easting, northing; a height column serves as z]
+in a map CRS with ellipsoidal ``z``; and ``roll, pitch, heading`` [azimuth, yaw] in degrees. Other
+columns are ignored; a UTF-8 byte-order mark is allowed.
 """
 from __future__ import annotations
 
@@ -49,6 +50,8 @@ def _columns(header: str, path) -> tuple[dict[str, int], str | None]:
                 if key in found:
                     raise TrajectoryError(f"{path} line 1: column {key!r} appears twice ({names})")
                 found[key] = index
+    if "x" in found and "y" in found and "z" not in found and "h" in found:
+        found["z"] = found.pop("h")  # time,easting,northing,height,...: the height is z
     for wanted in (GEODETIC, MAPPED):
         if all(k in found for k in wanted):
             return {k: found[k] for k in wanted}, delimiter
@@ -63,8 +66,8 @@ def _parse_rows(path, lines: list[str], delimiter, columns: dict[str, int]) -> n
     width = max(columns.values()) + 1
     order = list(columns.values())
     try:  # fast path; the slow path below finds the offending line when this fails
-        out = np.loadtxt(lines, delimiter=delimiter, usecols=order, ndmin=2, dtype=float)
-        if out.shape == (len(lines), len(order)) and all(len(t.split(delimiter)) >= width for t in lines[:1]):
+        out = np.loadtxt(lines, delimiter=delimiter, usecols=order, ndmin=2, dtype=float, comments=None)
+        if out.shape == (len(lines), len(order)):
             lines = []
     except ValueError:
         out = np.empty((len(lines), len(order)))
@@ -77,10 +80,8 @@ def _parse_rows(path, lines: list[str], delimiter, columns: dict[str, int]) -> n
         try:
             out[row] = [float(fields[i]) for i in order]
         except ValueError:
-            bad = next(f for f in (fields[i] for i in order) if not _is_float(f))
-            raise TrajectoryError(f"{path} line {row + 2}: {bad.strip()!r} is not a number") from None
-    if len(out) == 0:
-        raise TrajectoryError(f"{path}: no records after the header")
+            name, bad = next((n, fields[i]) for n, i in columns.items() if not _is_float(fields[i]))
+            raise TrajectoryError(f"{path} line {row + 2}: {name} {bad.strip()!r} is not a number") from None
     bad_rows = np.flatnonzero(~np.isfinite(out).all(axis=1))
     if bad_rows.size:
         r = bad_rows[0]
@@ -107,10 +108,15 @@ def read_trajectory_csv(path, crs=None) -> GpsImuStream:
     """
     path = Path(path)
     try:
-        with open(path, encoding="utf-8") as f:
+        with open(path, encoding="utf-8-sig") as f:
             raw = f.read().splitlines()
     except OSError as exc:
         raise TrajectoryError(f"{path}: cannot read ({exc.strerror})") from exc
+    except UnicodeDecodeError as exc:
+        raise TrajectoryError(
+            f"{path}: not a UTF-8 text file at byte {exc.start} (expected a trajectory CSV; an Applanix "
+            "SBET needs the extension .out or .sbet)"
+        ) from None
     if not raw:
         raise TrajectoryError(f"{path}: the file is empty (expected a header line and records)")
     columns, delimiter = _columns(raw[0], path)
@@ -120,6 +126,8 @@ def read_trajectory_csv(path, crs=None) -> GpsImuStream:
     blank = [i for i, text in enumerate(lines) if not text.strip()]
     if blank:
         raise TrajectoryError(f"{path} line {blank[0] + 2}: empty line inside the records")
+    if not lines:
+        raise TrajectoryError(f"{path}: no records after the header line")
     data = _parse_rows(path, lines, delimiter, columns)
     check_times(data[:, 0], str(path), lambda i: f"line {i + 2}")
     if "lat" in columns:
