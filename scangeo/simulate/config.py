@@ -183,9 +183,10 @@ class PointsConfig:
 
 @dataclass(frozen=True)
 class OutputConfig:
-    """What is written: image format (``GTiff`` or ``ENVI``), the ortho grid, DTM grid."""
+    """What is written: images (``GTiff`` or ``ENVI``; ``images = false`` skips rendering), the truth ortho."""
 
     image_format: str = "GTiff"
+    images: bool = True
     ortho_resolution_m: float = 2.5
     truth_ortho: bool = True
     line_chunk: int = 256

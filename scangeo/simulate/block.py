@@ -1,0 +1,259 @@
+"""Simulating a whole block: ``simulate(out, config)`` writes a project with known truth.
+
+Order of work: location and frames -> terrain and project DTM -> flight plan -> per strip the true
+trajectory, the injected GPS/IMU errors and the measured stream -> points and their measurements
+-> files -> images rendered strip by strip -> the truth orthoimage. Every random draw comes from a
+generator named after its purpose and seeded by the block's seed, so a seed gives the same block
+whatever is switched on or off.
+"""
+from __future__ import annotations
+
+import dataclasses
+import logging
+import shutil
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyproj
+
+from scangeo.dtm import DTM
+from scangeo.errors import ProjectFileError
+from scangeo.frames import Geoid, MapFrame
+from scangeo.progress import no_progress, scaled
+from scangeo.sensors import Mounting, StripGeometry, Whiskbroom
+from scangeo.simulate import writer
+from scangeo.simulate.config import SimulationConfig
+from scangeo.simulate.dynamics import make_dynamics
+from scangeo.simulate.flight import FlightPlan, block_extent, plan_flight, true_stream, truth_spline
+from scangeo.simulate.gpsimu_errors import StripErrors, apply_errors, draw_errors
+from scangeo.simulate.ortho import write_truth_ortho
+from scangeo.simulate.points import PointSet, measure_points, place_points
+from scangeo.simulate.render import render_strip, write_image
+from scangeo.simulate.scene import make_scene
+from scangeo.simulate.terrain import Extent, Terrain, dtm_centre_lonlat, make_terrain
+from scangeo.timing import LineTiming
+from scangeo.trajectory import GpsImuStream, OrientationSpline, ProjectTrajectory, write_trajectory_csv
+
+log = logging.getLogger(__name__)
+
+
+def rng_for(seed: int, purpose: str) -> np.random.Generator:
+    """A generator for one purpose ("terrain", "errors 02", ...) of a seeded block."""
+    return np.random.default_rng([int(seed) & 0xFFFFFFFF, zlib.crc32(purpose.encode())])
+
+
+@dataclass
+class SimulatedStrip:
+    """One strip's truth and measurements in memory."""
+
+    strip_id: str
+    true_stream: GpsImuStream
+    true_spline: OrientationSpline
+    geometry: StripGeometry
+    errors: StripErrors
+    measured: GpsImuStream
+
+
+@dataclass
+class SimulatedBlock:
+    """What ``simulate`` made (also written to disk)."""
+
+    root: Path
+    config: SimulationConfig
+    seed: int
+    map_frame: MapFrame
+    terrain: Terrain
+    plan: FlightPlan
+    strips: list[SimulatedStrip]
+    points: PointSet
+    scene: object
+    ortho_extent: Extent
+
+
+def utm_crs(lon: float, lat: float) -> str:
+    zone = int(np.floor((lon + 180.0) / 6.0)) % 60 + 1
+    return f"EPSG:{32600 + zone if lat >= 0 else 32700 + zone}"
+
+
+def resolve_location(config: SimulationConfig, dtm_file: str | None) -> tuple[str, tuple[float, float]]:
+    """The map CRS and the block centre (map coordinates).
+
+    With a DTM file the block is centred on the DTM, in the configured CRS when that CRS is meant
+    for the place, else in the UTM zone of the centre.
+    """
+    b = config.block
+    if dtm_file:
+        lon, lat = dtm_centre_lonlat(dtm_file)
+        crs = b.crs
+        if crs != "auto":
+            area = pyproj.CRS.from_user_input(crs).area_of_use
+            if area is None or not (area.west <= lon <= area.east and area.south <= lat <= area.north):
+                crs = "auto"
+    elif b.centre_lonlat:
+        lon, lat = b.centre_lonlat
+        crs = b.crs
+    elif b.centre:
+        if b.crs == "auto":
+            raise ProjectFileError(f"{config.source} [block.centre]: a map centre needs block.crs (not 'auto')")
+        to_geo = pyproj.Transformer.from_crs(b.crs, "EPSG:4326", always_xy=True)
+        lon, lat = to_geo.transform(*b.centre[:2])
+        crs = b.crs
+    else:
+        raise ProjectFileError(f"{config.source} [block]: give centre (map) or centre_lonlat (degrees)")
+    if crs == "auto":
+        crs = utm_crs(lon, lat)
+    to_map = pyproj.Transformer.from_crs("EPSG:4326", crs, always_xy=True)
+    x, y = to_map.transform(lon, lat)
+    return crs, (float(x), float(y))
+
+
+def simulate(out: str | Path, config: SimulationConfig, seed: int | None = None, dtm_file: str | None = None,
+             texture: str | None = None, overwrite: bool = False, progress=no_progress) -> SimulatedBlock:
+    """Simulate a block and write it as a project folder with a truth/ folder.
+
+    Parameters
+    ----------
+    out : the project folder to create (it must not exist, or be empty, unless ``overwrite``).
+    config : the block's configuration (``load_preset``).
+    seed : overrides ``config.seed``.
+    dtm_file : a real DTM for the true terrain (overrides the configured terrain).
+    texture : an RGB orthophoto for the scene (overrides the configured scene).
+    progress : ``callback(done, total, message)``.
+    """
+    out = Path(out)
+    seed = config.seed if seed is None else int(seed)
+    if out.exists() and any(out.iterdir()) and not overwrite:
+        raise ProjectFileError(f"{out}: the folder exists and is not empty (choose another or overwrite it)")
+    staging = out.with_name(out.name + ".partial")
+    if staging.exists():
+        shutil.rmtree(staging)
+    (staging / "truth").mkdir(parents=True)
+    (staging / "nav").mkdir()
+    (staging / "images").mkdir()
+    try:
+        block = _simulate_into(staging, config, seed, dtm_file, texture, progress)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    if out.exists():
+        shutil.rmtree(out)
+    staging.rename(out)
+    block.root = out
+    return block
+
+
+def _simulate_into(root: Path, config: SimulationConfig, seed: int, dtm_file, texture, progress) -> SimulatedBlock:
+    sensor_cfg, flight_cfg = config.sensor, config.flight
+    dtm_source = dtm_file or (config.terrain.file if config.terrain.kind == "file" else None)
+    crs, centre = resolve_location(config, dtm_source)
+    geoid = Geoid(config.block.geoid_undulation_m)
+    map_frame = MapFrame.centred_on(crs, centre[0], centre[1], 0.0, geoid)
+    extent = block_extent(flight_cfg, sensor_cfg, centre)
+    progress(0, 1, "terrain")
+    terrain = make_terrain(config.terrain, extent, map_frame.crs.to_wkt(), rng_for(seed, "terrain"), dtm_source)
+    plan = plan_flight(flight_cfg, sensor_cfg, centre, terrain.mean_height(extent), config.block.time_start_s)
+    true_dtm = DTM(terrain.true, map_frame, "true terrain")
+    dyn_rng = rng_for(seed, "dynamics")
+    dynamics = make_dynamics(flight_cfg.turbulence, dyn_rng)
+    crab = np.radians(flight_cfg.turbulence.crab_deg) * dyn_rng.uniform(0.7, 1.0)
+    sensor = Whiskbroom(pixels=sensor_cfg.pixels, fov=np.radians(sensor_cfg.fov_deg), line_rate=sensor_cfg.line_rate_hz,
+                        per_pixel_timing=sensor_cfg.pixel_timing)
+    true_boresight = np.radians(np.add(sensor_cfg.boresight_deg, sensor_cfg.boresight_error_deg))
+    mounting = Mounting(lever_arm_B=np.array(sensor_cfg.lever_arm_m, float), boresight=true_boresight)
+
+    strips: list[SimulatedStrip] = []
+    for s in plan.strips:
+        stream = true_stream(plan, s, map_frame, dynamics, crab, np.radians(flight_cfg.turbulence.pitch_trim_deg))
+        spline = truth_spline(stream, map_frame, plan.rate_hz)
+        truth = _stream_of_spline(spline, stream.time, map_frame, s.strip_id)
+        geometry = StripGeometry(sensor, spline, LineTiming(s.first_line_time, sensor_cfg.line_rate_hz), s.lines,
+                                 mounting, s.strip_id)
+        p_true = map_frame.frame.geodetic_to_project(truth.lat, truth.lon, truth.h)
+        centre_P = p_true[len(p_true) // 2]
+        errors = draw_errors(config.strip_errors(s.number), truth.time, s.first_line_time, sensor_cfg.line_rate_hz,
+                             centre_P, p_true, rng_for(seed, f"errors {s.strip_id}"))
+        measured, errors = apply_errors(truth, errors, map_frame)
+        strips.append(SimulatedStrip(s.strip_id, truth, spline, geometry, errors, measured))
+    progress(1, 1, "flight")
+
+    scene = make_scene(config.scene, (extent.xmin, extent.ymax) if (texture or config.scene.kind == "texture")
+                       else centre, seed, texture)
+    geometries = [s.geometry for s in strips]
+    problem = config.gpsimu_errors.problem_strip
+    ids, kinds, xs, ys = place_points(config.points, plan, geometries, map_frame, terrain, scene,
+                                      rng_for(seed, "points"), problem, config.gpsimu_errors.breaks_lines)
+    points = measure_points(ids, kinds, xs, ys, geometries, map_frame, terrain, scene, config.points,
+                            rng_for(seed, "measurements"))
+    progress(1, 1, "points")
+
+    _write_project(root, config, seed, map_frame, terrain, plan, strips, points, crab)
+    image_ext = ".tif" if config.output.image_format == "GTiff" else ".bsq"
+    n = len(strips)
+    for k, s in enumerate(strips if config.output.images else []):
+        image = render_strip(s.geometry, true_dtm, scene, sensor_cfg.noise_dn, rng_for(seed, f"noise {s.strip_id}"),
+                             config.output.line_chunk, scaled(progress, k, k + 1, n), f"image {s.strip_id}")
+        write_image(root / "images" / f"{s.strip_id}{image_ext}", image, config.output.image_format)
+        del image
+    half = plan.swath_m / 2.0
+    ortho_extent = Extent(min(s.x for s in plan.strips) - half, extent.ymin + plan.run_in_s * plan.ground_speed_mps,
+                          max(s.x for s in plan.strips) + half, extent.ymax - plan.run_in_s * plan.ground_speed_mps)
+    if config.output.truth_ortho:
+        write_truth_ortho(root / "truth" / "ortho.tif", scene, ortho_extent, config.output.ortho_resolution_m,
+                          map_frame.crs.to_wkt(), progress=progress)
+    return SimulatedBlock(root, config, seed, map_frame, terrain, plan, strips, points, scene, ortho_extent)
+
+
+def _stream_of_spline(spline: OrientationSpline, time: np.ndarray, map_frame: MapFrame, strip_id: str) -> GpsImuStream:
+    values = spline.evaluate(time)
+    trajectory = ProjectTrajectory(time, values[:, :3], values[:, 3:], f"truth strip {strip_id}")
+    return GpsImuStream.from_project(trajectory, map_frame.frame)
+
+
+def _write_project(root: Path, config: SimulationConfig, seed: int, map_frame: MapFrame, terrain: Terrain,
+                   plan: FlightPlan, strips: list[SimulatedStrip], points: PointSet, crab: float) -> None:
+    image_ext = ".tif" if config.output.image_format == "GTiff" else ".bsq"
+    entries = []
+    for plan_strip, s in zip(plan.strips, strips):
+        write_trajectory_csv(root / "nav" / f"{s.strip_id}.csv", s.measured)
+        write_trajectory_csv(root / "truth" / f"trajectory_{s.strip_id}.csv", s.true_stream)
+        writer.write_errors(root / "truth" / f"errors_{s.strip_id}.csv", s.errors)
+        entries.append({"id": s.strip_id, "image": f"images/{s.strip_id}{image_ext}", "trajectory": f"nav/{s.strip_id}.csv",
+                        "first_line_time": plan_strip.first_line_time, "lines": plan_strip.lines})
+    frame = map_frame.frame
+    origin = (float(np.degrees(frame.lat0)), float(np.degrees(frame.lon0)), float(frame.h0))
+    writer.write_raster(root / "dtm.tif", terrain.dtm, description="DTM height (orthometric, m)")
+    writer.write_raster(root / "truth" / "terrain.tif", terrain.true, description="true terrain height (m)")
+    writer.write_raster(root / "truth" / "dtm_error.tif",
+                        dataclasses.replace(terrain.dtm, values=terrain.dtm_error), description="DTM minus truth (m)")
+    pc = config.points
+    sigmas = {"control": (pc.control_sigma_xy_m, pc.control_sigma_z_m), "check": (pc.control_sigma_xy_m, pc.control_sigma_z_m),
+              "height": (0.0, pc.height_sigma_z_m)}
+    rng = rng_for(seed, "ground coordinates")
+    given = np.column_stack([points.x, points.y, points.z])
+    for i, kind in enumerate(points.kind):
+        role = {"E": "control", "B": "check", "K": "check", "H": "height"}.get(kind)
+        if role:
+            sxy, sz = sigmas[role]
+            given[i] += rng.standard_normal(3) * np.array([sxy, sxy, sz])
+    writer.write_points(root, points, [s.strip_id for s in strips], pc.measurement_sigma_px, given, sigmas)
+    writer.write_json(root / "truth" / "errors.json", {
+        "problem_strip": plan.strips[config.gpsimu_errors.problem_strip - 1].strip_id if config.gpsimu_errors.problem_strip else None,
+        "breaks_lines": list(config.gpsimu_errors.breaks_lines),
+        "boresight_error_deg": list(config.sensor.boresight_error_deg),
+        "true_boresight_deg": list(np.add(config.sensor.boresight_deg, config.sensor.boresight_error_deg)),
+        "crab_deg": float(np.degrees(crab)),
+        "position_frame": "project frame P (x east, y north, z up) of project.toml's origin",
+        "strips": {s.strip_id: s.errors.parameters for s in strips},
+    })
+    writer.write_json(root / "truth" / "scenario.json", {
+        "seed": seed, "config_source": config.source, "config": dataclasses.asdict(config),
+        "crs": map_frame.crs.to_string(), "origin_deg": origin,
+        "flight_height_m": plan.flight_height_m, "swath_m": plan.swath_m, "strip_spacing_m": plan.spacing_m,
+        "strips": [dataclasses.asdict(s) for s in plan.strips],
+    })
+    text = writer.project_toml(crs=map_frame.crs.to_string(), origin_deg=origin,
+                               geoid_undulation_m=config.block.geoid_undulation_m,
+                               dtm_sigma_m=config.terrain.dtm_error_sigma_m, sensor=config.sensor, strips=entries)
+    writer.write_text(root / "project.toml", text)

@@ -1,0 +1,197 @@
+"""Points of a simulated block and their image measurements.
+
+Kinds and id prefixes (the variants select roles by these; see docs/simulate.md):
+
+* ``E``: control points in bands at both ends of the block (role ``control``);
+* ``B``: points in bands across the block at the problem strip's break epochs (role ``check`` in
+  ground.csv; the 4-band variants make them control);
+* ``K``: check points spread over every strip (role ``check``);
+* ``H``: height-only points (role ``height``);
+* ``T``: tie points along the overlaps of neighbouring strips (not in ground.csv).
+
+All points lie on open ground (fields, tracks, roads, pavement: no water, roofs or trees), so
+every tie point may carry a DTM height. A point is measured in every strip whose image holds it
+(at least ``edge_margin_px`` from the image border): the true (line, pixel) from the true
+trajectory by ground-to-image, plus Gaussian noise of ``measurement_sigma_px`` in both, plus, for
+the chosen blunders, an offset of a size drawn in ``blunder_px`` in a random direction.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from scangeo.frames import MapFrame
+from scangeo.sensors import StripGeometry
+from scangeo.simulate.config import PointsConfig
+from scangeo.simulate.flight import FlightPlan
+from scangeo.simulate.scene import OPEN_GROUND
+from scangeo.simulate.terrain import Terrain
+
+ROLE_OF_KIND = {"E": "control", "B": "check", "K": "check", "H": "height", "T": "tie"}
+
+
+@dataclass(frozen=True)
+class PointSet:
+    """Points (true map coordinates) and their measurements.
+
+    ``id``, ``kind`` (n,) str; ``x, y, z`` (n,) true map coordinates (z orthometric, m); ``p_P`` (n, 3).
+    Measurements (m,): ``point`` (index into the points), ``strip`` (index into the strips),
+    ``line_true, pixel_true``, ``line, pixel`` (as measured), ``blunder`` (bool).
+    """
+
+    id: np.ndarray
+    kind: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    z: np.ndarray
+    p_P: np.ndarray
+    land_class: np.ndarray
+    m_point: np.ndarray
+    m_strip: np.ndarray
+    line_true: np.ndarray
+    pixel_true: np.ndarray
+    line: np.ndarray
+    pixel: np.ndarray
+    blunder: np.ndarray
+
+
+class _Placer:
+    """Draws candidate points in map rectangles and keeps those visible and on open ground."""
+
+    def __init__(self, geometries, plan: FlightPlan, map_frame: MapFrame, terrain: Terrain, scene,
+                 margin_px: float, rng: np.random.Generator) -> None:
+        self.geometries = geometries
+        self.plan = plan
+        self.map_frame = map_frame
+        self.terrain = terrain
+        self.scene = scene
+        self.margin = margin_px
+        self.rng = rng
+
+    def visible(self, x, y, strips) -> tuple[np.ndarray, np.ndarray]:
+        """(mask of points visible in all given strips, true ground coordinates p_P)."""
+        z = self.terrain.height(x, y)
+        p_P = self.map_frame.map_to_project(x, y, z)
+        ok = np.isfinite(z) & np.isin(self.scene.classes(x, y), OPEN_GROUND)
+        for k in strips:
+            g = self.geometries[k]
+            line, pixel, status = g.ground_to_image(p_P)
+            ok &= (status == 0) & (line >= self.margin) & (line <= g.n_lines - 1 - self.margin)
+            ok &= (pixel >= self.margin) & (pixel <= g.sensor.pixels - 1 - self.margin)
+        return ok, p_P
+
+    def draw(self, count: int, xr, yr, strips, stratify_y: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """``count`` map points (x, y) in the rectangle xr x yr visible in ``strips``, spread in y."""
+        xs, ys = [], []
+        if count <= 0:
+            return np.zeros(0), np.zeros(0)
+        edges = np.linspace(yr[0], yr[1], count + 1) if stratify_y else np.array([yr[0]] * count + [yr[1]])
+        for k in range(count):
+            lo, hi = (edges[k], edges[k + 1]) if stratify_y else (yr[0], yr[1])
+            for _attempt in range(40):
+                cx = self.rng.uniform(*xr, 16)
+                cy = self.rng.uniform(lo, hi, 16)
+                ok, _ = self.visible(cx, cy, strips)
+                if ok.any():
+                    i = int(np.flatnonzero(ok)[0])
+                    xs.append(cx[i])
+                    ys.append(cy[i])
+                    break
+        return np.array(xs), np.array(ys)
+
+
+def _line_to_y(plan: FlightPlan, strip_index: int, line: float) -> float:
+    s = plan.strips[strip_index]
+    return s.y_start + s.direction * line * plan.ground_speed_mps / plan.line_rate_hz
+
+
+def place_points(config: PointsConfig, plan: FlightPlan, geometries: list[StripGeometry], map_frame: MapFrame,
+                 terrain: Terrain, scene, rng: np.random.Generator, problem_strip: int = 0,
+                 breaks_lines: tuple = ()) -> tuple[list[str], list[str], np.ndarray, np.ndarray]:
+    """Ids, kinds and true map x, y of all points of the block."""
+    placer = _Placer(geometries, plan, map_frame, terrain, scene, config.edge_margin_px, rng)
+    n = len(plan.strips)
+    half = plan.spacing_m / 2.0
+    swath_half = plan.swath_m / 2.0
+    y_lo = min(plan.strips[0].y_start, plan.strips[0].y_end)
+    y_hi = max(plan.strips[0].y_start, plan.strips[0].y_end)
+    band = config.control_band_lines * plan.ground_speed_mps / plan.line_rate_hz
+
+    def own_zone(k):
+        left = plan.strips[k].x - (half if k > 0 else swath_half)
+        right = plan.strips[k].x + (half if k < n - 1 else swath_half)
+        return left, right
+
+    groups: list[tuple[str, np.ndarray, np.ndarray]] = []
+    for k in range(n):
+        xr = own_zone(k)
+        for yr in ((y_lo, y_lo + band), (y_hi - band, y_hi)):
+            groups.append(("E", *placer.draw(config.control_per_band_per_strip, xr, yr, [k])))
+    if problem_strip and breaks_lines:
+        half_band = config.break_band_lines / 2.0 * plan.ground_speed_mps / plan.line_rate_hz
+        for line in breaks_lines:
+            yb = _line_to_y(plan, problem_strip - 1, line)
+            for k in range(n):
+                groups.append(("B", *placer.draw(config.break_points_per_band_per_strip, own_zone(k),
+                                                 (yb - half_band, yb + half_band), [k])))
+    for k in range(n):
+        groups.append(("K", *placer.draw(config.check_per_strip, own_zone(k), (y_lo + band, y_hi - band), [k])))
+        groups.append(("H", *placer.draw(config.height_per_strip, own_zone(k), (y_lo + band, y_hi - band), [k])))
+    for k in range(n - 1):
+        centre = 0.5 * (plan.strips[k].x + plan.strips[k + 1].x)
+        overlap = plan.swath_m - plan.spacing_m
+        xr = (centre - 0.4 * overlap, centre + 0.4 * overlap)
+        groups.append(("T", *placer.draw(config.tie_per_overlap, xr, (y_lo, y_hi), [k, k + 1])))
+
+    ids, kinds, xs, ys = [], [], [], []
+    counters: dict[str, int] = {}
+    for kind, gx, gy in groups:
+        for x, y in zip(gx, gy):
+            counters[kind] = counters.get(kind, 0) + 1
+            ids.append(f"{kind}{counters[kind]:03d}")
+            kinds.append(kind)
+            xs.append(x)
+            ys.append(y)
+    return ids, kinds, np.array(xs), np.array(ys)
+
+
+def measure_points(ids, kinds, x, y, geometries: list[StripGeometry], map_frame: MapFrame, terrain: Terrain,
+                   scene, config: PointsConfig, rng: np.random.Generator) -> PointSet:
+    """True ground points and their (noisy, possibly blundered) measurements in every strip."""
+    z = terrain.height(x, y)
+    p_P = map_frame.map_to_project(x, y, z)
+    m_point, m_strip, lt, pt = [], [], [], []
+    margin = config.edge_margin_px
+    for k, g in enumerate(geometries):
+        line, pixel, status = g.ground_to_image(p_P)
+        ok = ((status == 0) & (line >= margin) & (line <= g.n_lines - 1 - margin)
+              & (pixel >= margin) & (pixel <= g.sensor.pixels - 1 - margin))
+        idx = np.flatnonzero(ok)
+        m_point.append(idx)
+        m_strip.append(np.full(idx.size, k))
+        lt.append(line[idx])
+        pt.append(pixel[idx])
+    m_point = np.concatenate(m_point)
+    m_strip = np.concatenate(m_strip)
+    order = np.lexsort((m_strip, m_point))
+    m_point, m_strip = m_point[order], m_strip[order]
+    line_true, pixel_true = np.concatenate(lt)[order], np.concatenate(pt)[order]
+    sigma = config.measurement_sigma_px
+    line = line_true + rng.standard_normal(line_true.size) * sigma
+    pixel = pixel_true + rng.standard_normal(pixel_true.size) * sigma
+    blunder = np.zeros(line.size, dtype=bool)
+    if config.blunders:
+        chosen = rng.choice(line.size, size=min(config.blunders, line.size), replace=False)
+        size = rng.uniform(*config.blunder_px, chosen.size)
+        angle = rng.uniform(0, 2 * np.pi, chosen.size)
+        dl, dp = size * np.sin(angle), size * np.cos(angle)
+        n_lines = np.array([g.n_lines for g in geometries])[m_strip[chosen]]
+        n_pix = np.array([g.sensor.pixels for g in geometries])[m_strip[chosen]]
+        dl = np.where((line[chosen] + dl < 0) | (line[chosen] + dl > n_lines - 1), -dl, dl)  # stay inside
+        dp = np.where((pixel[chosen] + dp < 0) | (pixel[chosen] + dp > n_pix - 1), -dp, dp)
+        line[chosen] += dl
+        pixel[chosen] += dp
+        blunder[chosen] = True
+    return PointSet(np.asarray(ids), np.asarray(kinds), np.asarray(x), np.asarray(y), z, p_P,
+                    scene.classes(x, y), m_point, m_strip, line_true, pixel_true, line, pixel, blunder)

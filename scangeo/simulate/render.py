@@ -1,0 +1,82 @@
+"""Rendering a strip's image through the sensor model from the true trajectory over the true terrain.
+
+For every pixel (line, pixel) of the image: the ray of the true sensor pose (true trajectory,
+true lever arm and boresight, mirror timing) is intersected with the true terrain
+(``StripGeometry.image_to_ground``), the ground point is converted to map coordinates, and the
+scene is sampled there. Optional sensor noise (Gaussian, in digital numbers) is added. The result
+is a (lines, pixels, bands) uint16 array, written band-sequential as a GeoTIFF (no
+georeference: it is a raw scanner image) or ENVI file.
+"""
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from scangeo.dtm import DTM
+from scangeo.progress import no_progress
+from scangeo.sensors import StripGeometry
+from scangeo.simulate.scene import BANDS, N_BANDS, dn_to_uint16, to_dn
+
+
+def render_strip(geometry: StripGeometry, true_dtm: DTM, scene, noise_dn: float, rng: np.random.Generator,
+                 line_chunk: int = 256, progress=no_progress, message: str = "render") -> np.ndarray:
+    """The image (lines, pixels, bands) uint16 of a strip.
+
+    Parameters
+    ----------
+    geometry : the strip's true geometry (true spline, true mounting).
+    true_dtm : the true terrain.
+    scene : a scene with ``values(x, y) -> (n, 11)``.
+    noise_dn : standard deviation of the sensor noise in digital numbers (0: none).
+    """
+    n_lines, n_pix = geometry.n_lines, geometry.sensor.pixels
+    image = np.zeros((n_lines, n_pix, N_BANDS), dtype=np.uint16)
+    local = true_dtm.local_map(geometry.footprint_box(true_dtm))
+    pixels = np.arange(n_pix, dtype=float)
+    for start in range(0, n_lines, line_chunk):
+        stop = min(start + line_chunk, n_lines)
+        L, J = np.meshgrid(np.arange(start, stop, dtype=float), pixels, indexing="ij")
+        ground, status = geometry.image_to_ground(L.ravel(), J.ravel(), true_dtm)
+        ok = status == 0
+        dn = np.zeros((ground.shape[0], N_BANDS))
+        if ok.any():
+            xyh = local(ground[ok])
+            dn[ok] = to_dn(scene.values(xyh[:, 0], xyh[:, 1]))
+        if noise_dn > 0:
+            dn[ok] += rng.standard_normal((int(ok.sum()), N_BANDS)) * noise_dn
+        image[start:stop] = dn_to_uint16(dn).reshape(stop - start, n_pix, N_BANDS)
+        progress(stop, n_lines, message)
+    return image
+
+
+def write_image(path: Path, image: np.ndarray, image_format: str = "GTiff") -> None:
+    """Write a (lines, pixels, bands) image band-sequential, via a temporary name, with band names.
+
+    GeoTIFF: tiled, deflate-compressed, no georeference. ENVI: BSQ with a .hdr.
+    """
+    import rasterio
+    from rasterio.errors import NotGeoreferencedWarning
+
+    path = Path(path)
+    lines, pixels, bands = image.shape
+    staging = path.parent / f".{path.name}.partial"
+    staging.mkdir(parents=True, exist_ok=True)
+    profile = dict(driver=image_format, width=pixels, height=lines, count=bands, dtype="uint16")
+    if image_format == "GTiff":
+        profile.update(tiled=True, blockxsize=256, blockysize=256, compress="deflate", predictor=2,
+                       interleave="band")
+    else:
+        profile.update(interleave="bsq")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NotGeoreferencedWarning)
+        with rasterio.open(staging / path.name, "w", **profile) as dst:
+            dst.write(np.moveaxis(image, -1, 0))
+            for b, (name, lo, hi) in enumerate(BANDS[:bands], start=1):
+                dst.set_band_description(b, f"{name} {lo}-{hi} um")
+            dst.update_tags(kind="scanner image (lines x pixels)", gains="bands 1-10: reflectance*10000; "
+                            "band 11: (brightness temperature K - 200)*100")
+    for written in staging.iterdir():
+        written.replace(path.parent / written.name)
+    staging.rmdir()

@@ -1,0 +1,153 @@
+"""Writing a simulated block: the project folder (docs/formats.md) and its truth/ folder.
+
+Project: ``project.toml``, ``dtm.tif`` (true terrain + DTM error), ``nav/<id>.csv`` (GPS/IMU as
+measured), ``images/<id>.tif`` (or ``.bsq`` + ``.hdr``), ``points.csv``, ``ground.csv``.
+Truth: ``truth/trajectory_<id>.csv`` (true navigation trajectory at the GPS/IMU epochs),
+``truth/errors_<id>.csv`` (every injected error term over time), ``truth/errors.json`` (drawn
+constants, problem strip, breaks, boresight error), ``truth/points.csv`` (true ground coordinates,
+kind, land cover), ``truth/measurements.csv`` (true and measured image coordinates, blunder flags),
+``truth/terrain.tif``, ``truth/dtm_error.tif``, ``truth/ortho.tif`` (all bands on the output grid),
+``truth/scenario.json`` (configuration, seed, flight plan).
+"""
+from __future__ import annotations
+
+import csv
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from scangeo.grid import RasterGrid
+from scangeo.simulate.gpsimu_errors import StripErrors
+from scangeo.simulate.points import ROLE_OF_KIND, PointSet
+from scangeo.simulate.scene import BANDS
+
+CSV_FLOAT = "{:.4f}"
+
+
+def write_text(path: Path, text: str) -> None:
+    """Write a text file atomically (temporary name, then rename)."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def write_csv(path: Path, header: list[str], rows) -> None:
+    """Write a CSV file atomically."""
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        w.writerows(rows)
+    os.replace(tmp, path)
+
+
+def write_raster(path: Path, grid: RasterGrid, dtype: str = "float32", nodata: float | None = -9999.0,
+                 description: str = "") -> None:
+    """A single-band georeferenced GeoTIFF (tiled, compressed) of a RasterGrid, atomically."""
+    import rasterio
+
+    values = grid.values
+    if nodata is not None:
+        values = np.where(np.isfinite(values), values, nodata)
+    tmp = path.with_name(path.stem + ".tmp.tif")
+    rows, cols = values.shape
+    with rasterio.open(tmp, "w", driver="GTiff", width=cols, height=rows, count=1, dtype=dtype,
+                       crs=grid.crs, transform=grid.transform, nodata=nodata, tiled=True,
+                       blockxsize=256, blockysize=256, compress="deflate") as dst:
+        dst.write(values.astype(dtype), 1)
+        if description:
+            dst.set_band_description(1, description)
+    os.replace(tmp, path)
+
+
+def project_toml(*, crs: str, origin_deg: tuple[float, float, float], geoid_undulation_m: float, dtm_sigma_m: float,
+                 sensor, strips: list[dict]) -> str:
+    """The text of project.toml (docs/formats.md)."""
+    names = ", ".join(f'"{b[0]}"' for b in BANDS)
+    centres = ", ".join(f"{500.0 * (b[1] + b[2]):g}" for b in BANDS)  # nm: (lo + hi) / 2 * 1000
+    lines = [
+        "# written by scangeo simulate: a simulated block (its truth is in truth/)",
+        "[project]",
+        f"crs = {json.dumps(crs)}",
+        'dtm = "dtm.tif"',
+        f"geoid_undulation_m = {geoid_undulation_m!r}",
+        f"origin = [{origin_deg[0]!r}, {origin_deg[1]!r}, {origin_deg[2]!r}]",
+        f"dtm_sigma_m = {dtm_sigma_m!r}",
+        "",
+        "[sensor]",
+        f'kind = "{sensor.kind}"',
+        f"pixels = {sensor.pixels}",
+        f"fov_deg = {sensor.fov_deg!r}",
+        f"line_rate_hz = {sensor.line_rate_hz!r}",
+        f"per_pixel_timing = {'true' if sensor.pixel_timing else 'false'}",
+        f"boresight_deg = [{', '.join(repr(float(v)) for v in sensor.boresight_deg)}]",
+        f"lever_arm_m = [{', '.join(repr(float(v)) for v in sensor.lever_arm_m)}]",
+        f"bands = [{names}]",
+        f"wavelengths_nm = [{centres}]",
+    ]
+    for s in strips:
+        lines += ["", "[[strips]]", f'id = "{s["id"]}"', f'image = "{s["image"]}"', f'trajectory = "{s["trajectory"]}"',
+                  f"first_line_time = {s['first_line_time']!r}", f"lines = {s['lines']}"]
+    return "\n".join(lines) + "\n"
+
+
+def write_points(root: Path, points: PointSet, strip_ids: list[str], sigma_px: float, given_xyz: np.ndarray,
+                 sigmas: dict[str, tuple[float, float]]) -> None:
+    """points.csv, ground.csv and truth/points.csv, truth/measurements.csv."""
+    rows = [(points.id[i], strip_ids[k], f"{l:.4f}", f"{p:.4f}", f"{sigma_px:g}")
+            for i, k, l, p in zip(points.m_point, points.m_strip, points.line, points.pixel)]
+    write_csv(root / "points.csv", ["point", "strip", "line", "pixel", "sigma_px"], rows)
+    ground = []
+    for i, kind in enumerate(points.kind):
+        role = ROLE_OF_KIND[kind]
+        if role == "tie":
+            continue
+        sxy, sz = sigmas[role]
+        ground.append((points.id[i], *(CSV_FLOAT.format(v) for v in given_xyz[i]), f"{sxy:g}", f"{sz:g}", role))
+    write_csv(root / "ground.csv", ["point", "x", "y", "z", "sigma_xy", "sigma_z", "role"], ground)
+    truth = [(points.id[i], points.kind[i], ROLE_OF_KIND[points.kind[i]],
+              *(CSV_FLOAT.format(v) for v in (points.x[i], points.y[i], points.z[i], *given_xyz[i], *points.p_P[i])),
+              int(points.land_class[i])) for i in range(len(points.id))]
+    write_csv(root / "truth" / "points.csv",
+              ["point", "kind", "role", "x", "y", "z", "x_given", "y_given", "z_given", "x_P", "y_P", "z_P",
+               "land_class"], truth)
+    meas = [(points.id[i], strip_ids[k], f"{lt:.6f}", f"{pt:.6f}", f"{l:.4f}", f"{p:.4f}", int(b))
+            for i, k, lt, pt, l, p, b in zip(points.m_point, points.m_strip, points.line_true, points.pixel_true,
+                                             points.line, points.pixel, points.blunder)]
+    write_csv(root / "truth" / "measurements.csv",
+              ["point", "strip", "line_true", "pixel_true", "line", "pixel", "blunder"], meas)
+
+
+def write_errors(path: Path, errors: StripErrors) -> None:
+    """truth/errors_<id>.csv: every error term over time (positions m in P; attitude degrees)."""
+    header = ["time"]
+    columns = [errors.time[:, None]]
+    for term, values in errors.position.items():
+        header += [f"{term}_{c}_m" for c in "xyz"]
+        columns.append(values)
+    for term, values in errors.attitude.items():
+        header += [f"{term}_{c}_deg" for c in ("roll", "pitch", "heading")]
+        columns.append(np.degrees(values))
+    header += ["total_x_m", "total_y_m", "total_z_m", "total_roll_deg", "total_pitch_deg", "total_heading_deg"]
+    columns += [errors.position_total, np.degrees(errors.attitude_total)]
+    data = np.hstack(columns)
+    tmp = path.with_name(path.name + ".tmp")
+    np.savetxt(tmp, data, delimiter=",", header=",".join(header), comments="",
+               fmt=["%.6f"] + ["%.6g"] * (data.shape[1] - 1))
+    os.replace(tmp, path)
+
+
+def write_json(path: Path, data: dict) -> None:
+    write_text(path, json.dumps(data, indent=2, default=_jsonable) + "\n")
+
+
+def _jsonable(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
