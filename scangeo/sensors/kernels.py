@@ -215,6 +215,44 @@ def time_to_line(t, lt0, lrate, ltable):
 
 
 @nb.njit(**_opts)
+def line_to_time(line, lt0, lrate, ltable):
+    n = ltable.shape[0]
+    if n == 0:
+        return lt0 + line / lrate
+    if line <= 0:
+        return ltable[0] + line * (ltable[1] - ltable[0])
+    if line >= n - 1:
+        return ltable[n - 1] + (line - (n - 1)) * (ltable[n - 1] - ltable[n - 2])
+    j = int(line)
+    return ltable[j] + (line - j) * (ltable[j + 1] - ltable[j])
+
+
+@nb.njit(parallel=True, **_opts)
+def rays_kernel(lines, pixels, t0, dt, coef, lever, R_BS, toff, kind, sp, table, lt0, lrate, ltable,
+                out_o, out_d):
+    """Ray origins p_S and unit directions R_PS look_S (project frame) of (line, pixel) pairs."""
+    n = lines.shape[0]
+    n_chunks = min(n, 512)
+    chunk = (n + n_chunks - 1) // n_chunks
+    for c in nb.prange(n_chunks):
+        R = np.empty((3, 3))
+        dR = np.empty((3, 3))
+        p = np.empty(3)
+        dp = np.empty(3)
+        look = np.empty(3)
+        for q in range(c * chunk, min(n, (c + 1) * chunk)):
+            pix = pixels[q]
+            t = line_to_time(lines[q], lt0, lrate, ltable)
+            if kind == 0:
+                t += (pix - sp[0]) * sp[4]
+            spline_pose(t, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+            sensor_look(kind, sp, table, pix, look)
+            for i in range(3):
+                out_o[q, i] = p[i]
+                out_d[q, i] = R[i, 0] * look[0] + R[i, 1] * look[1] + R[i, 2] * look[2]
+
+
+@nb.njit(**_opts)
 def _condition(t, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp):
     """f(t) = (R_PS[:,0] - tan_a R_PS[:,2]) . (P - p_S) and df/dt."""
     spline_pose(t, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
@@ -237,6 +275,128 @@ def _coarse_g(k, P, tan_a, cR, cp):
     return g
 
 
+MAX_CROSSINGS = 8
+
+
+@nb.njit(**_opts)
+def _sign_change(k, P, tan_a, cR, cp):
+    ga = _coarse_g(k, P, tan_a, cR, cp)
+    gb = _coarse_g(k + 1, P, tan_a, cR, cp)
+    return (ga >= 0 and gb < 0) or (ga < 0 and gb >= 0)
+
+
+@nb.njit(**_opts)
+def _grazes(k, P, tan_a, cR, cp):
+    """True if the parabola through samples k-1, k, k+1 crosses zero twice between them while the
+    samples themselves keep one sign."""
+    gm = _coarse_g(k - 1, P, tan_a, cR, cp)
+    g0 = _coarse_g(k, P, tan_a, cR, cp)
+    gp = _coarse_g(k + 1, P, tan_a, cR, cp)
+    if (gm >= 0) != (g0 >= 0) or (gp >= 0) != (g0 >= 0):
+        return False
+    curv = gp - 2 * g0 + gm
+    if curv == 0:
+        return False
+    x_v = -(gp - gm) / (2 * curv)  # vertex, in sample units around k
+    if abs(x_v) >= 1:
+        return False
+    g_v = g0 - (gp - gm) ** 2 / (8 * curv)
+    return (g_v >= 0) != (g0 >= 0)
+
+
+@nb.njit(**_opts)
+def _find_crossings(P, tan_a, cR, cp, k_warm, window, out):
+    """Coarse intervals where the scan-plane condition changes sign, in time order (at most
+    MAX_CROSSINGS); returns their count. With ``window == 0`` the strip is monotonic (one crossing,
+    found by galloping from ``k_warm`` and bisection); otherwise all crossings within ``window``
+    intervals of a first one are collected."""
+    M = cR.shape[0]
+    g0 = _coarse_g(0, P, tan_a, cR, cp)
+    gM = _coarse_g(M - 1, P, tan_a, cR, cp)
+    k0 = -1
+    if g0 >= 0 and gM < 0:
+        k = min(max(k_warm, 0), M - 2)
+        if _coarse_g(k, P, tan_a, cR, cp) >= 0:
+            lo = k
+            step = 1
+            hi = min(M - 1, lo + step)
+            while _coarse_g(hi, P, tan_a, cR, cp) >= 0:
+                lo = hi
+                step *= 2
+                hi = min(M - 1, lo + step)
+        else:
+            hi = k
+            step = 1
+            lo = max(0, hi - step)
+            while _coarse_g(lo, P, tan_a, cR, cp) < 0:
+                hi = lo
+                step *= 2
+                lo = max(0, hi - step)
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if _coarse_g(mid, P, tan_a, cR, cp) >= 0:
+                lo = mid
+            else:
+                hi = mid
+        k0 = lo
+    elif window > 0:
+        for kk in range(M - 1):
+            if _sign_change(kk, P, tan_a, cR, cp):
+                k0 = kk
+                break
+    if k0 < 0:
+        return 0
+    if window == 0:
+        out[0] = k0
+        return 1
+    count = 0
+    grazing = 0
+    for kk in range(max(0, k0 - window), min(M - 1, k0 + window + 1)):
+        if _sign_change(kk, P, tan_a, cR, cp):
+            out[count] = kk
+            count += 1
+            if count == MAX_CROSSINGS:
+                break
+        elif kk > 0 and _grazes(kk, P, tan_a, cR, cp):
+            grazing += 2
+    # a double crossing between coarse samples (the scan plane turning near the point) is counted
+    # for the over-scanning flag; its times are not solved
+    return count + grazing if count > 0 else 0
+
+
+@nb.njit(**_opts)
+def _solve_in(k, P, tan_a, ctimes, cR, cp, t0, dt, coef, lever, R_BS, toff, tol_t, R, p, dR, dp):
+    """Safeguarded Newton for the time in coarse interval k (either sign change); NaN if none."""
+    M = ctimes.shape[0]
+    a = ctimes[k]
+    b = ctimes[k + 1]
+    fa = _coarse_g(k, P, tan_a, cR, cp)  # the coarse poses are the spline's poses
+    fb = _coarse_g(k + 1, P, tan_a, cR, cp)
+    if (fa >= 0) == (fb >= 0):  # a changed along-track angle moved the crossing: widen
+        a = ctimes[max(0, k - 1)]
+        b = ctimes[min(M - 1, k + 2)]
+        fa, _ = _condition(a, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+        fb, _ = _condition(b, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+        if (fa >= 0) == (fb >= 0):
+            return np.nan
+    sa = fa >= 0
+    t = a - fa * (b - a) / (fb - fa)
+    for it in range(60):
+        f, df = _condition(t, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+        if (f >= 0) == sa:
+            a = t
+        else:
+            b = t
+        tn = t - f / df if df != 0 else 0.5 * (a + b)
+        lo, hi = (a, b) if a < b else (b, a)
+        if not (lo < tn < hi):
+            tn = 0.5 * (a + b)
+        if abs(tn - t) < tol_t:
+            return tn
+        t = tn
+    return np.nan
+
+
 @nb.njit(parallel=True, **_opts)
 def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, table,
                            lt0, lrate, ltable, n_lines, ctimes, cR, cp, window, tol_t, n_chunks,
@@ -245,9 +405,10 @@ def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, ta
 
     ``ctimes, cR, cp``: coarse sensor times with R_PS and p_S there (bracketing); ``window``: number
     of coarse intervals searched around a solution for further solutions (0 = strip monotonic).
+    The first solution in time that lies inside the image is returned; MULTIPLE flags points with
+    several.
     """
     n = points.shape[0]
-    M = ctimes.shape[0]
     chunk = (n + n_chunks - 1) // n_chunks
     npix = sp[sp.shape[0] - 1] if kind != 1 else sp[0]
     for c in nb.prange(n_chunks):
@@ -255,137 +416,60 @@ def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, ta
         dR = np.empty((3, 3))
         p = np.empty(3)
         dp = np.empty(3)
-        look = np.empty(3)
-        k = M // 2
+        crossings = np.empty(MAX_CROSSINGS, dtype=np.int64)
+        k_warm = cR.shape[0] // 2
         for q in range(c * chunk, min(n, (c + 1) * chunk)):
             P = points[q]
             out_line[q] = np.nan
             out_pixel[q] = np.nan
+            out_status[q] = NOT_SEEN
             if not (np.isfinite(P[0]) and np.isfinite(P[1]) and np.isfinite(P[2])):
-                out_status[q] = NOT_SEEN
                 continue
-            tan_a = sensor_along_tan(kind, sp, table, 0.5 * (npix - 1))
-            # bracket: g decreasing in time; find k with g_k >= 0 > g_{k+1}
-            if _coarse_g(0, P, tan_a, cR, cp) < 0 or _coarse_g(M - 1, P, tan_a, cR, cp) > 0:
-                # maybe non-monotonic: search the whole grid for a first crossing
-                found = -1
-                if window > 0:
-                    for kk in range(M - 1):
-                        if _coarse_g(kk, P, tan_a, cR, cp) >= 0 and _coarse_g(kk + 1, P, tan_a, cR, cp) < 0:
-                            found = kk
-                            break
-                if found < 0:
-                    out_status[q] = NOT_SEEN
-                    continue
-                k = found
-            else:
-                if k > M - 2:
-                    k = M - 2
-                # gallop from the warm start
-                if _coarse_g(k, P, tan_a, cR, cp) >= 0:
-                    lo = k
-                    step = 1
-                    hi = min(M - 1, lo + step)
-                    while _coarse_g(hi, P, tan_a, cR, cp) >= 0:
-                        lo = hi
-                        step *= 2
-                        hi = min(M - 1, lo + step)
-                else:
-                    hi = k
-                    step = 1
-                    lo = max(0, hi - step)
-                    while _coarse_g(lo, P, tan_a, cR, cp) < 0:
-                        hi = lo
-                        step *= 2
-                        lo = max(0, hi - step)
-                while hi - lo > 1:
-                    mid = (lo + hi) // 2
-                    if _coarse_g(mid, P, tan_a, cR, cp) >= 0:
-                        lo = mid
-                    else:
-                        hi = mid
-                k = lo
-            flag = 0
-            if window > 0:
-                # earlier crossings (over-scanning) within the window: keep the first in time
-                for kk in range(max(0, k - window), k):
-                    if _coarse_g(kk, P, tan_a, cR, cp) >= 0 and _coarse_g(kk + 1, P, tan_a, cR, cp) < 0:
-                        flag = MULTIPLE
-                        k = kk
-                        break
-                if flag == 0:
-                    for kk in range(k + 1, min(M - 1, k + window)):
-                        if _coarse_g(kk, P, tan_a, cR, cp) < 0 and _coarse_g(kk + 1, P, tan_a, cR, cp) >= 0:
-                            flag = MULTIPLE
-                            break
-            status = OK
-            pixel = 0.0
-            t = 0.0
-            for outer in range(6):  # pushbroom: iterate the along-track angle of the pixel
-                a = ctimes[k]
-                b = ctimes[k + 1]
-                fa = _coarse_g(k, P, tan_a, cR, cp)  # the coarse poses are the spline's poses
-                fb = _coarse_g(k + 1, P, tan_a, cR, cp)
-                if fa < 0 or fb > 0:  # the fine condition moved the bracket: widen
-                    a = ctimes[max(0, k - 1)]
-                    b = ctimes[min(M - 1, k + 2)]
-                    fa, _ = _condition(a, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
-                    fb, _ = _condition(b, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
-                    if fa < 0 or fb > 0:
+            tan_c = sensor_along_tan(kind, sp, table, 0.5 * (npix - 1))
+            count = _find_crossings(P, tan_c, cR, cp, k_warm, window, crossings)
+            flag = MULTIPLE if count > 1 else 0
+            if count > 0:
+                k_warm = crossings[0]
+            for ci in range(count):
+                k = crossings[ci]
+                tan_a = tan_c
+                status = OK
+                pixel = np.nan
+                t = np.nan
+                for outer in range(8):  # pushbroom: iterate the along-track angle of the pixel
+                    t = _solve_in(k, P, tan_a, ctimes, cR, cp, t0, dt, coef, lever, R_BS, toff, tol_t, R, p, dR, dp)
+                    if np.isnan(t):
                         status = NO_CONVERGENCE
                         break
-                t = a - fa * (b - a) / (fb - fa)
-                converged = False
-                for it in range(60):
-                    f, df = _condition(t, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
-                    if f >= 0:
-                        a = t
-                    else:
-                        b = t
-                    tn = t - f / df if df != 0 else 0.5 * (a + b)
-                    if not (a < tn < b):
-                        tn = 0.5 * (a + b)
-                    if abs(tn - t) < tol_t:
-                        t = tn
-                        converged = True
+                    spline_pose(t, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+                    vy = 0.0
+                    vz = 0.0
+                    for i in range(3):
+                        d = P[i] - p[i]
+                        vy += R[i, 1] * d
+                        vz += R[i, 2] * d
+                    if vz <= 0:
+                        status = BEHIND
                         break
-                    t = tn
-                if not converged:
-                    status = NO_CONVERGENCE
-                    break
-                spline_pose(t, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
-                vx = 0.0
-                vy = 0.0
-                vz = 0.0
-                for i in range(3):
-                    d = P[i] - p[i]
-                    vx += R[i, 0] * d
-                    vy += R[i, 1] * d
-                    vz += R[i, 2] * d
-                if vz <= 0:
-                    status = BEHIND
-                    break
-                pixel = sensor_pixel(kind, sp, table, vy, vz)
-                if kind == 0:
-                    break
-                new_tan = sensor_along_tan(kind, sp, table, pixel)
-                if abs(new_tan - tan_a) < 1e-13:
-                    break
-                tan_a = new_tan
-            if status != OK:
-                out_status[q] = status | flag
-                continue
-            if kind == 0:
-                t_line = t - (pixel - sp[0]) * sp[4]
-            else:
-                t_line = t
-            line = time_to_line(t_line, lt0, lrate, ltable)
-            if pixel < -0.5 or pixel > npix - 0.5:
-                out_status[q] = OUTSIDE_SWATH | flag
-                continue
-            if line < -0.5 or line > n_lines - 0.5:
-                out_status[q] = NOT_SEEN | flag
-                continue
-            out_line[q] = line
-            out_pixel[q] = pixel
-            out_status[q] = flag
+                    pixel = sensor_pixel(kind, sp, table, vy, vz)
+                    if kind == 0:
+                        break
+                    new_tan = sensor_along_tan(kind, sp, table, pixel)
+                    if abs(new_tan - tan_a) < 1e-13:
+                        break
+                    tan_a = new_tan
+                if status != OK:
+                    out_status[q] = status | flag
+                    continue
+                t_line = t - (pixel - sp[0]) * sp[4] if kind == 0 else t
+                line = time_to_line(t_line, lt0, lrate, ltable)
+                if pixel < -0.5 or pixel > npix - 0.5:
+                    out_status[q] = OUTSIDE_SWATH | flag
+                    continue
+                if line < -0.5 or line > n_lines - 0.5:
+                    out_status[q] = NOT_SEEN | flag
+                    continue
+                out_line[q] = line
+                out_pixel[q] = pixel
+                out_status[q] = flag
+                break

@@ -113,10 +113,17 @@ class StripGeometry:
         """Ray origins p_S (n, 3) and unit directions (n, 3) in the project frame."""
         line = np.atleast_1d(np.asarray(line, dtype=float))
         pixel = np.atleast_1d(np.asarray(pixel, dtype=float))
-        line, pixel = np.broadcast_arrays(line, pixel)
-        p, R = self.pose(self.time_of(line, pixel).ravel())
-        d = np.einsum("nij,nj->ni", R, self.sensor.look_S(pixel.ravel()))
-        return p, d
+        line, pixel = (np.ascontiguousarray(a.ravel()) for a in np.broadcast_arrays(line, pixel))
+        kind, sp, table = self.sensor.kernel_params()
+        o = np.empty((len(line), 3))
+        d = np.empty((len(line), 3))
+        K.rays_kernel(line, pixel, *self._mount_args(), kind, sp, np.ascontiguousarray(table, dtype=float),
+                      *self._timing_args(), o, d)
+        return o, d
+
+    def _timing_args(self):
+        ltable = self.timing.table if self.timing.table is not None else np.zeros(0)
+        return float(self.timing.first_line_time), float(self.timing.line_rate), np.asarray(ltable, float)
 
     # --- image -> ground ------------------------------------------------------------------------
     def image_to_ground(self, line, pixel, dtm: DTM, step: float | None = None):
@@ -140,25 +147,38 @@ class StripGeometry:
         return times, R, p, dR, dp
 
     def overscan_window(self, p_P: np.ndarray) -> int:
-        """Coarse intervals to search for further solutions: 0 when the scan plane sweeps the ground
-        monotonically for points at the given points' distances, else about 2 s worth."""
+        """Coarse intervals to search around a solution for further ones (pitch-induced over-scanning).
+
+        The scan line's ground position along track, ``s(t)``, is followed for the swath's edges and
+        centre at the lowest and highest of the given points. Where ``s`` runs backwards, a ground
+        point can be crossed several times; the longest span from the first time ``s`` reached the
+        low point of such a backward run to the end of the run's recovery bounds the distance
+        between a point's crossings. 0 when ``s`` never runs backwards.
+        """
         times, R, p, dR, dp = self._coarse
         z = p_P[:, 2][np.isfinite(p_P[:, 2])]
-        if z.size == 0:
+        if z.size == 0 or len(times) < 3:
             return 0
+        u = p[-1, :2] - p[0, :2]
+        u = u / max(np.linalg.norm(u), 1e-9)
         looks = self.sensor.look_S(np.array([0.0, (self.sensor.pixels - 1) / 2, self.sensor.pixels - 1.0]))
-        worst = -np.inf
+        window = 0
         for look in looks:
+            vec = np.einsum("nij,j->ni", R, look)
             for z_ground in (z.min(), z.max()):
-                vec = np.einsum("nij,j->ni", R, look)
                 rho = (p[:, 2] - z_ground) / np.maximum(-vec[:, 2], 1e-3)
-                ta = look[0] / look[2]
-                g_dot = (np.einsum("ni,ni->n", dR[:, :, 0] - ta * dR[:, :, 2], rho[:, None] * vec)
-                         - np.einsum("ni,ni->n", R[:, :, 0] - ta * R[:, :, 2], dp))
-                worst = max(worst, float(g_dot.max()))
-        if worst <= 0:
-            return 0
-        return int(np.ceil(2.0 * self.timing.mean_rate)) + 2
+                s = (p[:, :2] + rho[:, None] * vec[:, :2]) @ u
+                runmax = np.maximum.accumulate(s)
+                behind = s < runmax
+                if not behind.any():
+                    continue
+                # contiguous runs where s is below its running maximum
+                edges = np.diff(np.concatenate([[0], behind.astype(np.int8), [0]]))
+                starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+                for a, b in zip(starts, ends):
+                    first = int(np.searchsorted(runmax, s[a:b].min()))
+                    window = max(window, b - first)
+        return window + 3 if window else 0
 
     def ground_to_image(self, p_P: np.ndarray, tol_line: float = 1e-6):
         """(line, pixel) that saw project-frame points (n, 3), and status codes.
@@ -170,15 +190,13 @@ class StripGeometry:
         n = len(p_P)
         times, R, p, _, _ = self._coarse
         kind, sp, table = self.sensor.kernel_params()
-        ltable = self.timing.table if self.timing.table is not None else np.zeros(0)
         line = np.empty(n)
         pixel = np.empty(n)
         status = np.empty(n, dtype=np.int64)
         window = self.overscan_window(p_P)
         K.ground_to_image_kernel(
             p_P, *self._mount_args(), kind, sp, np.ascontiguousarray(table, dtype=float),
-            float(self.timing.first_line_time), float(self.timing.line_rate), np.asarray(ltable, float),
-            float(self.n_lines), times, np.ascontiguousarray(R), np.ascontiguousarray(p), window,
+            *self._timing_args(), float(self.n_lines), times, np.ascontiguousarray(R), np.ascontiguousarray(p), window,
             tol_line / self.timing.mean_rate, max(1, min(n, 256)), line, pixel, status,
         )
         return line, pixel, status
