@@ -116,7 +116,7 @@ def place_points(config: PointsConfig, plan: FlightPlan, geometries: list[StripG
     swath_half = plan.swath_m / 2.0
     y_lo = min(plan.strips[0].y_start, plan.strips[0].y_end)
     y_hi = max(plan.strips[0].y_start, plan.strips[0].y_end)
-    band = config.control_band_lines * plan.ground_speed_mps / plan.line_rate_hz
+    band = min(config.control_band_lines * plan.ground_speed_mps / plan.line_rate_hz, (y_hi - y_lo) / 4.0)
 
     def own_zone(k):
         left = plan.strips[k].x - (half if k > 0 else swath_half)
