@@ -20,6 +20,7 @@ COMMANDS = [
     "info",
     "locate",
     "lidar",
+    "simulate",
 ]
 
 
