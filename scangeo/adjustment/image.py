@@ -1,0 +1,201 @@
+"""Image measurements of ground points in a line-scanner strip (whiskbroom).
+
+For a measurement (line, pixel) of ground point ``P`` the model finds the sensor time ``t`` at which
+``P`` lies in the scan plane, ``x`` of ``v_S = R_PS(t)^T (P - p_S(t))`` equal to zero (Newton from the
+observed time, to 1e-10 s), then the pixel from the scan angle ``theta = atan2(v_y, v_z)`` and the
+line from ``t`` minus the pixel's time offset. Residuals are ``model - observed`` in lines (along
+track) and pixels (across track), whitened by the measurement's sigma (pixels).
+
+Pose: ``p_S = p(t_nav) + R_PB l_B``, ``R_PS = R_PB R_BS``, ``R_PB = R_ENU_NED Rz(h) Ry(p) Rx(r)`` with
+``(x, y, z, r, p, h)(t_nav)`` the strip's spline at navigation time ``t_nav = t + time_offset``.
+
+Analytic Jacobian by the implicit function theorem: ``g(t, x) = v_x / v_z = 0`` gives
+``dt/dx = -g_x / g_t``; then ``dv/dx + dv/dt dt/dx`` into the pixel and the line. Unknowns:
+``Knots(strip)`` (the 4 coefficients of the segment at ``t_nav``), ``Ground(point)``,
+``Boresight()``, ``LeverArm()``, ``TimeOffset()``, ``ScanIndex()``, ``ScanScale()``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.observations import Linearisation, ObservationGroup
+from scangeo.adjustment.parameters import JacobianPart
+from scangeo.errors import AdjustmentError
+from scangeo.rotation import R_ENU_NED, rph_to_matrix_with_derivatives
+from scangeo.sensors.models import Whiskbroom
+from scangeo.timing import LineTiming
+from scangeo.trajectory.spline import OrientationSpline, bspline_basis
+
+CALIBRATION_KEYS = (Boresight(), LeverArm(), TimeOffset(), ScanIndex(), ScanScale())
+
+
+def _T(R: np.ndarray) -> np.ndarray:
+    return np.swapaxes(R, -1, -2)
+
+
+class ImageObservations(ObservationGroup):
+    """Measurements (line, pixel) of ground points in one whiskbroom strip.
+
+    Parameters
+    ----------
+    strip : strip id.
+    sensor : the whiskbroom model (its geometry; index and scale errors come from the unknowns).
+    spline : the strip's spline (layout only: t0, spacing, number of coefficients).
+    timing : the strip's line timing.
+    points : (n,) ids of the measured points; line, pixel : (n,) measurements; sigma_px : (n,).
+    """
+
+    def __init__(self, strip: str, sensor: Whiskbroom, spline: OrientationSpline, timing: LineTiming,
+                 points, line, pixel, sigma_px, name: str | None = None) -> None:
+        if not isinstance(sensor, Whiskbroom):
+            raise AdjustmentError(f"strip {strip}: image observations are implemented for whiskbroom sensors only")
+        self.name = name or f"image {strip}"
+        self.strip = strip
+        self.sensor = sensor
+        self.t0, self.spacing, self.n_coef = spline.t0, spline.spacing, spline.n_coef
+        self.timing = timing
+        self.points = np.asarray(points, dtype=object)
+        self.line = np.asarray(line, float)
+        self.pixel = np.asarray(pixel, float)
+        n = self.points.size
+        self.sigma = np.repeat(np.asarray(sigma_px, float) * np.ones(n), 2)
+        self._describe(np.repeat(self.points, 2), np.tile(["line", "pixel"], n), np.tile(["line", "px"], n),
+                       np.repeat(np.arange(n), 2))
+        self._ground = [Ground(str(p)) for p in self.points]
+        self.knots = Knots(strip)
+        self.t_obs = timing.time_of_line(self.line) + sensor.time_offset(self.pixel)
+
+    def keys(self):
+        return [self.knots, *dict.fromkeys(self._ground), *CALIBRATION_KEYS]
+
+    # -- model ----------------------------------------------------------------------------------
+    def _pose(self, values, t: np.ndarray, P: np.ndarray):
+        coef = np.asarray(values[self.knots], float).reshape(-1, 6)
+        bore = np.asarray(values[Boresight()], float)
+        lever = np.asarray(values[LeverArm()], float)
+        toff = float(values[TimeOffset()][0])
+        s = (t + toff - self.t0) / self.spacing
+        j = np.clip(np.floor(s), 0, self.n_coef - 4).astype(np.intp)
+        u = s - j
+        B = bspline_basis(u)
+        Bd = bspline_basis(u, 1) / self.spacing
+        c = coef[j[:, None] + np.arange(4)]                      # (n, 4, 6)
+        sv = np.einsum("nk,nkc->nc", B, c)
+        sd = np.einsum("nk,nkc->nc", Bd, c)
+        R_NB, dR_NB = rph_to_matrix_with_derivatives(sv[:, 3], sv[:, 4], sv[:, 5])
+        R_PB = R_ENU_NED @ R_NB
+        dR_PB = R_ENU_NED @ dR_NB                                # (n, 3 angles, 3, 3)
+        R_BS, dR_BS = rph_to_matrix_with_derivatives(bore[0], bore[1], bore[2])
+        R_PS = R_PB @ R_BS
+        e = P - (sv[:, :3] + R_PB @ lever)
+        v = np.einsum("nji,nj->ni", R_PS, e)
+        dv_ds = np.empty((t.size, 3, 6))
+        dv_ds[:, :, :3] = -_T(R_PS)
+        for a in range(3):
+            dR_PS = dR_PB[:, a] @ R_BS
+            dv_ds[:, :, 3 + a] = np.einsum("nji,nj->ni", dR_PS, e) - np.einsum("nji,nj->ni", R_PS, dR_PB[:, a] @ lever)
+        dv_dt = np.einsum("nic,nc->ni", dv_ds, sd)
+        return dict(v=v, dv_ds=dv_ds, dv_dt=dv_dt, B=B, j=j, R_PS=R_PS, R_PB=R_PB, R_BS=R_BS, dR_BS=dR_BS, e=e)
+
+    def _solve_time(self, values, P: np.ndarray):
+        t = self.t_obs.copy()
+        for _ in range(12):
+            f = self._pose(values, t, P)
+            v, dv = f["v"], f["dv_dt"]
+            g = v[:, 0] / v[:, 2]
+            g_t = (dv[:, 0] * v[:, 2] - v[:, 0] * dv[:, 2]) / v[:, 2] ** 2
+            step = g / g_t
+            t = t - step
+            if np.all(np.abs(step) < 1e-10):
+                break
+        f = self._pose(values, t, P)
+        bad = ~np.isfinite(t) | (f["v"][:, 2] <= 0)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise AdjustmentError(f"strip {self.strip}: point {self.points[i]} is not seen by the strip's "
+                                  f"orientation (measured at line {self.line[i]:.1f}, pixel {self.pixel[i]:.1f})")
+        return t, f
+
+    def _pixel(self, values, v: np.ndarray):
+        sen = self.sensor
+        index = float(values[ScanIndex()][0])
+        scale = float(values[ScanScale()][0])
+        k = sen.scan_direction / (sen.step * (1 + scale))
+        theta = np.arctan2(v[:, 1], v[:, 2])
+        pixel = sen.centre + k * (theta - index)
+        return pixel, k, index, scale
+
+    def predict(self, values) -> tuple[np.ndarray, np.ndarray]:
+        """Model line and pixel of every measurement's ground point."""
+        P = np.array([values[g] for g in self._ground], float).reshape(-1, 3)
+        t, f = self._solve_time(values, P)
+        pixel, *_ = self._pixel(values, f["v"])
+        line = self.timing.line_of_time(t - self.sensor.time_offset(pixel))
+        return line, pixel
+
+    def residuals(self, values) -> np.ndarray:
+        line, pixel = self.predict(values)
+        return np.column_stack([line - self.line, pixel - self.pixel]).ravel() / self.sigma
+
+    def linearise(self, values) -> Linearisation:
+        n = self.points.size
+        P = np.array([values[g] for g in self._ground], float).reshape(-1, 3)
+        t, f = self._solve_time(values, P)
+        v = f["v"]
+        pixel, k, _, scale = self._pixel(values, v)
+        dt_pix = self.sensor.dt_pixel
+        t_line = t - self.sensor.time_offset(pixel)
+        line = self.timing.line_of_time(t_line)
+        h = 1e-4
+        rate = (self.timing.line_of_time(t_line + h) - self.timing.line_of_time(t_line - h)) / (2 * h)
+        vx, vy, vz = v[:, 0], v[:, 1], v[:, 2]
+        dg_dv = np.column_stack([1 / vz, np.zeros(n), -vx / vz**2])
+        dpix_dv = k * np.column_stack([np.zeros(n), vz, -vy]) / (vy**2 + vz**2)[:, None]
+        g_t = np.einsum("ni,ni->n", dg_dv, f["dv_dt"])
+
+        def chain(dv_dx: np.ndarray, dpix_direct: np.ndarray | None = None):
+            """(n, 3, m) direct derivatives of v -> (dline, dpixel) (n, m)."""
+            dt_dx = -np.einsum("ni,nim->nm", dg_dv, dv_dx) / g_t[:, None]
+            total = dv_dx + f["dv_dt"][:, :, None] * dt_dx[:, None, :]
+            dpix = np.einsum("ni,nim->nm", dpix_dv, total)
+            if dpix_direct is not None:
+                dpix = dpix + dpix_direct
+            dline = rate[:, None] * (dt_dx - dt_pix * dpix)
+            return dline, dpix
+
+        sig = self.sigma.reshape(n, 2)
+        parts = []
+        rows2 = np.arange(2 * n).reshape(n, 2)
+
+        def add(keys, dline, dpix, cols, block=None):
+            vals = np.stack([dline, dpix], 1) / sig[:, :, None]          # (n, 2, m)
+            r = np.broadcast_to(rows2[:, :, None], vals.shape)
+            c = np.broadcast_to(np.asarray(cols)[:, None, :] if np.ndim(cols) == 2 else np.asarray(cols)[None, None, :], vals.shape)
+            b = None if block is None else np.broadcast_to(np.asarray(block)[:, None, None], vals.shape)
+            parts.append(JacobianPart(keys, r.ravel(), c.ravel(), vals.ravel(), None if b is None else b.ravel()))
+
+        # knots: d/d coef[j+i, c] = d/ds_c * B_i
+        dl_ds, dp_ds = chain(f["dv_ds"])
+        B = f["B"]
+        add([self.knots], (B[:, :, None] * dl_ds[:, None, :]).reshape(n, 24), (B[:, :, None] * dp_ds[:, None, :]).reshape(n, 24),
+            ((f["j"][:, None] + np.arange(4))[:, :, None] * 6 + np.arange(6)).reshape(n, 24))
+        # ground point
+        dl, dp = chain(_T(f["R_PS"]))
+        add(self._ground, dl, dp, np.arange(3), np.arange(n))
+        # boresight, lever arm, time offset
+        dv_db = np.stack([np.einsum("nji,nj->ni", f["R_PB"] @ f["dR_BS"][b], f["e"]) for b in range(3)], -1)
+        dl, dp = chain(dv_db)
+        add([Boresight()], dl, dp, np.arange(3))
+        dl, dp = chain(np.broadcast_to(-_T(f["R_BS"]), (n, 3, 3)))
+        add([LeverArm()], dl, dp, np.arange(3))
+        dl, dp = chain(f["dv_dt"][:, :, None])
+        add([TimeOffset()], dl, dp, np.arange(1))
+        # scan index and scale: the pixel directly
+        zeros = np.zeros((n, 3, 1))
+        dl, dp = chain(zeros, np.full((n, 1), -k))
+        add([ScanIndex()], dl, dp, np.arange(1))
+        dl, dp = chain(zeros, (-(pixel - self.sensor.centre) / (1 + scale))[:, None])
+        add([ScanScale()], dl, dp, np.arange(1))
+        r = np.column_stack([line - self.line, pixel - self.pixel]).ravel() / self.sigma
+        return Linearisation(r, parts)

@@ -1,0 +1,119 @@
+"""Observation groups of the photogrammetric model: finite-difference Jacobians and known answers."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from scangeo.adjustment import Boresight, Correction, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.checks import check_jacobian
+from scangeo.adjustment.gpsimu import GpsImuSamples
+from scangeo.adjustment.image import ImageObservations
+from scangeo.models import GpsImuModel, ModelSet
+from scangeo.sensors.models import Whiskbroom
+from scangeo.sensors.strip import Mounting, StripGeometry
+from scangeo.timing import LineTiming
+from scangeo.trajectory.spline import OrientationSpline
+
+
+def wavy_strip(seed=0, lever=(0.5, -0.2, 1.0), bore=(0.002, -0.001, 0.003), toff=0.004):
+    """A 20 s strip flying north at 70 m/s, 2000 m up, with attitude wiggles; a whiskbroom sensor."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(-2.0, 22.0, 0.05)
+    x = 3.0 * np.sin(0.3 * t)
+    y = 70.0 * t
+    z = 2000.0 + 5 * np.sin(0.2 * t)
+    roll = 0.02 * np.sin(0.7 * t + 1)
+    pitch = 0.01 * np.sin(0.5 * t)
+    heading = 0.03 * np.sin(0.2 * t)   # project-NED: heading 0 = north
+    spline = OrientationSpline.fit(t, np.column_stack([x, y, z, roll, pitch, heading]), 0.2)
+    sensor = Whiskbroom(pixels=716, fov=np.radians(42.9), line_rate=25.0)
+    timing = LineTiming(0.0, 25.0)
+    mount = Mounting(np.array(lever), np.array(bore), toff)
+    geom = StripGeometry(sensor, spline, timing, 500, mount, "A")
+    pts = np.column_stack([rng.uniform(-700, 700, 30), rng.uniform(150, 1300, 30), rng.uniform(-20, 60, 30)])
+    line, pixel, status = geom.ground_to_image(pts, tol_line=1e-9)
+    ok = status == 0
+    return spline, sensor, timing, mount, pts[ok], line[ok], pixel[ok]
+
+
+def values_of(spline, mount, pts, index=0.0, scale=0.0):
+    vals = {Knots("A"): spline.coef.ravel().copy(), Boresight(): np.array(mount.boresight, float),
+            LeverArm(): np.array(mount.lever_arm_B, float), TimeOffset(): np.array([mount.time_offset]),
+            ScanIndex(): np.array([index]), ScanScale(): np.array([scale])}
+    for i, p in enumerate(pts):
+        vals[Ground(f"G{i}")] = p.copy()
+    return vals
+
+
+def test_image_model_reproduces_ground_to_image():
+    spline, sensor, timing, mount, pts, line, pixel = wavy_strip()
+    assert len(pts) > 15
+    group = ImageObservations("A", sensor, spline, timing, [f"G{i}" for i in range(len(pts))], line, pixel, 0.3)
+    pl, pp = group.predict(values_of(spline, mount, pts))
+    np.testing.assert_allclose(pl, line, atol=1e-6)
+    np.testing.assert_allclose(pp, pixel, atol=1e-6)
+
+
+def test_image_jacobian_matches_finite_differences():
+    spline, sensor, timing, mount, pts, line, pixel = wavy_strip(1)
+    group = ImageObservations("A", sensor, spline, timing, [f"G{i}" for i in range(len(pts))],
+                              line + 0.7, pixel - 1.3, 0.3)
+    vals = values_of(spline, mount, pts, index=0.001, scale=0.002)
+    steps = {Knots("A"): np.tile([1e-3, 1e-3, 1e-3, 1e-5, 1e-5, 1e-5], spline.n_coef),
+             Boresight(): 1e-5, LeverArm(): 1e-3, TimeOffset(): 1e-5, ScanIndex(): 1e-5, ScanScale(): 1e-5}
+    for i in range(len(pts)):
+        steps[Ground(f"G{i}")] = 1e-3
+    check = check_jacobian(group, vals, steps)
+    assert check.max_relative_error < 1e-4, check.worst()
+    # every kind of unknown has a non-trivial derivative
+    for key in (Knots("A"), Ground("G0"), Boresight(), LeverArm(), TimeOffset(), ScanIndex(), ScanScale()):
+        cols = [j for j, (k, _) in enumerate(check.labels) if k == key]
+        assert np.abs(check.analytic[:, cols]).max() > 0, key
+
+
+def test_gpsimu_jacobian_and_residuals():
+    spline, *_ = wavy_strip()
+    times = spline.knot_times[1:-1]
+    gps = spline.evaluate(times)
+    models = ModelSet([
+        GpsImuModel("A1", ("A",), 0.0, 10.0, 2, 1, windows={"A": (-10.0, 10.0)}),
+        GpsImuModel("A2", ("A",), 10.0, 20.0, 1, 0, follows="A1", windows={"A": (10.0, 30.0)}),
+    ])
+    group = GpsImuSamples("A", spline, times, gps, [0.05, 0.05, 0.1, 1e-4, 1e-4, 2e-4], models)
+    rng = np.random.default_rng(3)
+    vals = {Knots("A"): spline.coef.ravel(), Correction("A1"): rng.normal(size=models.models["A1"].size),
+            Correction("A2"): rng.normal(size=models.models["A2"].size)}
+    check = check_jacobian(group, vals, 1e-2)  # linear: a large step avoids rounding noise
+    assert check.max_relative_error < 1e-8, check.worst()
+    # with zero corrections the spline fitted to the GPS/IMU reproduces it exactly
+    vals0 = {k: np.zeros_like(v) if k != Knots("A") else v for k, v in vals.items()}
+    assert np.abs(group.residuals(vals0)).max() < 1e-6
+
+
+def test_split_model_is_continuous_at_its_break():
+    models = ModelSet([
+        GpsImuModel("S1", ("A",), 0.0, 10.0, 2, 1, windows={"A": (-10.0, 10.0)}),
+        GpsImuModel("S2", ("A",), 10.0, 25.0, 1, 2, follows="S1", windows={"A": (10.0, 25.0)}),
+        GpsImuModel("S3", ("A",), 25.0, 30.0, 3, 0, follows="S2", windows={"A": (25.0, 40.0)}),
+    ])
+    rng = np.random.default_rng(0)
+    coef = {m.key: rng.normal(scale=5.0, size=m.size) for m in models}
+    for t_break in (10.0, 25.0):
+        eps = 1e-9
+        before = models.correction("A", np.array([t_break - eps]), np.zeros((1, 3)), coef)
+        after = models.correction("A", np.array([t_break + eps]), np.zeros((1, 3)), coef)
+        assert np.abs(after - before).max() < 1e-3 * 1e-3  # far below 1 mm (and 1 mrad)
+    # the eliminated constants are the conditions of the accounting: 6 per break here
+    assert sum(m.conditions for m in models) == 12
+    # the DESIGN example: 3 sub-models of degree 1 (positions only) = 18 - 2 x 3 = 12 unknowns
+    subs = [GpsImuModel(f"M{i}", ("A",), i, i + 1.0, 1, -1, follows=None if i == 0 else f"M{i - 1}") for i in range(3)]
+    assert sum(m.size for m in subs) == 12 and sum(m.conditions for m in subs) == 6
+
+
+def test_rigid_rotation_of_a_model_rotates_positions_about_its_centre():
+    m = GpsImuModel("R", ("A",), 0.0, 1.0, -1, -1, rotation=True, centre=np.array([100.0, 0.0, 0.0]),
+                    windows={"A": (0.0, 1.0)})
+    p = np.array([[100.0, 50.0, 0.0], [200.0, 0.0, 0.0]])
+    c = ModelSet([m]).correction("A", np.array([0.5, 0.5]), p, {m.key: np.array([0.0, 0.0, 0.01])})
+    # a small rotation of 0.01 rad about z: (0, 50) -> (-0.5, 0); (100, 0) -> (0, 1)
+    np.testing.assert_allclose(c[:, :3], [[-0.5, 0, 0], [0, 1.0, 0]], atol=1e-12)
