@@ -119,7 +119,7 @@ class OrientationSpline:
             weights: np.ndarray | None = None) -> "OrientationSpline":
         """Least-squares fit to samples (time (n,), values (n, c)).
 
-        A very small second-difference regulariser keeps segments without samples determined.
+        A very small third-difference regulariser keeps segments without samples determined.
         """
         time = np.asarray(time, dtype=float)
         values = np.asarray(values, dtype=float)
@@ -129,8 +129,8 @@ class OrientationSpline:
         A = proto.basis_matrix(time)
         w = np.ones(len(time)) if weights is None else np.asarray(weights, dtype=float)
         rhs = A.T @ (w[:, None] * values)
-        D = sp.diags([1.0, -2.0, 1.0], [0, 1, 2], shape=(K - 2, K))
-        reg = 1e-9 * max(float(w.sum()) / K, 1.0)
+        D = sp.diags([-1.0, 3.0, -3.0, 1.0], [0, 1, 2, 3], shape=(K - 3, K))  # third differences
+        reg = 1e-12 * max(float(w.sum()) / K, 1.0)
         Nsp = (A.T @ sp.diags(w) @ A + reg * (D.T @ D)).tocsr()
         ab = np.zeros((4, K))  # upper banded storage, bandwidth 3
         for k in range(4):
