@@ -24,6 +24,8 @@ class StripGeometry(Protocol):
     #: number of image lines and pixels per line
     lines: int
     pixels: int
+    #: the map CRS (WKT or anything rasterio accepts)
+    crs: str
 
     def ground_to_image(self, x: np.ndarray, y: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(line, pixel) float arrays that saw the map points (x, y, H); NaN where no line did.

@@ -29,14 +29,20 @@ RANGE_TOLERANCE_M = 0.5
 
 def finite_difference(a: np.ndarray, axis: int) -> np.ndarray:
     """Central difference along ``axis`` (per cell), one-sided where a neighbour is NaN or absent."""
-    a = np.moveaxis(np.asarray(a, dtype=float), axis, 0)
-    fwd = np.full(a.shape, np.nan)
-    bwd = np.full(a.shape, np.nan)
-    fwd[:-1] = a[1:] - a[:-1]
-    bwd[1:] = a[1:] - a[:-1]
+    fwd = _shifted_difference(np.asarray(a, float), 1, axis)
+    bwd = -_shifted_difference(np.asarray(a, float), -1, axis)
     both = np.isfinite(fwd) & np.isfinite(bwd)
-    d = np.where(both, 0.5 * (fwd + bwd), np.where(np.isfinite(fwd), fwd, bwd))
-    return np.moveaxis(d, 0, axis)
+    return np.where(both, 0.5 * (fwd + bwd), np.where(np.isfinite(fwd), fwd, bwd))
+
+
+def smaller_step(a: np.ndarray, axis: int) -> np.ndarray:
+    """The smaller of |forward| and |backward| difference along ``axis``; NaN when neither exists.
+
+    Across a discontinuity (a cliff edge) this is the step on the cell's own side.
+    """
+    fwd = np.abs(_shifted_difference(np.asarray(a, float), 1, axis))
+    bwd = np.abs(_shifted_difference(np.asarray(a, float), -1, axis))
+    return np.fmin(fwd, bwd)
 
 
 def image_jacobian(line: np.ndarray, pixel: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -49,12 +55,24 @@ def image_jacobian(line: np.ndarray, pixel: np.ndarray) -> tuple[np.ndarray, ...
     )
 
 
+def footprint_half_extents(line: np.ndarray, pixel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Half extents (lines, pixels) of the box around a cell's footprint in the image.
+
+    From the smaller one-sided steps, so a cell on a cliff edge does not reach across the cliff.
+    """
+    half_l = 0.5 * (np.nan_to_num(smaller_step(line, 0)) + np.nan_to_num(smaller_step(line, 1)))
+    half_p = 0.5 * (np.nan_to_num(smaller_step(pixel, 0)) + np.nan_to_num(smaller_step(pixel, 1)))
+    return half_l, half_p
+
+
 def range_tolerance(rng: np.ndarray) -> np.ndarray:
-    """Range tolerance per cell, metres: the range change across two cells plus 0.5 m."""
-    dr = np.abs(finite_difference(rng, 0))
-    dc = np.abs(finite_difference(rng, 1))
-    tol = 2.0 * (np.nan_to_num(dr, nan=0.0) + np.nan_to_num(dc, nan=0.0)) + RANGE_TOLERANCE_M
-    return tol.astype(np.float32)
+    """Range tolerance per cell, metres: the range change across two cells plus 0.5 m.
+
+    From the smaller one-sided steps: a cell beside a cliff is compared with its own surface.
+    """
+    dr = np.nan_to_num(smaller_step(rng, 0), nan=0.0, posinf=0.0)
+    dc = np.nan_to_num(smaller_step(rng, 1), nan=0.0, posinf=0.0)
+    return (2.0 * (dr + dc) + RANGE_TOLERANCE_M).astype(np.float32)
 
 
 @numba.njit(cache=True)
@@ -67,10 +85,11 @@ def _splat(line, pixel, rng, half_l, half_p, zbuf):
             continue
         hl = min(half_l[i], MAX_HALF_EXTENT) if np.isfinite(half_l[i]) else 0.5
         hp = min(half_p[i], MAX_HALF_EXTENT) if np.isfinite(half_p[i]) else 0.5
-        a0 = max(int(np.floor(l - hl + 0.5)), 0)
-        a1 = min(int(np.floor(l + hl + 0.5)), lines - 1)
-        b0 = max(int(np.floor(p - hp + 0.5)), 0)
-        b1 = min(int(np.floor(p + hp + 0.5)), pixels - 1)
+        # the cell's own pixel, and every pixel whose centre lies inside the footprint box
+        a0 = max(min(int(np.ceil(l - hl)), int(np.floor(l + 0.5))), 0)
+        a1 = min(max(int(np.floor(l + hl)), int(np.floor(l + 0.5))), lines - 1)
+        b0 = max(min(int(np.ceil(p - hp)), int(np.floor(p + 0.5))), 0)
+        b1 = min(max(int(np.floor(p + hp)), int(np.floor(p + 0.5))), pixels - 1)
         for a in range(a0, a1 + 1):
             for b in range(b0, b1 + 1):
                 if r < zbuf[a, b]:
@@ -95,11 +114,9 @@ class ZBuffer:
     def __init__(self, lines: int, pixels: int) -> None:
         self.values = np.full((lines, pixels), np.inf, dtype=np.float32)
 
-    def add(self, line: np.ndarray, pixel: np.ndarray, rng: np.ndarray, jacobian: tuple[np.ndarray, ...]) -> None:
-        """Splat the cells of a tile (ranges of hidden-by-fold cells may be inf: they do not count)."""
-        dl_dr, dl_dc, dp_dr, dp_dc = jacobian
-        half_l = 0.5 * (np.abs(dl_dr) + np.abs(dl_dc))
-        half_p = 0.5 * (np.abs(dp_dr) + np.abs(dp_dc))
+    def add(self, line: np.ndarray, pixel: np.ndarray, rng: np.ndarray) -> None:
+        """Splat the cells of a tile (ranges of cells hidden by a fold are inf: they do not count)."""
+        half_l, half_p = footprint_half_extents(line, pixel)
         _splat(
             np.ascontiguousarray(line, dtype=np.float64).ravel(),
             np.ascontiguousarray(pixel, dtype=np.float64).ravel(),
@@ -121,12 +138,40 @@ class ZBuffer:
         return out.reshape(np.shape(line))
 
 
-def folded(jacobian: tuple[np.ndarray, ...], orientation: float) -> np.ndarray:
-    """Cells whose ground -> image Jacobian has the opposite sign of the strip's ``orientation``."""
-    dl_dr, dl_dc, dp_dr, dp_dc = jacobian
-    det = dl_dr * dp_dc - dl_dc * dp_dr
-    with np.errstate(invalid="ignore"):
-        return det * orientation < 0
+def folded(line: np.ndarray, pixel: np.ndarray, orientation: float) -> np.ndarray:
+    """Cells all of whose grid triangles map to the image with reversed orientation.
+
+    The four triangles around a cell (cell, a neighbour in the row, a neighbour in the column) are
+    tested; a cell on the edge of a cliff keeps its normal triangles on the cliff-top side and is
+    not folded. Triangles with a missing corner do not count; a cell with none is not folded.
+    """
+    line = np.asarray(line, float)
+    pixel = np.asarray(pixel, float)
+    reversed_all = np.ones(line.shape, bool)
+    counted = np.zeros(line.shape, bool)
+    for sr in (1, -1):
+        for sc in (1, -1):
+            dl_r, dp_r = _shifted_difference(line, sr, 0), _shifted_difference(pixel, sr, 0)
+            dl_c, dp_c = _shifted_difference(line, sc, 1), _shifted_difference(pixel, sc, 1)
+            det = (dl_r * dp_c - dl_c * dp_r) * (sr * sc)
+            ok = np.isfinite(det)
+            with np.errstate(invalid="ignore"):
+                reversed_all &= ~ok | (det * orientation < 0)
+            counted |= ok
+    return reversed_all & counted
+
+
+def _shifted_difference(a: np.ndarray, step: int, axis: int) -> np.ndarray:
+    """``a[i + step] - a[i]`` along ``axis`` (NaN where the neighbour is absent)."""
+    out = np.full(a.shape, np.nan)
+    src = [slice(None)] * a.ndim
+    dst = [slice(None)] * a.ndim
+    if step > 0:
+        src[axis], dst[axis] = slice(step, None), slice(None, -step)
+    else:
+        src[axis], dst[axis] = slice(None, step), slice(-step, None)
+    out[tuple(dst)] = a[tuple(src)] - a[tuple(dst)]
+    return out
 
 
 def visible(rng: np.ndarray, tolerance: np.ndarray, nearest: np.ndarray) -> np.ndarray:

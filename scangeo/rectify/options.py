@@ -1,0 +1,114 @@
+"""Rectification settings: a typed frozen dataclass, readable from a TOML table.
+
+A ``[rectify]`` table (in project.toml or a separate file) holds the same keys as
+:class:`RectifyOptions`; ``[rectify.geotiff]`` those of :class:`GeoTiffProfile`. An unknown key is an
+error naming it.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+from scangeo.errors import ProjectFileError, ScangeoError
+from scangeo.rectify.geotiff import GeoTiffProfile
+from scangeo.rectify.inverse_map import InverseMapOptions
+from scangeo.rectify.resample import check_resampling
+
+#: optional per-cell layers (written as bands of NAME.layers.tif, float32, NaN nodata)
+LAYERS = {
+    "scan_angle": "scan angle of the pixel in the sensor frame, degrees (positive right)",
+    "view_zenith": "angle between the ray to the sensor and the vertical, degrees",
+    "time": "acquisition time, seconds of the project's time base",
+    "ground_pixel": "ground pixel size: square root of the ground area of the image pixel, metres",
+}
+
+
+@dataclass(frozen=True)
+class RectifyOptions:
+    """How strips are rectified.
+
+    Parameters
+    ----------
+    resolution : output cell size, map units; None: the nadir ground pixel (two significant
+        digits).
+    bounds : (xmin, ymin, xmax, ymax) of the output, map units; None: the strip footprint.
+    resampling : ``nearest``, ``bilinear`` or ``cubic``.
+    max_error_px : tolerated inverse-map interpolation error, image pixels.
+    memory_budget_mb : memory a strip may use for its working arrays, MiB (sets the tile size).
+    tile_size : output tile size, cells (None: from the memory budget).
+    nodata : output nodata value (None: the source's, else 0 for integers, NaN for floats).
+    occlusion : make ground hidden by terrain nodata.
+    layers : optional layers among :data:`LAYERS`.
+    igm, glt : also write the ENVI-style IGM (image -> map coordinates) and GLT.
+    mosaic : also write a mosaic of all strips (batch runs only).
+    geotiff : layout of the GeoTIFFs.
+    """
+
+    resolution: float | None = None
+    bounds: tuple[float, float, float, float] | None = None
+    resampling: str = "bilinear"
+    max_error_px: float = 0.05
+    memory_budget_mb: float = 1024.0
+    tile_size: int | None = None
+    nodata: float | None = None
+    occlusion: bool = True
+    layers: tuple[str, ...] = ()
+    igm: bool = False
+    glt: bool = False
+    mosaic: bool = False
+    geotiff: GeoTiffProfile = field(default_factory=GeoTiffProfile)
+
+    def __post_init__(self) -> None:
+        check_resampling(self.resampling)
+        if self.resolution is not None and not (self.resolution > 0 and math.isfinite(self.resolution)):
+            raise ScangeoError(f"rectify: resolution must be a positive number, got {self.resolution!r}")
+        unknown = [name for name in self.layers if name not in LAYERS]
+        if unknown:
+            raise ScangeoError(f"rectify: unknown layer {unknown[0]!r} (expected one of {', '.join(LAYERS)})")
+        if self.memory_budget_mb < 16:
+            raise ScangeoError(f"rectify: memory_budget_mb {self.memory_budget_mb} is below 16 MiB")
+        if self.tile_size is not None and (self.tile_size < 16 or self.tile_size % 16):
+            raise ScangeoError(f"rectify: tile_size must be a multiple of 16, got {self.tile_size}")
+        object.__setattr__(self, "layers", tuple(self.layers))
+        if self.bounds is not None:
+            object.__setattr__(self, "bounds", tuple(float(v) for v in self.bounds))
+
+    @property
+    def inverse_map(self) -> InverseMapOptions:
+        return InverseMapOptions(max_error_px=self.max_error_px)
+
+    @property
+    def strip_layers(self) -> tuple[str, ...]:
+        """Layers written per strip (the mosaic needs the view zenith angle)."""
+        if self.mosaic and "view_zenith" not in self.layers:
+            return self.layers + ("view_zenith",)
+        return self.layers
+
+    def replace(self, **changes) -> "RectifyOptions":
+        return dataclasses.replace(self, **changes)
+
+    @classmethod
+    def from_dict(cls, table: dict, source: str = "[rectify]") -> "RectifyOptions":
+        """Options from a TOML table; unknown keys are errors naming ``source`` and the key."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        values = {}
+        for key, value in table.items():
+            if key not in names:
+                raise ProjectFileError(f"{source}: unknown key {key!r} (expected one of {', '.join(sorted(names))})")
+            values[key] = value
+        if "geotiff" in values:
+            geo = values["geotiff"]
+            gnames = {f.name for f in dataclasses.fields(GeoTiffProfile)}
+            for key in geo:
+                if key not in gnames:
+                    raise ProjectFileError(f"{source}.geotiff: unknown key {key!r} (expected one of {', '.join(sorted(gnames))})")
+            values["geotiff"] = GeoTiffProfile(**geo)
+        if "layers" in values:
+            values["layers"] = tuple(values["layers"])
+        try:
+            return cls(**values)
+        except ScangeoError as exc:
+            raise ProjectFileError(f"{source}: {exc}") from exc
+        except TypeError as exc:
+            raise ProjectFileError(f"{source}: {exc}") from exc
