@@ -33,7 +33,6 @@ def render_strip(geometry: StripGeometry, true_dtm: DTM, scene, noise_dn: float,
     """
     n_lines, n_pix = geometry.n_lines, geometry.sensor.pixels
     image = np.zeros((n_lines, n_pix, N_BANDS), dtype=np.uint16)
-    local = true_dtm.local_map(geometry.footprint_box(true_dtm))
     pixels = np.arange(n_pix, dtype=float)
     for start in range(0, n_lines, line_chunk):
         stop = min(start + line_chunk, n_lines)
@@ -42,8 +41,8 @@ def render_strip(geometry: StripGeometry, true_dtm: DTM, scene, noise_dn: float,
         ok = status == 0
         dn = np.zeros((ground.shape[0], N_BANDS))
         if ok.any():
-            xyh = local(ground[ok])
-            dn[ok] = to_dn(scene.values(xyh[:, 0], xyh[:, 1]))
+            x, y, _ = true_dtm.map_frame.project_to_map(ground[ok])  # pyproj: faster here than a local polynomial
+            dn[ok] = to_dn(scene.values(x, y))
         if noise_dn > 0:
             dn[ok] += rng.standard_normal((int(ok.sum()), N_BANDS)) * noise_dn
         image[start:stop] = dn_to_uint16(dn).reshape(stop - start, n_pix, N_BANDS)
