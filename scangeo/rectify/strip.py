@@ -16,6 +16,7 @@ import math
 import shutil
 import tempfile
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -216,7 +217,9 @@ def rectify_strip(
     grid = grid or strip_grid(geometry, options)
     layers = options.strip_layers
     try:
-        src_ctx = rasterio.open(image)
+        with warnings.catch_warnings():  # a raw scanner image has no georeferencing
+            warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+            src_ctx = rasterio.open(image)
     except rasterio.errors.RasterioIOError as exc:
         raise InputFileError(f"{image}: cannot read the strip image ({exc})") from exc
     with rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE), src_ctx as src:
@@ -259,7 +262,7 @@ def rectify_strip(
                         lay.close()
                 all_tags = _tags(tags, options, result)
                 describe(dst, bands, all_tags)
-            finalise(working, output, options.geotiff, dtype)
+            # the orthoimage last: its presence means the strip's outputs are complete
             if layer_file is not None:
                 result.layers_path = output.with_name(output.stem + ".layers.tif")
                 with rasterio.open(layer_file, "r+") as lay:
@@ -270,6 +273,7 @@ def rectify_strip(
                 finalise(layer_file, result.layers_path, options.geotiff, np.float32)
             if glt is not None:
                 result.glt_path = glt.commit(output.with_suffix(".glt"))
+            finalise(working, output, options.geotiff, dtype)
             work.close()
         finally:
             shutil.rmtree(work_dir, ignore_errors=True)

@@ -1,0 +1,266 @@
+"""Rectify the strips of a project: in parallel, resumable, locally or on a Dask cluster.
+
+Outputs go to ``PROJECT/results/VARIANT/ortho/``: ``<strip>.tif`` (the orthoimage), and as asked
+``<strip>.layers.tif``, ``<strip>.glt`` (+ ``.hdr``), ``<strip>.igm`` (+ ``.hdr``), ``mosaic.tif``.
+Every strip's outputs carry a fingerprint of their inputs and settings (``scangeo_fingerprint``
+tag); the orthoimage is written last, atomically, so a strip whose orthoimage opens, reads and
+carries the current fingerprint is complete and is skipped on a rerun. Anything else is redone.
+
+A strip is a task (:class:`StripTask`, picklable: paths and settings only) that a worker turns
+into outputs with :func:`run_strip_task`; the same function runs in-process, in a process pool
+(``workers > 1``) or on a Dask distributed cluster (``scheduler``).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import multiprocessing
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import rasterio
+from rasterio.windows import Window
+
+from scangeo import __version__
+from scangeo.errors import ProjectFileError, ScangeoError
+from scangeo.io.project import Project
+from scangeo.progress import ProgressCallback, no_progress
+from scangeo.rectify.core_geometry import CoreStripGeometry
+from scangeo.rectify.geolocation import write_igm
+from scangeo.rectify.geometry import nadir_ground_pixel
+from scangeo.rectify.geotiff import BandInfo, bands_of
+from scangeo.rectify.options import RectifyOptions
+from scangeo.rectify.orientation import OrientationSource, core_geometry, orientation_source, results_folder
+from scangeo.rectify.output_grid import OutputGrid, nice_resolution
+from scangeo.rectify.strip import rectify_strip
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class StripTask:
+    """Everything a worker needs to rectify one strip (picklable)."""
+
+    project: str
+    variant: str
+    strip: str
+    options: RectifyOptions
+    output: str
+    fingerprint: str
+    threads: int = 0
+
+
+@dataclass
+class BatchResult:
+    """Per strip: ``done`` (with its summary) or ``skipped`` (complete from an earlier run)."""
+
+    folder: Path
+    strips: dict[str, dict] = field(default_factory=dict)
+    mosaic: Path | None = None
+    seconds: float = 0.0
+
+
+def output_folder(project: Project, variant: str) -> Path:
+    return results_folder(project, variant) / "ortho"
+
+
+def _file_stamp(path: Path) -> list:
+    try:
+        st = path.stat()
+        return [str(path), st.st_size, st.st_mtime_ns]
+    except OSError:
+        return [str(path), None, None]
+
+
+def fingerprint(project: Project, source: OrientationSource, strip_id: str, options: RectifyOptions) -> str:
+    """A hash of everything a strip's outputs depend on (inputs' sizes and times, settings, version)."""
+    s = project.strip(strip_id)
+    files = [project.root / "project.toml", project.dtm_path, s.trajectory, s.image]
+    files += [s.line_times] if s.line_times else []
+    files += source.files(strip_id)
+    data = {
+        "version": __version__,
+        "variant": source.variant,
+        "strip": strip_id,
+        "options": asdict(options),
+        "files": [_file_stamp(Path(f)) for f in files if f is not None],
+    }
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:24]
+
+
+def is_complete(path: Path, fp: str) -> bool:
+    """The orthoimage exists, opens, reads its last block, and carries the fingerprint ``fp``."""
+    if not path.exists():
+        return False
+    try:
+        with rasterio.open(path) as src:
+            if src.tags().get("scangeo_fingerprint") != fp:
+                return False
+            h, w = src.height, src.width
+            src.read(window=Window(max(w - 8, 0), max(h - 8, 0), min(8, w), min(8, h)))
+        return True
+    except rasterio.errors.RasterioError:
+        return False
+
+
+def _band_info(project: Project, image: Path) -> list[BandInfo] | None:
+    """Band names and wavelengths: the project's [sensor] bands, else the image's own."""
+    names, waves = project.sensor.bands, project.sensor.wavelengths_nm
+    if not names:
+        return None
+    return [
+        BandInfo(n, waves[i] if i < len(waves) else None, "nm" if i < len(waves) else None)
+        for i, n in enumerate(names)
+    ]
+
+
+def run_strip_task(task: StripTask, progress: ProgressCallback = no_progress) -> dict:
+    """Rectify one strip (in whatever process runs this) and return its summary."""
+    if task.threads:
+        import cv2
+        import numba
+
+        cv2.setNumThreads(task.threads)
+        numba.set_num_threads(min(task.threads, numba.config.NUMBA_NUM_THREADS))
+    project = Project.load(task.project)
+    source = orientation_source(project, task.variant)
+    geometry = CoreStripGeometry(core_geometry(project, source, task.strip), project.dtm)
+    cfg = project.strip(task.strip)
+    if cfg.image is None:
+        raise ProjectFileError(f"{project.root / 'project.toml'} [strips id={task.strip}]: no image to rectify")
+    output = Path(task.output)
+    if task.options.igm:
+        write_igm(geometry, output.with_suffix(".igm"))
+    bands = _band_info(project, cfg.image)
+    if bands is not None:
+        with rasterio.open(cfg.image) as src:
+            if len(bands) != src.count:
+                log.warning("%s has %d bands, [sensor] bands names %d: using the image's", cfg.image, src.count, len(bands))
+                bands = None
+    tags = {
+        "variant": task.variant,
+        "strip": task.strip,
+        "orientation": "adjusted" if source.adjusted else "direct georeferencing",
+        "sigma0": "" if source.sigma0 is None else f"{source.sigma0:.6g}",
+        "scangeo_fingerprint": task.fingerprint,
+    }
+    result = rectify_strip(geometry, cfg.image, output, task.options, tags=tags, bands=bands, progress=progress)
+    return {"strip": task.strip, "status": "done", **result.summary()}
+
+
+def project_resolution(project: Project, source: OrientationSource, strip_ids: list[str]) -> float:
+    """The common resolution of a run: the nadir ground pixel of the first strip, two digits."""
+    geometry = CoreStripGeometry(core_geometry(project, source, strip_ids[0]), project.dtm)
+    return nice_resolution(nadir_ground_pixel(geometry))
+
+
+def rectify_project(
+    project_path: str | Path,
+    variant: str,
+    strips: list[str] | None = None,
+    options: RectifyOptions = RectifyOptions(),
+    workers: int = 1,
+    scheduler: str | None = None,
+    progress: ProgressCallback = no_progress,
+) -> BatchResult:
+    """Rectify the strips of a project for one variant; skip strips complete from an earlier run.
+
+    Parameters
+    ----------
+    project_path : the project folder (or its project.toml).
+    variant : the variant whose orientation is used (``DG``: the GPS/IMU as measured).
+    strips : strip ids (default: all strips with an image).
+    options : rectification settings; ``resolution=None`` means the first strip's nadir pixel.
+    workers : strips rectified at once in local processes.
+    scheduler : address of a Dask distributed scheduler to run the strips on instead.
+    progress : ``callback(done, total, message)``; in strips (fractional within a strip when one
+        worker runs them in this process).
+    """
+    started = time.perf_counter()
+    project = Project.load(project_path)
+    ids = [s.id for s in project.strips if s.image is not None] if strips is None else [project.strip(s).id for s in strips]
+    if not ids:
+        raise ProjectFileError(f"{project.root / 'project.toml'}: no strip has an image to rectify")
+    source = orientation_source(project, variant)
+    if options.resolution is None:
+        options = options.replace(resolution=project_resolution(project, source, ids))
+    folder = output_folder(project, variant)
+    folder.mkdir(parents=True, exist_ok=True)
+    result = BatchResult(folder)
+    tasks = []
+    for sid in ids:
+        out = folder / f"{sid}.tif"
+        fp = fingerprint(project, source, sid, options)
+        if is_complete(out, fp):
+            result.strips[sid] = {"strip": sid, "status": "skipped", "path": str(out)}
+            log.info("strip %s: %s is complete, skipped", sid, out)
+        else:
+            tasks.append(StripTask(str(project.root), variant, sid, options, str(out), fp))
+    total = len(ids)
+    done = len(ids) - len(tasks)
+    progress(done, total, f"rectify {variant}")
+    if scheduler:
+        summaries = _run_dask(tasks, scheduler, lambda n: progress(done + n, total, f"rectify {variant}"))
+    elif workers > 1 and len(tasks) > 1:
+        summaries = _run_pool(tasks, workers, lambda n: progress(done + n, total, f"rectify {variant}"))
+    else:
+        summaries = []
+        for i, task in enumerate(tasks):
+            sub = lambda d, t, m="", i=i: progress(done + i + (d / t if t else 0), total, f"strip {task.strip}: {m}")
+            summaries.append(run_strip_task(task, sub))
+    for s in summaries:
+        result.strips[s["strip"]] = s
+    result.strips = {sid: result.strips[sid] for sid in ids}
+    if options.mosaic:
+        from scangeo.rectify.mosaic import build_mosaic
+
+        result.mosaic = build_mosaic([folder / f"{sid}.tif" for sid in ids], folder / "mosaic.tif", options.geotiff)
+    result.seconds = time.perf_counter() - started
+    return result
+
+
+def _threads_per_worker(workers: int) -> int:
+    return max(1, multiprocessing.cpu_count() // max(workers, 1))
+
+
+def _run_pool(tasks: list[StripTask], workers: int, on_done) -> list[dict]:
+    threads = _threads_per_worker(workers)
+    tasks = [StripTask(**{**asdict_shallow(t), "threads": threads}) for t in tasks]
+    out = []
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        futures = [pool.submit(run_strip_task, t) for t in tasks]
+        for n, f in enumerate(as_completed(futures), start=1):
+            out.append(f.result())
+            on_done(n)
+    return out
+
+
+def _run_dask(tasks: list[StripTask], address: str, on_done) -> list[dict]:
+    try:
+        from dask.distributed import Client, as_completed as dask_completed
+    except ImportError as exc:  # pragma: no cover - depends on the installation
+        raise ScangeoError("--scheduler needs dask[distributed] (pip install 'scangeo[cluster]')") from exc
+    out = []
+    with Client(address) as client:
+        futures = [client.submit(run_strip_task, t, pure=False, key=f"rectify-{t.variant}-{t.strip}-{t.fingerprint}")
+                   for t in tasks]
+        for n, f in enumerate(dask_completed(futures), start=1):
+            out.append(f.result())
+            on_done(n)
+    return out
+
+
+def asdict_shallow(task: StripTask) -> dict:
+    return {f: getattr(task, f) for f in task.__dataclass_fields__}
+
+
+def grid_of(path: Path) -> OutputGrid:
+    """The output grid of an existing orthoimage."""
+    with rasterio.open(path) as src:
+        t = src.transform
+        return OutputGrid(src.crs.to_wkt(), float(t.a), float(t.c), float(t.f), src.width, src.height)
+

@@ -1,0 +1,84 @@
+"""The rectifier's view of a strip, on the geometry core (sensor model, spline, DTM, map frame).
+
+:class:`CoreStripGeometry` implements :class:`scangeo.rectify.geometry.StripGeometry`: it turns
+map coordinates with orthometric heights into project-frame points (``MapFrame.map_to_project``),
+asks ``scangeo.sensors.StripGeometry.ground_to_image`` for (line, pixel), and the reverse through
+DTM ray casting. Points the core reports as not seen (outside the swath, before or after the
+strip, no convergence) come back as NaN; over-scanned points keep their first time.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from scangeo.dtm import DTM
+from scangeo.frames import MapFrame
+from scangeo.sensors import StripGeometry as CoreGeometry
+from scangeo.sensors.kernels import MULTIPLE, OK
+
+#: points per call into the core (bounds the temporary arrays of the conversions)
+CHUNK = 262_144
+
+
+class CoreStripGeometry:
+    """A strip of the geometry core seen through map coordinates.
+
+    Parameters
+    ----------
+    geometry : the strip geometry (sensor, orientation spline, timing, mounting).
+    dtm : the DTM (map CRS, orthometric heights) the strip is rectified onto.
+    """
+
+    def __init__(self, geometry: CoreGeometry, dtm: DTM) -> None:
+        self.core = geometry
+        self.dtm = dtm
+        self.map_frame: MapFrame = dtm.map_frame
+        self.lines = int(geometry.n_lines)
+        self.pixels = int(geometry.sensor.pixels)
+        self.crs = self.map_frame.crs.to_wkt()
+
+    def ground_to_image(self, x, y, H) -> tuple[np.ndarray, np.ndarray]:
+        x, y, H = (np.asarray(v, dtype=float).ravel() for v in np.broadcast_arrays(x, y, H))
+        line = np.full(x.shape, np.nan)
+        pixel = np.full(x.shape, np.nan)
+        for s in range(0, x.size, CHUNK):
+            e = min(s + CHUNK, x.size)
+            ok = np.isfinite(x[s:e]) & np.isfinite(y[s:e]) & np.isfinite(H[s:e])
+            if not ok.any():
+                continue
+            p_P = self.map_frame.map_to_project(x[s:e][ok], y[s:e][ok], H[s:e][ok])
+            l, p, status = self.core.ground_to_image(p_P)
+            seen = (status & ~MULTIPLE) == OK
+            idx = np.flatnonzero(ok)
+            line[s + idx] = np.where(seen, l, np.nan)
+            pixel[s + idx] = np.where(seen, p, np.nan)
+        return line, pixel
+
+    def image_to_ground(self, line, pixel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        line, pixel = (np.asarray(v, dtype=float).ravel() for v in np.broadcast_arrays(line, pixel))
+        out = [np.full(line.shape, np.nan) for _ in range(3)]
+        for s in range(0, line.size, CHUNK):
+            e = min(s + CHUNK, line.size)
+            p_P, status = self.core.image_to_ground(line[s:e], pixel[s:e], self.dtm)
+            ok = (status & ~MULTIPLE) == OK
+            if ok.any():
+                x, y, H = self.map_frame.project_to_map(p_P[ok])
+                for k, v in enumerate((x, y, H)):
+                    out[k][s:e][ok] = v
+        return out[0], out[1], out[2]
+
+    def sensor_position(self, line) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        line = np.asarray(line, dtype=float).ravel()
+        centre = np.full(line.shape, (self.pixels - 1) / 2.0)
+        p_S, _ = self.core.pose(self.core.time_of(line, centre))
+        x, y, H = self.map_frame.project_to_map(p_S)
+        return np.asarray(x), np.asarray(y), np.asarray(H)
+
+    def height(self, x, y) -> np.ndarray:
+        return self.dtm.height_at_map(x, y)
+
+    def scan_angle(self, pixel) -> np.ndarray:
+        look = self.core.sensor.look_S(np.asarray(pixel, dtype=float))
+        return np.arctan2(look[..., 1], look[..., 2])
+
+    def time(self, line, pixel) -> np.ndarray:
+        return self.core.time_of(np.asarray(line, dtype=float), np.asarray(pixel, dtype=float))
