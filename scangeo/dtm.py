@@ -146,6 +146,29 @@ class DTM:
         return np.array([[p[:, 0].min(), p[:, 0].max()], [p[:, 1].min(), p[:, 1].max()],
                          [self.h_min - 300.0, z_max]])
 
+    def block_max(self, block: int = 8) -> np.ndarray:
+        """Highest height within each ``block`` x ``block`` cell block and its 8 neighbours (+inf
+        where nodata is near): lets ray casting jump over terrain it cannot touch. Cached."""
+        key = ("block_max", block)
+        if key not in self._local_maps:
+            v = self.grid.values
+            rows, cols = v.shape
+            nbr, nbc = -(-rows // block), -(-cols // block)
+            padded = np.full((nbr * block + 1, nbc * block + 1), -np.inf)
+            padded[:rows, :cols] = np.where(np.isnan(v), np.inf, v)
+            # a block's bilinear surface also uses the first row/column of the next block
+            padded[rows:, :cols] = padded[rows - 1:rows, :cols]
+            padded[:, cols:] = padded[:, cols - 1:cols]
+            core = padded[:-1, :-1].reshape(nbr, block, nbc, block).max(axis=(1, 3))
+            edge_r = padded[block::block, :-1].reshape(nbr, nbc, block).max(axis=2)
+            edge_c = padded[:-1, block::block].reshape(nbr, block, nbc).max(axis=1)
+            m = np.maximum(core, np.maximum(edge_r, edge_c))
+            m = np.maximum(m, padded[block::block, block::block])
+            dil = np.pad(m, 1, constant_values=-np.inf)
+            out = np.max([dil[1 + a:1 + a + nbr, 1 + b:1 + b + nbc] for a in (-1, 0, 1) for b in (-1, 0, 1)], axis=0)
+            self._local_maps[key] = out
+        return self._local_maps[key]
+
     def cell_size(self) -> float:
         """The DTM's pixel size in map units (the smaller of the two)."""
         t = self.grid.transform

@@ -307,7 +307,8 @@ def _grazes(k, P, tan_a, cR, cp):
 @nb.njit(**_opts)
 def _find_crossings(P, tan_a, cR, cp, k_warm, window, out):
     """Coarse intervals where the scan-plane condition changes sign, in time order (at most
-    MAX_CROSSINGS); returns their count. With ``window == 0`` the strip is monotonic (one crossing,
+    MAX_CROSSINGS); returns their count and the number of sightings including double crossings
+    between coarse samples (grazing). With ``window == 0`` the strip is monotonic (one crossing,
     found by galloping from ``k_warm`` and bisection); otherwise all crossings within ``window``
     intervals of a first one are collected."""
     M = cR.shape[0]
@@ -345,10 +346,10 @@ def _find_crossings(P, tan_a, cR, cp, k_warm, window, out):
                 k0 = kk
                 break
     if k0 < 0:
-        return 0
+        return 0, 0
     if window == 0:
         out[0] = k0
-        return 1
+        return 1, 1
     count = 0
     grazing = 0
     for kk in range(max(0, k0 - window), min(M - 1, k0 + window + 1)):
@@ -361,7 +362,7 @@ def _find_crossings(P, tan_a, cR, cp, k_warm, window, out):
             grazing += 2
     # a double crossing between coarse samples (the scan plane turning near the point) is counted
     # for the over-scanning flag; its times are not solved
-    return count + grazing if count > 0 else 0
+    return count, count + grazing
 
 
 @nb.njit(**_opts)
@@ -426,8 +427,8 @@ def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, ta
             if not (np.isfinite(P[0]) and np.isfinite(P[1]) and np.isfinite(P[2])):
                 continue
             tan_c = sensor_along_tan(kind, sp, table, 0.5 * (npix - 1))
-            count = _find_crossings(P, tan_c, cR, cp, k_warm, window, crossings)
-            flag = MULTIPLE if count > 1 else 0
+            count, sightings = _find_crossings(P, tan_c, cR, cp, k_warm, window, crossings)
+            flag = MULTIPLE if sightings > 1 else 0
             if count > 0:
                 k_warm = crossings[0]
             for ci in range(count):

@@ -43,6 +43,30 @@ def dtm_sample(values, inv, x, y):
     return v, 0
 
 
+@nb.njit(inline="always", **_opts)
+def _quad(P3, s):
+    """(x, y, H) at parameter s in [0, 1] of the quadratic through the rows of P3 (s = 0, 0.5, 1)."""
+    w0 = 2 * (s - 0.5) * (s - 1.0)
+    w1 = -4 * s * (s - 1.0)
+    w2 = 2 * s * (s - 0.5)
+    return (w0 * P3[0, 0] + w1 * P3[1, 0] + w2 * P3[2, 0], w0 * P3[0, 1] + w1 * P3[1, 1] + w2 * P3[2, 1],
+            w0 * P3[0, 2] + w1 * P3[1, 2] + w2 * P3[2, 2])
+
+
+@nb.njit(inline="always", **_opts)
+def _block_max(bmax, inv, block, x, y):
+    """Highest terrain within one block of the map point (x, y) (+inf outside, near nodata)."""
+    col = inv[0] * x + inv[1] * y + inv[2] - 0.5
+    row = inv[3] * x + inv[4] * y + inv[5] - 0.5
+    if col < 0 or row < 0:
+        return np.inf
+    bc = int(col) // block
+    br = int(row) // block
+    if br >= bmax.shape[0] or bc >= bmax.shape[1]:
+        return np.inf
+    return bmax[br, bc]
+
+
 @nb.njit(**_opts)
 def _exact_f(o, d, lam, coef, exps, centre, scale, values, inv, buf, work):
     poly_eval_point(coef, exps, centre, scale, o[0] + lam * d[0], o[1] + lam * d[1], o[2] + lam * d[2], buf, work)
@@ -52,7 +76,7 @@ def _exact_f(o, d, lam, coef, exps, centre, scale, values, inv, buf, work):
 
 @nb.njit(parallel=True, **_opts)
 def ray_cast_kernel(origins, dirs, coef, exps, centre, scale, values, inv, h_min, h_max, step,
-                    out_p, out_status):
+                    bmax, block, block_extent, out_p, out_status):
     n = origins.shape[0]
     n_chunks = min(n, 512)
     chunk = (n + n_chunks - 1) // n_chunks
@@ -62,12 +86,12 @@ def ray_cast_kernel(origins, dirs, coef, exps, centre, scale, values, inv, h_min
         P3 = np.empty((3, 3))
         for q in range(c * chunk, min(n, (c + 1) * chunk)):
             _cast_one(q, origins[q], dirs[q], coef, exps, centre, scale, values, inv, h_min, h_max, step,
-                      out_p, out_status, buf, work, P3)
+                      bmax, block, block_extent, out_p, out_status, buf, work, P3)
 
 
 @nb.njit(**_opts)
-def _cast_one(q, o, d, coef, exps, centre, scale, values, inv, h_min, h_max, step, out_p, out_status,
-              buf, work, P3):
+def _cast_one(q, o, d, coef, exps, centre, scale, values, inv, h_min, h_max, step, bmax, block, block_extent,
+              out_p, out_status, buf, work, P3):
     for k in range(3):
         out_p[q, k] = np.nan
     if not (np.isfinite(o[0]) and np.isfinite(d[0])):
@@ -99,16 +123,24 @@ def _cast_one(q, o, d, coef, exps, centre, scale, values, inv, h_min, h_max, ste
     seen_valid = False
     f_prev = np.nan
     l_prev = la
-    for i in range(nsteps + 1):
+    # samples per skip segment: a segment spans at most one block horizontally
+    per_step = horiz / nsteps
+    skip = max(1, int(block_extent / per_step)) if per_step > 0 else nsteps + 1
+    i = -1
+    while i < nsteps:
+        i += 1
         lam = la + i * dl
         s = (lam - la) / h  # 0..1
-        # Lagrange weights at s for nodes 0, 0.5, 1
-        w0 = 2 * (s - 0.5) * (s - 1.0)
-        w1 = -4 * s * (s - 1.0)
-        w2 = 2 * s * (s - 0.5)
-        x = w0 * P3[0, 0] + w1 * P3[1, 0] + w2 * P3[2, 0]
-        y = w0 * P3[0, 1] + w1 * P3[1, 1] + w2 * P3[2, 1]
-        H = w0 * P3[0, 2] + w1 * P3[1, 2] + w2 * P3[2, 2]
+        x, y, H = _quad(P3, s)
+        if seen_valid and f_prev > 0 and i + skip <= nsteps:
+            # the whole next segment lies above the highest terrain near here: jump over it
+            bm = _block_max(bmax, inv, block, x, y)
+            s2 = (la + (i + skip) * dl - la) / h
+            x2, y2, H2 = _quad(P3, s2)
+            if H2 > bm:
+                i += skip - 1
+                l_prev = la + i * dl
+                continue
         v, code = dtm_sample(values, inv, x, y)
         if code != 0:
             if seen_valid:

@@ -210,17 +210,34 @@ class StripGeometry:
         return rays_box(o, d, dtm, margin)
 
 
+@nb.njit(cache=True)
+def _ray_extent(o, d, z_low):
+    """Min/max over rays of their origins and their points at height z_low (approximately)."""
+    lo = np.full(3, np.inf)
+    hi = np.full(3, -np.inf)
+    z_top = -np.inf
+    for q in range(o.shape[0]):
+        if not (np.isfinite(o[q, 0]) and np.isfinite(o[q, 1]) and np.isfinite(o[q, 2])
+                and np.isfinite(d[q, 0]) and d[q, 2] < -1e-6):
+            continue
+        lam = (o[q, 2] - z_low) / (-d[q, 2]) * 1.05
+        for k in range(3):
+            a = o[q, k]
+            b = o[q, k] + lam * d[q, k]
+            lo[k] = min(lo[k], min(a, b))
+            hi[k] = max(hi[k], max(a, b))
+        z_top = max(z_top, o[q, 2])
+    return lo, hi, z_top
+
+
 def rays_box(o: np.ndarray, d: np.ndarray, dtm: DTM, margin: float = 200.0) -> np.ndarray:
     """(3, 2) box in P (rounded out to 1 km) holding rays from their origins down to the DTM's low."""
     z_low = dtm.h_min - 300.0
-    ok = np.isfinite(o).all(1) & (d[:, 2] < -1e-6)
-    lam = (o[ok, 2] - z_low) / (-d[ok, 2]) * 1.05
-    ends = o[ok] + lam[:, None] * d[ok]
-    pts = np.vstack([o[ok], ends])
-    lo = np.floor((pts.min(0) - margin) / 1000.0) * 1000.0
-    hi = np.ceil((pts.max(0) + margin) / 1000.0) * 1000.0
+    lo, hi, z_top = _ray_extent(np.ascontiguousarray(o, float), np.ascontiguousarray(d, float), z_low)
+    lo = np.floor((lo - margin) / 1000.0) * 1000.0
+    hi = np.ceil((hi + margin) / 1000.0) * 1000.0
     lo[2] = np.floor((z_low - 200.0) / 100.0) * 100.0
-    hi[2] = np.ceil((o[ok, 2].max() + margin) / 100.0) * 100.0
+    hi[2] = np.ceil((z_top + margin) / 100.0) * 100.0
     return np.column_stack([lo, hi])
 
 
@@ -229,15 +246,17 @@ def cast_rays(o: np.ndarray, d: np.ndarray, dtm: DTM, step: float | None = None)
     o = np.ascontiguousarray(o, dtype=float)
     d = np.ascontiguousarray(d, dtype=float)
     n = len(o)
-    out = np.full((n, 3), np.nan)
-    status = np.full(n, K.NO_CONVERGENCE, dtype=np.int64)
-    ok = np.isfinite(o).all(1) & np.isfinite(d).all(1)
-    if not ok.any():
-        return out, status
-    local = dtm.local_map(rays_box(o[ok], d[ok], dtm))
+    out = np.empty((n, 3))
+    status = np.empty(n, dtype=np.int64)
+    box = rays_box(o, d, dtm)
+    if not np.isfinite(box).all():
+        return np.full((n, 3), np.nan), np.full(n, K.NO_CONVERGENCE, dtype=np.int64)
+    local = dtm.local_map(box)
     inv = ~dtm.grid.transform
     inv_arr = np.array([inv.a, inv.b, inv.c, inv.d, inv.e, inv.f])
+    block = 8
     ray_cast_kernel(o, d, local.coef, local.exps, local.centre, local.scale,
                     np.ascontiguousarray(dtm.grid.values), inv_arr, dtm.h_min, dtm.h_max,
-                    step if step is not None else 0.25 * dtm.cell_size(), out, status)
+                    step if step is not None else 0.25 * dtm.cell_size(), dtm.block_max(block), block,
+                    block * dtm.cell_size(), out, status)
     return out, status
