@@ -211,11 +211,15 @@ class Project:
             return len(self.timing(strip_id).table)
         if s.image is None:
             raise ProjectFileError(f"strip {strip_id}: give lines = N or an image to count them")
+        import warnings
+
         import rasterio
 
         try:
-            with rasterio.open(s.image) as src:
-                return int(src.height)
+            with warnings.catch_warnings():  # a raw scanner image has no georeferencing
+                warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+                with rasterio.open(s.image) as src:
+                    return int(src.height)
         except rasterio.errors.RasterioIOError as exc:
             raise ProjectFileError(f"{s.image}: cannot read the image ({exc})") from exc
 

@@ -134,7 +134,10 @@ def read_trajectory_csv(path, crs=None) -> GpsImuStream:
         lat, lon, h = np.radians(data[:, 1]), np.radians(data[:, 2]), data[:, 3]
     else:
         if crs is None:
-            raise TrajectoryError(f"{path}: x,y,z columns need the map CRS (give crs in project.toml)")
+            raise TrajectoryError(
+                f"{path}: x,y,z columns need the CRS of x and y (trajectory_crs or crs in project.toml; "
+                "--crs for scangeo info)"
+            )
         to_geo = pyproj.Transformer.from_crs(pyproj.CRS.from_user_input(crs), "EPSG:4326", always_xy=True)
         lon_deg, lat_deg = to_geo.transform(data[:, 1], data[:, 2])
         lat, lon, h = np.radians(lat_deg), np.radians(lon_deg), data[:, 3]
