@@ -5,7 +5,7 @@ above the critical value (Baarda's w-test; 3.29 is alpha0 = 0.1 % two-sided) is 
 adjustment (all rows of the unit, e.g. line and pixel of one image measurement) and the adjustment
 is solved again from the current values, until no w exceeds the critical value. Rows with a
 redundancy number below ``MIN_REDUNDANCY`` are uncontrolled and never tested; pseudo-observations are
-never tested.
+never tested, nor are groups that opt out (``snooped = False``: the GPS/IMU samples).
 """
 from __future__ import annotations
 
@@ -65,7 +65,7 @@ def _worst_units(stats: Statistics, crit: float, count: int) -> list[tuple[int, 
     sol = stats.solution
     found: list[tuple[float, int, int]] = []
     for gi, (group, act, w) in enumerate(zip(sol.groups, sol.active, stats.w_tests())):
-        if group.kind != "observation":
+        if group.kind != "observation" or not group.snooped:
             continue
         aw = np.where(act & np.isfinite(w), np.abs(w), 0.0)
         if not aw.size or aw.max() <= crit:

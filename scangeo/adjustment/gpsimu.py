@@ -24,7 +24,8 @@ UNITS = ("m", "m", "m", "rad", "rad", "rad")
 
 
 class GpsImuSamples(ObservationGroup):
-    """GPS/IMU of one strip at epochs ``times`` (s).
+    """GPS/IMU of one strip at epochs ``times`` (s). Not tested by data snooping: its errors are the
+    correction function's business, and an epoch removed would leave knots undetermined.
 
     Parameters
     ----------
@@ -35,6 +36,8 @@ class GpsImuSamples(ObservationGroup):
     sigma : (6,) a priori standard deviations (m and rad).
     models : the GPS/IMU models (may serve none of the epochs: direct use, no correction).
     """
+
+    snooped = False
 
     def __init__(self, strip: str, spline: OrientationSpline, times: np.ndarray, values: np.ndarray,
                  sigma, models: ModelSet) -> None:

@@ -43,6 +43,8 @@ class ObservationGroup(ABC):
 
     name: str = "observations"
     kind: str = "observation"
+    #: whether data snooping tests (and may remove) this group's observations
+    snooped: bool = True
     sigma: np.ndarray
     units: np.ndarray
     ids: np.ndarray

@@ -26,6 +26,7 @@ from scangeo.adjustment.factor import Factor, Factorizer, NotPositiveDefinite
 from scangeo.adjustment.keys import Key
 from scangeo.adjustment.observations import ObservationGroup, PseudoObservations
 from scangeo.adjustment.parameters import Layout, Parameters
+from scangeo.errors import AdjustmentError
 from scangeo.progress import ProgressCallback, no_progress
 
 log = logging.getLogger(__name__)
@@ -40,8 +41,8 @@ class SolverOptions:
     """
 
     max_iterations: int = 30
-    step_tolerance: float = 1e-6
-    cost_tolerance: float = 1e-12
+    step_tolerance: float = 1e-3
+    cost_tolerance: float = 1e-10
     backend: str = "auto"
     pivot_tolerance: float = 1e-10
     damping: bool = True
@@ -242,8 +243,13 @@ class Solver:
                         iterations, converged, list(self.regularisation))
 
     def _cost(self, values, active) -> float:
+        """The cost at trial values; infinite where a model cannot be evaluated (the step is damped)."""
         total = 0.0
         for group, act in zip(self.groups, active):
-            r = group.residuals(values)
+            try:
+                r = group.residuals(values)
+            except AdjustmentError as exc:
+                log.info("trial step rejected: %s", exc)
+                return float("inf")
             total += float(np.sum(r[act] ** 2))
-        return total
+        return total if np.isfinite(total) else float("inf")

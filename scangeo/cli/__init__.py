@@ -21,6 +21,7 @@ COMMANDS = [
     "locate",
     "lidar",
     "simulate",
+    "adjust",
     "rectify",
 ]
 

@@ -1,0 +1,221 @@
+"""Set up the adjustment of a project for one variant: unknowns, GPS/IMU models, observation groups.
+
+Unknowns: ``Knots(strip)`` (the orientation spline of the navigation reference point, fitted to the
+GPS/IMU as start values; fixed in DG), ``Correction(model)`` per GPS/IMU model, ``Ground(point)``
+for every control, height, planimetric and tie point measured in the images, and the calibration
+blocks (fixed unless the variant calibrates them). Observations: GPS/IMU at the knot epochs, image
+measurements (not of check points), control coordinates, and DTM heights at tie points.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from scangeo.adjustment.gpsimu import GpsImuSamples
+from scangeo.adjustment.ground import DtmHeights, GroundControl
+from scangeo.adjustment.image import ImageObservations
+from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.observations import ObservationGroup
+from scangeo.adjustment.parameters import Parameters
+from scangeo.adjustment.variants import Variant
+from scangeo.errors import AdjustmentError
+from scangeo.io.points import GroundPoints, ImagePoints
+from scangeo.io.project import Project
+from scangeo.models import GpsImuModel, ModelSet
+from scangeo.sensors.strip import StripGeometry
+from scangeo.trajectory.spline import COMPONENTS, OrientationSpline
+from scangeo.trajectory.stream import ProjectTrajectory
+
+log = logging.getLogger(__name__)
+
+#: Roles whose points are unknowns with observed coordinates: (x, y, z) observed.
+CONTROL_COMPONENTS = {"control": (True, True, True), "planimetric": (True, True, False), "height": (False, False, True)}
+
+
+@dataclass
+class StripData:
+    """One strip: its GPS/IMU in P, start spline, GPS/IMU epochs and direct-georeferencing geometry."""
+
+    id: str
+    trajectory: ProjectTrajectory
+    spline: OrientationSpline
+    epochs: np.ndarray
+    gpsimu: np.ndarray
+    geometry: StripGeometry
+
+
+@dataclass
+class Block:
+    """The adjustment problem of one variant."""
+
+    project: Project
+    variant: Variant
+    strips: dict[str, StripData]
+    models: ModelSet
+    parameters: Parameters
+    groups: list[ObservationGroup]
+    points: ImagePoints
+    ground: GroundPoints
+    roles: dict[str, str]
+    notes: list[str] = field(default_factory=list)
+
+    def role(self, point: str) -> str:
+        return self.roles.get(point, "tie")
+
+
+def gpsimu_epochs(spline: OrientationSpline, t_first: float, t_last: float) -> np.ndarray:
+    """Epochs at which the GPS/IMU observes the spline: the knot epochs inside the data, the data's
+    end, and the midpoints of the first and last segments. A cubic B-spline with K coefficients has
+    K - 2 knot epochs; the two midpoints are its end conditions, so GPS/IMU alone determine it."""
+    knots = spline.t0 + np.arange(spline.n_coef - 2) * spline.spacing
+    knots = knots[(knots >= t_first) & (knots <= t_last)]
+    ends = [t_last, spline.t0 + 0.5 * spline.spacing, spline.t_end - 0.5 * spline.spacing]
+    out = np.unique(np.concatenate([knots, np.clip(ends, t_first, t_last)]))
+    return out
+
+
+def strip_data(project: Project, strip_id: str) -> StripData:
+    traj = project.stream(strip_id).to_project(project.map_frame.frame)
+    spline = OrientationSpline.from_trajectory(traj, project.knot_spacing)
+    epochs = gpsimu_epochs(spline, traj.time[0], traj.time[-1])
+    values = np.column_stack([np.interp(epochs, traj.time, traj.p_P[:, k]) for k in range(3)]
+                             + [np.interp(epochs, traj.time, traj.angles_P[:, k]) for k in range(3)])
+    return StripData(strip_id, traj, spline, epochs, values, project.geometry(strip_id, spline=spline))
+
+
+def build_models(project: Project, variant: Variant, strips: dict[str, StripData]) -> ModelSet:
+    """The GPS/IMU models of a variant (none for DG)."""
+    if variant.strategy == "DG":
+        return ModelSet([])
+    if variant.strategy == "BE":
+        t0 = min(s.epochs[0] for s in strips.values())
+        t1 = max(s.epochs[-1] for s in strips.values())
+        centre = np.mean(np.vstack([s.gpsimu[:, :3] for s in strips.values()]), axis=0)
+        return ModelSet([GpsImuModel("block", tuple(strips), t0, t1, variant.position_degree, variant.attitude_degree,
+                                     variant.rotation, centre, None, {s: (-np.inf, np.inf) for s in strips})])
+    models = []
+    for sid, s in strips.items():
+        cfg = variant.strip_models(sid)
+        pdeg = variant.position_degree if cfg.position_degree is None else cfg.position_degree
+        adeg = variant.attitude_degree if cfg.attitude_degree is None else cfg.attitude_degree
+        rot = variant.rotation if cfg.rotation is None else cfg.rotation
+        breaks = list(cfg.breaks_times) + list(project.timing(sid).time_of_line(np.array(cfg.breaks_lines, float)))
+        edges = [float(s.epochs[0])] + sorted(breaks) + [float(s.epochs[-1])]
+        if any(b <= a for a, b in zip(edges[:-1], edges[1:])):
+            raise AdjustmentError(f"variant {variant.name}, strip {sid}: breaks must lie inside the strip's GPS/IMU "
+                                  f"time span {edges[0]:.2f}..{edges[-1]:.2f} s and increase")
+        n = len(edges) - 1
+        for k in range(n):
+            mid = f"{sid}" if n == 1 else f"{sid}.{k + 1}"
+            lo = -np.inf if k == 0 else edges[k]
+            hi = np.inf if k == n - 1 else edges[k + 1]
+            inside = (s.epochs >= edges[k]) & (s.epochs <= edges[k + 1])
+            centre = s.gpsimu[inside, :3].mean(axis=0)
+            models.append(GpsImuModel(mid, (sid,), edges[k], edges[k + 1], pdeg, adeg, rot and n == 1, centre,
+                                      None if k == 0 else f"{sid}.{k}", {sid: (lo, hi)}))
+    return ModelSet(models)
+
+
+def _correction_block(params: Parameters, m: GpsImuModel, v: Variant) -> None:
+    names = m.names()
+    deg = np.array([int(n[-1]) if n[-1].isdigit() else -1 for n in names])
+    angular = np.array([any(n.startswith(a) for a in ("roll", "pitch", "heading")) for n in names])
+    sig_coef = np.where(angular, np.radians(v.coefficient_sigma_deg), v.coefficient_sigma_m)
+    const = np.where(angular, np.radians(v.constant_sigma_deg) if v.constant_sigma_deg else np.inf,
+                     v.constant_sigma_m if v.constant_sigma_m else np.inf)
+    prior = np.where(deg >= 1, sig_coef, np.where(deg == 0, const, np.inf))
+    params.add(m.key, np.zeros(len(names)), True, prior_sigma=prior, prior_values=np.zeros(len(names)),
+               regularisation_sigma=np.where(deg < 0, 1e-3, sig_coef), names=names, conditions=m.conditions)
+
+
+def build_block(project: Project, variant: Variant, points: ImagePoints, ground: GroundPoints) -> Block:
+    """The parameters and observation groups of ``variant`` on ``project``."""
+    points.check_strips([s.id for s in project.strips])
+    notes: list[str] = []
+    strips = {s.id: strip_data(project, s.id) for s in project.strips}
+    models = build_models(project, variant, strips)
+    params = Parameters()
+    for sid, s in strips.items():
+        params.add(Knots(sid), s.spline.coef.ravel(), variant.strategy != "DG",
+                   regularisation_sigma=np.tile([1.0, 1.0, 1.0, 0.01, 0.01, 0.01], s.spline.n_coef),
+                   names=[f"{c}[{k}]" for k in range(s.spline.n_coef) for c in COMPONENTS])
+    for m in models:
+        _correction_block(params, m, variant)
+    mount, sensor = project.sensor.mounting, project.sensor.model
+    cal = set(variant.calibrate)
+    params.add(Boresight(), mount.boresight, "boresight" in cal, regularisation_sigma=0.01, names=["roll", "pitch", "heading"])
+    params.add(LeverArm(), mount.lever_arm_B, "lever_arm" in cal, regularisation_sigma=0.5, names=["x", "y", "z"])
+    params.add(TimeOffset(), [mount.time_offset], "time_offset" in cal, regularisation_sigma=0.01, names=["dt"])
+    params.add(ScanIndex(), [getattr(sensor, "index_error", 0.0)], "index_error" in cal, regularisation_sigma=0.01, names=["index"])
+    params.add(ScanScale(), [getattr(sensor, "scale_error", 0.0)], "scale_error" in cal, regularisation_sigma=0.01, names=["scale"])
+
+    given = {str(p): i for i, p in enumerate(ground.point)}
+    roles = {str(p): variant.role_of(str(p), str(r)) for p, r in zip(ground.point, ground.role)}
+    for p in map(str, points.point):
+        roles.setdefault(p, variant.role_of(p, "tie"))
+    # which points enter the adjustment
+    meas_strips: dict[str, set] = {}
+    for p, s in zip(map(str, points.point), map(str, points.strip)):
+        meas_strips.setdefault(p, set()).add(s)
+    used = []
+    for p, ss in meas_strips.items():
+        role = roles[p]
+        if role in ("check", "ignore"):
+            continue
+        if role == "tie" and len(ss) < 2:
+            notes.append(f"tie point {p} is measured in strip {next(iter(ss))} only: left out")
+            continue
+        if role in CONTROL_COMPONENTS and p not in given:
+            raise AdjustmentError(f"point {p} has role {role} but no coordinates in ground.csv")
+        used.append(p)
+    used_set = set(used)
+    # start values: rays of the direct georeferencing onto the DTM, control from their coordinates
+    dtm = project.dtm
+    start = {p: [] for p in used}
+    for sid, s in strips.items():
+        sel = np.flatnonzero((points.strip.astype(str) == sid) & np.isin(points.point.astype(str), used))
+        if sel.size:
+            xyz, _ = s.geometry.image_to_ground(points.line[sel], points.pixel[sel], dtm)
+            for k, p in enumerate(points.point[sel]):
+                if np.isfinite(xyz[k]).all():
+                    start[str(p)].append(xyz[k])
+    for p in used:
+        if roles[p] == "control":
+            x, y, z = ground.xyz[given[p]]
+            p0 = project.map_frame.map_to_project(np.array([x]), np.array([y]), np.array([z]))[0]
+        elif start[p]:
+            p0 = np.mean(start[p], axis=0)
+        else:
+            raise AdjustmentError(f"point {p}: no measurement of it hits the DTM with the GPS/IMU orientation")
+        params.add(Ground(p), p0, True, regularisation_sigma=10.0, names=["x", "y", "z"])
+
+    groups: list[ObservationGroup] = []
+    sig_gps = np.concatenate([variant.gps_sigma_m, np.radians(variant.imu_sigma_deg)])
+    for sid, s in strips.items():
+        if variant.strategy != "DG":
+            groups.append(GpsImuSamples(sid, s.spline, s.epochs, s.gpsimu, sig_gps, models))
+        sel = np.flatnonzero((points.strip.astype(str) == sid) & np.isin(points.point.astype(str), used))
+        if sel.size == 0:
+            notes.append(f"strip {sid} has no image measurement in the adjustment")
+            continue
+        sigma = points.sigma_px[sel] if variant.image_sigma_px is None else variant.image_sigma_px
+        groups.append(ImageObservations(sid, project.sensor.model, s.spline, project.timing(sid),
+                                        points.point[sel].astype(str), points.line[sel], points.pixel[sel], sigma))
+        if not any(roles[str(p)] in CONTROL_COMPONENTS for p in points.point[sel]):
+            notes.append(f"strip {sid} has no control point: it is held only by tie points and its GPS/IMU")
+    ctrl = [p for p in used if roles[p] in CONTROL_COMPONENTS]
+    if ctrl:
+        idx = [given[p] for p in ctrl]
+        sig = np.column_stack([ground.sigma_xy[idx], ground.sigma_xy[idx], ground.sigma_z[idx]])
+        comp = np.array([CONTROL_COMPONENTS[roles[p]] for p in ctrl])
+        groups.append(GroundControl(ctrl, ground.xyz[idx], sig, comp, project.map_frame))
+    else:
+        notes.append("no control point in the adjustment: the block's datum comes from the GPS/IMU alone")
+    dtm_pts = [p for p in used if roles[p] == "tie" and variant.dtm_height_at(p)]
+    if dtm_pts:
+        groups.append(DtmHeights(dtm_pts, dtm, project.dtm_sigma))
+    for note in notes:
+        log.warning("%s", note)
+    return Block(project, variant, strips, models, params, groups, points, ground, roles, notes)

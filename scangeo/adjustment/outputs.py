@@ -1,0 +1,138 @@
+"""Write the results of one variant: ``PROJECT/results/NAME/`` (formats in docs/adjustment.md).
+
+- ``trajectory_<strip>.csv``: the adjusted orientation of the navigation reference point at the
+  GPS/IMU sample times, ``time,lat,lon,h,roll,pitch,heading`` (degrees; as the input trajectories);
+- ``spline_<strip>.json``: the adjusted spline (t0, spacing, coefficients in m and rad, project frame);
+- ``residuals.csv``: every observation row with its residual, w-test, redundancy number and flag;
+- ``report.json``: sigma0, accounting, iterations, rms per strip, coefficients, notes.
+
+The folder is written under a temporary name and renamed when complete.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import shutil
+from pathlib import Path
+
+
+from scangeo.adjustment.factor import available_backends
+from scangeo.adjustment.image import ImageObservations
+from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.results import VariantResult
+from scangeo.trajectory.readers import write_trajectory_csv
+from scangeo.trajectory.stream import GpsImuStream, ProjectTrajectory
+
+_ANGULAR = ("roll", "pitch", "heading", "omega")
+
+
+def _num(x):
+    """JSON-safe float (None for NaN/inf)."""
+    return None if x is None or not math.isfinite(float(x)) else float(x)
+
+
+def coefficient_table(result: VariantResult) -> list[dict]:
+    """Per GPS/IMU model and calibration block: value and sigma (m or deg) and significance."""
+    stats = result.adjustment.statistics
+    out = []
+    keys = [m.key for m in result.block.models] + [Boresight(), LeverArm(), TimeOffset(), ScanIndex(), ScanScale()]
+    for key in keys:
+        block = result.adjustment.parameters[key]
+        if not block.free.any():
+            continue
+        for c in stats.significance(key):
+            deg = any(c.component.startswith(a) for a in _ANGULAR) or key in (Boresight(), ScanIndex())
+            f = math.degrees(1.0) if deg else 1.0
+            out.append({"block": key.label, "name": c.component, "unit": "deg" if deg else ("s" if key == TimeOffset() else "m" if key != ScanScale() else ""),
+                        "value": _num(c.value * f), "sigma": _num(c.sigma * f), "t": _num(c.t), "significant": c.significant})
+    return out
+
+
+def report_dict(result: VariantResult) -> dict:
+    adj = result.adjustment
+    sol, stats = adj.solution, adj.statistics
+    v = result.variant
+    return {
+        "variant": v.name, "strategy": v.strategy, "description": v.description,
+        "sigma0": _num(stats.sigma0), "accounting": stats.accounting.as_dict(),
+        "converged": sol.converged, "iterations": [
+            {"number": it.number, "cost": _num(it.cost), "max_scaled_step": _num(it.max_scaled_step),
+             "damping": it.damping, "seconds": round(it.seconds, 4)} for it in sol.iterations],
+        "snooping_rounds": adj.snooping_rounds, "solver_backend": sol.factor.backend,
+        "backends_available": available_backends(), "seconds": round(result.seconds, 3),
+        "models": [{"id": m.id, "strips": list(m.strips), "t_start": m.t_start, "t_end": m.t_end,
+                    "position_degree": m.position_degree, "attitude_degree": m.attitude_degree,
+                    "rotation": m.rotation, "follows": m.follows, "unknowns": m.size, "conditions": m.conditions}
+                   for m in result.block.models],
+        "strips": result.rms_per_strip(),
+        "coefficients": coefficient_table(result),
+        "regularisation": [{"unknown": n.key.label, "component": n.component, "sigma": n.sigma, "reason": n.reason}
+                           for n in sol.regularisation],
+        "rejections": [{"group": r.group, "id": r.id, "components": list(r.components), "w": _num(r.w), "round": r.round}
+                       for r in adj.rejections],
+        "notes": list(result.notes),
+    }
+
+
+def residual_rows(result: VariantResult):
+    """Rows of residuals.csv: every observation row, then the check-point measurements."""
+    adj = result.adjustment
+    sol, stats = adj.solution, adj.statistics
+    yield ["group", "id", "strip", "kind", "component", "residual", "unit", "sigma", "w", "redundancy", "flagged"]
+    w_all, r_all, res_all = stats.w_tests(), stats.redundancy_numbers(), stats.residuals()
+    for g, act, w, red, res in zip(sol.groups, sol.active, w_all, r_all, res_all):
+        strip = getattr(g, "strip", "")
+        for i in range(g.n_rows):
+            pid = str(g.ids[i])
+            kind = result.block.role(pid) if isinstance(g, ImageObservations) or g.name in ("ground control", "dtm heights") else g.kind
+            if g.name.startswith("gpsimu"):
+                kind = "gpsimu"
+            elif g.name == "dtm heights":
+                kind = "dtm"
+            flagged = (not act[i]) or (math.isfinite(w[i]) and abs(w[i]) > result.variant.critical_value)
+            yield [g.name, pid, strip, kind, g.components[i], f"{res[i] * g.sigma[i]:.6g}", g.units[i], f"{g.sigma[i]:.6g}",
+                   "" if not math.isfinite(w[i]) else f"{w[i]:.3f}", "" if not math.isfinite(red[i]) else f"{red[i]:.4f}",
+                   int(flagged)]
+    c = result.checks
+    for p, s, dl, dp, st in zip(c.point, c.strip, c.line, c.pixel, c.status):
+        ok = st == 0
+        yield ["check points", p, s, "check", "line", f"{dl:.6g}" if ok else "", "line", "", "", "", int(not ok)]
+        yield ["check points", p, s, "check", "pixel", f"{dp:.6g}" if ok else "", "px", "", "", "", int(not ok)]
+
+
+def write_results(result: VariantResult, out_dir=None) -> Path:
+    """Write the outputs of a variant to ``out_dir`` (default PROJECT/results/NAME); returns the folder."""
+    project = result.block.project
+    out = Path(out_dir) if out_dir else project.root / "results" / result.variant.name
+    tmp = out.with_name(f".{out.name}.tmp")
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    frame = project.map_frame.frame
+    for sid, strip in result.block.strips.items():
+        spline = result.spline(sid)
+        t = strip.trajectory.time
+        t = t[spline.covers(t)]
+        vals = spline.evaluate(t)
+        traj = ProjectTrajectory(t, vals[:, :3], vals[:, 3:], f"adjusted {sid}")
+        write_trajectory_csv(tmp / f"trajectory_{sid}.csv", GpsImuStream.from_project(traj, frame))
+        (tmp / f"spline_{sid}.json").write_text(json.dumps(
+            {"strip": sid, "t0": spline.t0, "spacing": spline.spacing, "components": ["x", "y", "z", "roll", "pitch", "heading"],
+             "units": "m, rad; project frame (positions of the navigation reference point)",
+             "project_origin": frame.to_dict(), "coef": spline.coef.tolist()}))
+    with open(tmp / "residuals.csv", "w", newline="") as f:
+        csv.writer(f).writerows(residual_rows(result))
+    (tmp / "report.json").write_text(json.dumps(report_dict(result), indent=1))
+    if out.exists():
+        old = out.with_name(f".{out.name}.old")
+        shutil.rmtree(old, ignore_errors=True)
+        os.replace(out, old)
+        os.replace(tmp, out)
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        os.replace(tmp, out)
+    return out
+
+
+__all__ = ["coefficient_table", "report_dict", "residual_rows", "write_results"]

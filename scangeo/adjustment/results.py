@@ -1,0 +1,163 @@
+"""Run one variant on a project and describe the result: check points, rms per strip, coefficients.
+
+``run_variant`` sets up the block (``scangeo.adjustment.block``), adjusts it with data snooping,
+projects the check points into the images with the adjusted orientation (they never enter the
+adjustment) and gathers everything ``report.json`` and ``residuals.csv`` hold.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from scangeo.adjustment.block import Block, build_block
+from scangeo.adjustment.engine import Adjustment, SnoopingOptions, adjust
+from scangeo.adjustment.image import ImageObservations
+from scangeo.adjustment.keys import Boresight, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.solver import SolverOptions
+from scangeo.adjustment.variants import Variant, find_variant
+from scangeo.io.points import GroundPoints, ImagePoints
+from scangeo.io.project import Project
+from scangeo.progress import ProgressCallback, no_progress
+from scangeo.sensors.strip import Mounting, StripGeometry
+from scangeo.trajectory.spline import OrientationSpline
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class CheckResiduals:
+    """Residuals (model - measured) of check-point measurements: lines along track, pixels across."""
+
+    point: np.ndarray
+    strip: np.ndarray
+    line: np.ndarray
+    pixel: np.ndarray
+    status: np.ndarray
+
+
+@dataclass
+class VariantResult:
+    """Everything about one adjusted variant."""
+
+    block: Block
+    adjustment: Adjustment
+    checks: CheckResiduals
+    seconds: float
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def variant(self) -> Variant:
+        return self.block.variant
+
+    def spline(self, strip: str) -> OrientationSpline:
+        s = self.block.strips[strip].spline
+        return s.with_coef(self.adjustment.parameters[Knots(strip)].values.reshape(-1, 6))
+
+    def mounting(self) -> Mounting:
+        p = self.adjustment.parameters
+        return Mounting(p[LeverArm()].values.copy(), p[Boresight()].values.copy(), float(p[TimeOffset()].values[0]))
+
+    def geometry(self, strip: str) -> StripGeometry:
+        """The strip's adjusted geometry (spline, mounting, scanner calibration)."""
+        sensor = self.block.project.sensor.model
+        p = self.adjustment.parameters
+        if hasattr(sensor, "with_calibration"):
+            sensor = sensor.with_calibration(index_error=float(p[ScanIndex()].values[0]),
+                                             scale_error=float(p[ScanScale()].values[0]))
+        base = self.block.strips[strip].geometry
+        return StripGeometry(sensor, self.spline(strip), base.timing, base.n_lines, self.mounting(), strip)
+
+    def image_residuals(self, roles=("control", "height", "planimetric", "tie")):
+        """(point, strip, line residual, pixel residual, active) of the adjusted image measurements."""
+        sol = self.adjustment.solution
+        res = self.adjustment.statistics.residuals()
+        out = []
+        for g, r, act in zip(sol.groups, res, sol.active):
+            if isinstance(g, ImageObservations):
+                v = (r * g.sigma).reshape(-1, 2)
+                keep = np.array([self.block.role(p) in roles for p in g.points])
+                out.append((g.points[keep], np.full(keep.sum(), g.strip, dtype=object), v[keep, 0], v[keep, 1],
+                            act.reshape(-1, 2)[keep, 0]))
+        if not out:
+            e = np.zeros(0)
+            return e.astype(object), e.astype(object), e, e, e.astype(bool)
+        return tuple(np.concatenate(c) for c in zip(*out))
+
+    def rms_per_strip(self) -> dict:
+        """Per strip: count and rms along (lines) and across (pixels) at control and check points."""
+        out = {}
+        pts, strips, dl, dp, act = self.image_residuals(("control", "height", "planimetric"))
+        for sid in self.block.strips:
+            entry = {}
+            sel = (strips == sid) & act
+            entry["control"] = _rms(dl[sel], dp[sel])
+            c = self.checks
+            ok = (c.strip == sid) & (c.status == 0)
+            entry["check"] = _rms(c.line[ok], c.pixel[ok])
+            out[sid] = entry
+        return out
+
+
+def _rms(dl: np.ndarray, dp: np.ndarray) -> dict:
+    n = int(dl.size)
+    if n == 0:
+        return {"n": 0, "rms_along_lines": None, "rms_across_px": None}
+    return {"n": n, "rms_along_lines": float(np.sqrt(np.mean(dl**2))), "rms_across_px": float(np.sqrt(np.mean(dp**2)))}
+
+
+def evaluate_checks(result_block: Block, geometry_of) -> CheckResiduals:
+    """Project every check point into the strips that measured it; compare with the measurements."""
+    b = result_block
+    given = {str(p): i for i, p in enumerate(b.ground.point)}
+    pts, strips, dl, dp, st = [], [], [], [], []
+    for sid in b.strips:
+        sel = [i for i, (p, s) in enumerate(zip(b.points.point, b.points.strip))
+               if str(s) == sid and b.role(str(p)) == "check" and str(p) in given]
+        if not sel:
+            continue
+        sel = np.array(sel)
+        xyz = b.ground.xyz[[given[str(p)] for p in b.points.point[sel]]]
+        p_P = b.project.map_frame.map_to_project(xyz[:, 0], xyz[:, 1], xyz[:, 2])
+        line, pixel, status = geometry_of(sid).ground_to_image(p_P)
+        pts.append(b.points.point[sel].astype(str))
+        strips.append(np.full(sel.size, sid, dtype=object))
+        dl.append(line - b.points.line[sel])
+        dp.append(pixel - b.points.pixel[sel])
+        st.append(status & ~16)  # over-scanning flag: the first sighting is a valid answer
+    if not pts:
+        e = np.zeros(0)
+        return CheckResiduals(e.astype(object), e.astype(object), e, e, e.astype(int))
+    return CheckResiduals(*(np.concatenate(c) for c in (pts, strips, dl, dp, st)))
+
+
+def run_variant(project_root, variant: str | Variant, variants_file=None,
+                callback: ProgressCallback = no_progress) -> VariantResult:
+    """Adjust one variant of the project in ``project_root``."""
+    t0 = time.perf_counter()
+    project = Project.load(project_root)
+    v = variant if isinstance(variant, Variant) else find_variant(project.root, variant, variants_file)
+    points = ImagePoints.read(project.root / "points.csv")
+    ground_file = project.root / "ground.csv"
+    ground = GroundPoints.read(ground_file) if ground_file.exists() else GroundPoints(
+        *(np.zeros(0, dtype=object),), np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=object), np.zeros(0, int))
+    callback(0.0, 1.0, f"{v.name}: setting up")
+    block = build_block(project, v, points, ground)
+    adj = adjust(block.parameters, block.groups,
+                 SolverOptions(max_iterations=v.max_iterations, backend=v.backend),
+                 SnoopingOptions(enabled=v.snooping, critical_value=v.critical_value),
+                 callback)
+    result = VariantResult(block, adj, CheckResiduals(*(np.zeros(0),) * 5), 0.0, list(block.notes))
+    result.checks = evaluate_checks(block, result.geometry)
+    result.seconds = time.perf_counter() - t0
+    if not adj.solution.converged:
+        result.notes.append(f"the adjustment did not converge in {v.max_iterations} iterations")
+    bad = int((result.checks.status != 0).sum())
+    if bad:
+        result.notes.append(f"{bad} check-point measurements could not be projected into their strips")
+    return result
+
+
+__all__ = ["CheckResiduals", "VariantResult", "evaluate_checks", "run_variant"]
