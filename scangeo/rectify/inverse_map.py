@@ -1,22 +1,27 @@
-"""The inverse map of a tile: (line, pixel) for every output cell, exact on a coarse lattice.
+"""The inverse map of a tile: (line, pixel) for every output cell, exact on an adaptive lattice.
 
-Ground -> image is smooth in the map position *and in the height* but the DTM heights of
-neighbouring cells are not smooth; so the map is not interpolated in (x, y) alone. Each square
-block of cells gets exact solutions at its four corners on a few height levels spanning the
-block's DTM heights; a cell's (line, pixel) is bilinear in (x, y) on the two levels bracketing its
-height and linear between them. The number of levels comes from the curvature in height measured
-at the block centre (linear interpolation error grows with the square of the level spacing).
+Ground -> image is smooth across track and in height, but along track it follows the attitude,
+which turbulence shakes at periods of a few seconds (tens of lines). The map is therefore
+interpolated on a lattice aligned with the flight: ``u`` along track, ``v`` across, in units of
+the cell size. Blocks of the lattice are refined anisotropically: a block whose error grows along
+``u`` is halved along ``u`` only (down to one cell: nodes on every line's worth of ground), one
+whose error grows across track along ``v`` only. Heights enter through levels shared by the
+whole tile (``H_k = H_0 + k dH``, ``dH`` from the curvature in height measured over the tile); a
+cell's (line, pixel) is bilinear in (u, v) on the two levels bracketing its DTM height and linear
+between them. Nodes (lattice point, level) are solved exactly once and shared between blocks.
 
-Error control: every block is checked against exact solutions at check cells inside it (at their
-own DTM heights); a block whose largest error exceeds half the tolerance, or which lies across an
-image edge (its check cells beyond the edge say nothing), is split in four, down to ``min_block``
-cells, below which cells are solved exactly. Blocks entirely outside the image
-(all corners and check cells beyond one image edge, or unseen) are left unseen. A random sample of
-cells is finally compared with exact solutions and its largest error reported: that figure, not
-the check cells, is what :class:`InverseMapStats` states as the achieved accuracy.
+Error control: each block is compared with exact solutions at check points (a grid of fractions
+of the block including its own first row and column, at the middle of the height segment holding
+the DTM height there: the worst height). A block whose error exceeds half the tolerance is split,
+down to blocks of a few cells, whose cells are then solved exactly. Blocks across an image edge
+are split (their checks beyond the edge say nothing); blocks entirely beyond one image edge are
+left unseen. Finally a random sample of cells is compared with exact solutions, and its largest
+error is what :class:`InverseMapStats` reports as achieved.
 """
 from __future__ import annotations
 
+import math
+import warnings
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -26,11 +31,13 @@ from scangeo.errors import ScangeoError
 
 #: ``ground_to_image(x, y, H) -> (line, pixel)``: map points to fractional image coordinates.
 GroundToImage = Callable[[np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+#: ``height(x, y) -> H``: DTM heights at map points.
+HeightFunction = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
-#: image pixels beyond an edge by which a block counts as outside the image
+#: image pixels beyond an edge by which a point counts as outside the image
 OUTSIDE_MARGIN_PX = 2.0
-#: most height levels a block may get (beyond, it is split instead)
-MAX_LEVELS = 65
+#: most height segments in a tile
+MAX_SEGMENTS = 256
 
 
 @dataclass(frozen=True)
@@ -40,26 +47,25 @@ class InverseMapOptions:
     Parameters
     ----------
     max_error_px : tolerated interpolation error, image pixels (largest of |d line|, |d pixel|).
-        Blocks are accepted when their check cells are within half of it.
+        Blocks are accepted when their check points are within half of it.
     initial_block : size of the first blocks, cells (a power of two).
-    min_block : smallest interpolated block; blocks failing at this size are solved per cell.
+    exact_cells : blocks of at most this many lattice cells that still fail are solved per cell.
     validation_samples : cells per tile compared with exact solutions after the fact.
     """
 
     max_error_px: float = 0.05
     initial_block: int = 32
-    min_block: int = 8
+    exact_cells: int = 4
     validation_samples: int = 256
 
     def __post_init__(self) -> None:
         if not self.max_error_px > 0:
             raise ScangeoError(f"inverse map: max_error_px must be positive, got {self.max_error_px}")
-        for name in ("initial_block", "min_block"):
-            v = getattr(self, name)
-            if v < 2 or v & (v - 1):
-                raise ScangeoError(f"inverse map: {name} must be a power of two >= 2, got {v}")
-        if self.min_block > self.initial_block:
-            raise ScangeoError("inverse map: min_block must not exceed initial_block")
+        v = self.initial_block
+        if v < 2 or v & (v - 1):
+            raise ScangeoError(f"inverse map: initial_block must be a power of two >= 2, got {v}")
+        if self.exact_cells < 1:
+            raise ScangeoError(f"inverse map: exact_cells must be at least 1, got {self.exact_cells}")
 
 
 @dataclass
@@ -68,7 +74,7 @@ class InverseMapStats:
 
     exact_points: int = 0
     exact_cells: int = 0
-    blocks: dict[int, int] = field(default_factory=dict)
+    blocks: dict[tuple[int, int], int] = field(default_factory=dict)
     validated: int = 0
     max_error_px: float = 0.0
 
@@ -93,115 +99,70 @@ class TileGrid:
         return self.x0 + np.asarray(col, float) * self.res, self.y0 - np.asarray(row, float) * self.res
 
 
+@dataclass(frozen=True)
+class Lattice:
+    """The flight-aligned lattice: ``u`` along ``along`` (a unit vector in map x, y), ``v`` to its
+    left, unit = ``res``, origin at (x0, y0)."""
+
+    x0: float
+    y0: float
+    res: float
+    cu: float
+    su: float
+
+    def to_uv(self, x, y):
+        dx, dy = (np.asarray(x) - self.x0) / self.res, (np.asarray(y) - self.y0) / self.res
+        return dx * self.cu + dy * self.su, -dx * self.su + dy * self.cu
+
+    def to_xy(self, u, v):
+        u, v = np.asarray(u, float), np.asarray(v, float)
+        return self.x0 + self.res * (u * self.cu - v * self.su), self.y0 + self.res * (u * self.su + v * self.cu)
+
+
+class _Nodes:
+    """Exact (line, pixel) at lattice nodes (iu, iv) on height levels k, each solved once."""
+
+    def __init__(self, solve, lattice: Lattice, H0: float, dH: float) -> None:
+        self.solve, self.lattice, self.H0, self.dH = solve, lattice, H0, dH
+        self.keys = np.zeros(0, np.int64)
+        self.line = np.zeros(0)
+        self.pixel = np.zeros(0)
+
+    @staticmethod
+    def key(iu, iv, k):
+        return (np.asarray(iu, np.int64) + 2**20) * 2**42 + (np.asarray(iv, np.int64) + 2**20) * 2**21 + np.asarray(k, np.int64)
+
+    def get(self, iu, iv, k):
+        keys = self.key(iu, iv, k)
+        new = np.unique(keys[~np.isin(keys, self.keys)])
+        if new.size:
+            kk = new % 2**21
+            iv_n = (new // 2**21) % 2**21 - 2**20
+            iu_n = new // 2**42 - 2**20
+            x, y = self.lattice.to_xy(iu_n, iv_n)
+            line, pixel = self.solve(x, y, self.H0 + kk * self.dH)
+            keys_all = np.concatenate([self.keys, new])
+            order = np.argsort(keys_all, kind="stable")
+            self.keys = keys_all[order]
+            self.line = np.concatenate([self.line, line])[order]
+            self.pixel = np.concatenate([self.pixel, pixel])[order]
+        idx = np.searchsorted(self.keys, keys)
+        return self.line[idx], self.pixel[idx]
+
+
 class _Solver:
     """Calls ``ground_to_image`` and counts the points."""
 
-    def __init__(self, g2i: GroundToImage, grid: TileGrid, stats: InverseMapStats) -> None:
-        self.g2i, self.grid, self.stats = g2i, grid, stats
+    def __init__(self, g2i: GroundToImage, stats: InverseMapStats) -> None:
+        self.g2i, self.stats = g2i, stats
 
-    def __call__(self, row, col, H) -> tuple[np.ndarray, np.ndarray]:
-        x, y = self.grid.xy(row, col)
-        H = np.asarray(H, float)
-        x, y, H = np.broadcast_arrays(x, y, H)
+    def __call__(self, x, y, H) -> tuple[np.ndarray, np.ndarray]:
+        x, y, H = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float), np.asarray(H, float))
         self.stats.exact_points += x.size
         if x.size == 0:
             return np.empty(x.shape), np.empty(x.shape)
         line, pixel = self.g2i(x.ravel(), y.ravel(), H.ravel())
         return np.asarray(line, float).reshape(x.shape), np.asarray(pixel, float).reshape(x.shape)
-
-
-def _block_height_range(H: np.ndarray, r0: np.ndarray, c0: np.ndarray, B: int):
-    """Per block: (Hmin, Hmax) of its valid cells (NaN when none)."""
-    R, C = H.shape
-    rows = np.minimum(r0[:, None] + np.arange(B), R - 1)
-    cols = np.minimum(c0[:, None] + np.arange(B), C - 1)
-    h = H[rows[:, :, None], cols[:, None, :]].reshape(len(r0), -1)
-    with np.errstate(invalid="ignore"), _quiet():
-        return np.nanmin(h, axis=1), np.nanmax(h, axis=1)
-
-
-class _quiet:
-    """Silence numpy's all-NaN-slice warnings inside a block."""
-
-    def __enter__(self):
-        import warnings
-
-        self._w = warnings.catch_warnings()
-        self._w.__enter__()
-        warnings.simplefilter("ignore", RuntimeWarning)
-
-    def __exit__(self, *exc):
-        self._w.__exit__(*exc)
-
-
-@dataclass
-class _Blocks:
-    """Blocks of one size with their exact corner values on height levels."""
-
-    r0: np.ndarray
-    c0: np.ndarray
-    B: int
-    Hlo: np.ndarray
-    Hhi: np.ndarray
-    nseg: np.ndarray
-    L: np.ndarray  # (K, levels, 4) exact line at corners (r0,c0), (r0,c0+B), (r0+B,c0), (r0+B,c0+B)
-    P: np.ndarray
-
-    def mid_segment(self, k: np.ndarray, h: np.ndarray) -> np.ndarray:
-        """The height half-way between the two levels of block ``k`` that bracket ``h``."""
-        dh = (self.Hhi[k] - self.Hlo[k]) / self.nseg[k]
-        i = np.clip(np.floor((h - self.Hlo[k]) / dh), 0, self.nseg[k] - 1)
-        return self.Hlo[k] + (i + 0.5) * dh
-
-    def interpolate(self, k: np.ndarray, row: np.ndarray, col: np.ndarray, h: np.ndarray):
-        """(line, pixel) interpolated at cells (row, col) of blocks ``k`` with heights ``h``."""
-        fr = (row - self.r0[k]) / self.B
-        fc = (col - self.c0[k]) / self.B
-        s = (h - self.Hlo[k]) / (self.Hhi[k] - self.Hlo[k]) * self.nseg[k]
-        i = np.clip(np.floor(s), 0, self.nseg[k] - 1).astype(np.intp)
-        f = s - i
-        w = np.stack([(1 - fr) * (1 - fc), (1 - fr) * fc, fr * (1 - fc), fr * fc], axis=-1)
-        out = []
-        for V in (self.L, self.P):
-            v0 = np.einsum("...j,...j->...", V[k, i], w)
-            v1 = np.einsum("...j,...j->...", V[k, i + 1], w)
-            out.append(v0 + f * (v1 - v0))
-        return out[0], out[1]
-
-
-def _corner_offsets(B: int) -> tuple[np.ndarray, np.ndarray]:
-    return np.array([0, 0, B, B]), np.array([0, B, 0, B])
-
-
-def _check_cells(r0, c0, B: int, shape) -> tuple[np.ndarray, np.ndarray]:
-    """Check cells of blocks (K, n) on the block's part inside the tile.
-
-    A grid of fractions ``{0, 1/4, 1/2, 3/4}`` (``{0, 1/8, 3/8, 1/2, 5/8, 7/8}`` for blocks of 16
-    cells and more) in rows and columns, the exact corner left out. The block's own first row and
-    column are included on purpose: the bilinear error is ``f_xx u(B-u)/2 + f_yy v(B-v)/2``, and
-    where the two curvatures have opposite signs (across-track perspective against an attitude
-    oscillation) it cancels inside the block but not along its edges.
-    """
-    R, C = shape
-    f = np.array([0.0, 0.125, 0.375, 0.5, 0.625, 0.875]) if B >= 16 else np.array([0.0, 0.25, 0.5, 0.75])
-    m = f.size
-    ext_r = np.minimum(B, R - r0)[:, None]
-    ext_c = np.minimum(B, C - c0)[:, None]
-    orow = np.clip(np.round(f * ext_r), 0, ext_r - 1).astype(np.intp)
-    ocol = np.clip(np.round(f * ext_c), 0, ext_c - 1).astype(np.intp)
-    rows = r0[:, None] + np.repeat(orow, m, axis=1)
-    cols = c0[:, None] + np.tile(ocol, (1, m))
-    return rows[:, 1:], cols[:, 1:]
-
-
-def _outside(line: np.ndarray, pixel: np.ndarray, shape: tuple[int, int], axis: int) -> np.ndarray:
-    """Per row of (K, n) arrays: all points unseen or beyond one and the same image edge."""
-    lines, pixels = shape
-    m = OUTSIDE_MARGIN_PX
-    nan = ~(np.isfinite(line) & np.isfinite(pixel))
-    with np.errstate(invalid="ignore"):
-        sides = [line < -m, line > lines - 1 + m, pixel < -m, pixel > pixels - 1 + m]
-    return np.any(np.stack([np.all(s | nan, axis=axis) for s in sides]), axis=0)
 
 
 def _in_image(line, pixel, shape) -> np.ndarray:
@@ -211,43 +172,43 @@ def _in_image(line, pixel, shape) -> np.ndarray:
         return (line >= -m) & (line <= lines - 1 + m) & (pixel >= -m) & (pixel <= pixels - 1 + m)
 
 
-def _build_blocks(solve: _Solver, r0, c0, B, Hlo, Hhi, tol_level) -> _Blocks:
-    """Exact corner values on height levels for blocks of size B."""
-    K = len(r0)
-    flat = ~(Hhi - Hlo > 1e-3)
-    Hhi = np.where(flat, Hlo + 1.0, Hhi)
-    # curvature in height at the block centre: error of one linear segment at mid-height
-    rc, cc = r0 + B / 2.0, c0 + B / 2.0
-    h3 = np.stack([Hlo, 0.5 * (Hlo + Hhi), Hhi], axis=1)
-    l3, p3 = solve(np.repeat(rc[:, None], 3, 1), np.repeat(cc[:, None], 3, 1), h3)
+def _beyond_one_edge(line, pixel, present, shape) -> np.ndarray:
+    """Per row of (K, n): every present point unseen or beyond one and the same image edge."""
+    lines, pixels = shape
+    m = OUTSIDE_MARGIN_PX
+    nan = ~(np.isfinite(line) & np.isfinite(pixel)) | ~present
     with np.errstate(invalid="ignore"):
-        e_mid = np.maximum(np.abs(l3[:, 1] - 0.5 * (l3[:, 0] + l3[:, 2])), np.abs(p3[:, 1] - 0.5 * (p3[:, 0] + p3[:, 2])))
-    e_mid = np.where(np.isfinite(e_mid) & ~flat, e_mid, 0.0)
-    nseg = np.clip(np.ceil(np.sqrt(e_mid / tol_level)), 1, MAX_LEVELS - 1).astype(np.intp)
-    nlev = nseg + 1
-    maxlev = int(nlev.max()) if K else 2
-    # nodes: every block's 4 corners on its own levels
-    k = np.repeat(np.arange(K), 4 * nlev)
-    start = np.repeat(np.cumsum(4 * nlev) - 4 * nlev, 4 * nlev)
-    j = np.arange(k.size) - start
-    level, corner = j // 4, j % 4
-    dr, dc = _corner_offsets(B)
-    h = Hlo[k] + (Hhi[k] - Hlo[k]) * level / nseg[k]
-    lv, pv = solve(r0[k] + dr[corner], c0[k] + dc[corner], h)
-    L = np.full((K, maxlev, 4), np.nan)
-    P = np.full((K, maxlev, 4), np.nan)
-    L[k, level, corner] = lv
-    P[k, level, corner] = pv
-    return _Blocks(r0, c0, B, Hlo, Hhi, nseg, L, P)
+        sides = [line < -m, line > lines - 1 + m, pixel < -m, pixel > pixels - 1 + m]
+    return np.any(np.stack([np.all(s | nan, axis=1) for s in sides]), axis=0)
 
 
-def _cells(r0, c0, B, shape):
-    """Rows, cols (K, B*B) of the cells of blocks, and which exist in the tile."""
-    R, C = shape
-    dr, dc = np.meshgrid(np.arange(B), np.arange(B), indexing="ij")
-    rows = r0[:, None] + dr.ravel()
-    cols = c0[:, None] + dc.ravel()
-    return rows, cols, (rows < R) & (cols < C)
+def _fractions(B: np.ndarray) -> np.ndarray:
+    """(K, 6) check fractions along an axis of size B (repeated where the block is short): eighths
+    on long axes (32 cells and more), quarters from 4 cells, the middle below."""
+    f6 = np.array([0.0, 0.125, 0.375, 0.5, 0.625, 0.875])
+    f4 = np.array([0.0, 0.25, 0.5, 0.75, 0.75, 0.75])
+    f2 = np.array([0.0, 0.5, 0.5, 0.5, 0.5, 0.5])
+    B = B[:, None]
+    return np.where(B >= 32, f6, np.where(B >= 4, f4, f2))
+
+
+def _height_levels(solve, lattice, uv_cells, H_cells, tol_level) -> tuple[float, float]:
+    """(H0, dH) of the tile's levels: linear interpolation in height within ``tol_level`` where
+    the curvature in height is largest among a few cells of the tile."""
+    Hmin, Hmax = float(H_cells.min()), float(H_cells.max())
+    if Hmax - Hmin < 1e-3:
+        return Hmin, 1.0
+    pick = np.unique(np.linspace(0, H_cells.size - 1, 25).astype(int))
+    u, v = uv_cells[0][pick], uv_cells[1][pick]
+    x, y = lattice.to_xy(u, v)
+    h3 = np.array([Hmin, 0.5 * (Hmin + Hmax), Hmax])
+    l3, p3 = solve(np.repeat(x[:, None], 3, 1), np.repeat(y[:, None], 3, 1), np.broadcast_to(h3, (len(u), 3)))
+    with np.errstate(invalid="ignore"):
+        e = np.maximum(np.abs(l3[:, 1] - 0.5 * (l3[:, 0] + l3[:, 2])), np.abs(p3[:, 1] - 0.5 * (p3[:, 0] + p3[:, 2])))
+    e = e[np.isfinite(e)]
+    worst = 2.0 * float(e.max()) if e.size else 0.0  # a margin for cells between the samples
+    nseg = int(min(MAX_SEGMENTS, max(1, math.ceil(math.sqrt(worst / tol_level)))))
+    return Hmin, max((Hmax - Hmin) / nseg, 1e-3)
 
 
 def build_inverse_map(
@@ -257,6 +218,8 @@ def build_inverse_map(
     image_shape: tuple[int, int],
     options: InverseMapOptions = InverseMapOptions(),
     seed: int = 0,
+    along: tuple[float, float] = (0.0, 1.0),
+    height: HeightFunction | None = None,
 ) -> tuple[np.ndarray, np.ndarray, InverseMapStats]:
     """(line, pixel) of every cell of a tile, interpolated under error control.
 
@@ -268,6 +231,8 @@ def build_inverse_map(
     image_shape : (lines, pixels) of the strip image.
     options : tolerance and block sizes.
     seed : seed of the validation sample (deterministic per tile).
+    along : the flight direction in map (x, y) (need not be normalised).
+    height : DTM heights at map points, for check points between cells (default: nearest cell).
 
     Returns
     -------
@@ -277,85 +242,216 @@ def build_inverse_map(
     H = np.asarray(H, dtype=float)
     R, C = H.shape
     stats = InverseMapStats()
-    solve = _Solver(g2i, grid, stats)
-    line = np.full((R, C), np.nan)
-    pixel = np.full((R, C), np.nan)
+    solve = _Solver(g2i, stats)
+    line = np.full(R * C, np.nan)
+    pixel = np.full(R * C, np.nan)
+    cells = np.flatnonzero(np.isfinite(H).ravel())
+    if cells.size == 0:
+        return line.reshape(R, C), pixel.reshape(R, C), stats
+    norm = math.hypot(*along)
+    lattice = Lattice(grid.x0, grid.y0, grid.res, along[0] / norm, along[1] / norm)
+    rows, cols = np.divmod(cells, C)
+    xc, yc = grid.xy(rows, cols)
+    uc, vc = lattice.to_uv(xc, yc)
+    hc = H.ravel()[cells]
     tol = 0.5 * options.max_error_px
+    H0, dH = _height_levels(solve, lattice, (uc, vc), hc, tol / 4.0)
+    nodes = _Nodes(solve, lattice, H0, dH)
+    if height is None:
+        height = _nearest_cell_height(grid, H)
     B = options.initial_block
-    rr, cc = np.meshgrid(np.arange(0, R, B), np.arange(0, C, B), indexing="ij")
-    r0, c0 = rr.ravel(), cc.ravel()
-    while len(r0):
-        Hlo, Hhi = _block_height_range(H, r0, c0, B)
-        has = np.isfinite(Hlo)
-        r0, c0, Hlo, Hhi = r0[has], c0[has], Hlo[has], Hhi[has]
-        if not len(r0):
-            break
-        blocks = _build_blocks(solve, r0, c0, B, Hlo, Hhi, tol / 4.0)
-        K = len(r0)
-        # check cells at their own heights
-        crow, ccol = _check_cells(r0, c0, B, (R, C))
-        kk = np.repeat(np.arange(K)[:, None], crow.shape[1], 1)
-        # at the middle of the height segment holding the cell's height: the worst height there
-        ch = blocks.mid_segment(kk, H[crow, ccol])
-        usable = np.isfinite(ch)
-        el, ep = np.full(ch.shape, np.nan), np.full(ch.shape, np.nan)
-        el[usable], ep[usable] = solve(crow[usable], ccol[usable], ch[usable])
-        il, ip = np.full(ch.shape, np.nan), np.full(ch.shape, np.nan)
-        il[usable], ip[usable] = blocks.interpolate(kk[usable], crow[usable], ccol[usable], ch[usable])
-        relevant = usable & _in_image(el, ep, image_shape)
-        with np.errstate(invalid="ignore"):
-            err = np.where(relevant, np.maximum(np.abs(il - el), np.abs(ip - ep)), 0.0)
-        err = np.where(relevant & ~np.isfinite(err), np.inf, err)
-        block_err = err.max(axis=1)
-        nodes_l = blocks.L.reshape(K, -1)
-        nodes_p = blocks.P.reshape(K, -1)
-        level_used = np.arange(blocks.L.shape[1])[None, :] <= blocks.nseg[:, None]
-        used = np.repeat(level_used, 4, axis=1)
-        nodes_bad = np.any(used & ~(np.isfinite(nodes_l) & np.isfinite(nodes_p)), axis=1)
-        all_l = np.concatenate([np.where(used, nodes_l, np.nan), np.where(usable, el, np.nan)], axis=1)
-        all_p = np.concatenate([np.where(used, nodes_p, np.nan), np.where(usable, ep, np.nan)], axis=1)
-        empty = _outside(all_l, all_p, image_shape, axis=1)
-        # a block across the image edge is checked only on its part inside: split it further
-        present = np.concatenate([used, usable], axis=1)
-        inside_pts = _in_image(all_l, all_p, image_shape)
-        across_edge = (inside_pts & present).any(axis=1) & (~inside_pts & present).any(axis=1)
-        across_edge &= B > options.min_block
-        accept = ~empty & ~nodes_bad & ~across_edge & (block_err <= tol)
-        if accept.any():
-            stats.blocks[B] = stats.blocks.get(B, 0) + int(accept.sum())
-            ka = np.flatnonzero(accept)
-            rows, cols, exists = _cells(r0[ka], c0[ka], B, (R, C))
-            kcell = np.repeat(ka[:, None], rows.shape[1], 1)
-            rows, cols, kcell = rows[exists], cols[exists], kcell[exists]
-            h = H[rows, cols]
-            ok = np.isfinite(h)
-            rows, cols, kcell, h = rows[ok], cols[ok], kcell[ok], h[ok]
-            line[rows, cols], pixel[rows, cols] = blocks.interpolate(kcell, rows, cols, h)
-        fail = ~empty & ~accept
-        if B <= options.min_block:
-            _solve_cells(solve, r0[fail], c0[fail], B, H, line, pixel, stats)
-            break
-        half = B // 2
-        r0 = np.concatenate([r0[fail], r0[fail], r0[fail] + half, r0[fail] + half])
-        c0 = np.concatenate([c0[fail], c0[fail] + half, c0[fail], c0[fail] + half])
-        keep = (r0 < R) & (c0 < C)
-        r0, c0 = r0[keep], c0[keep]
-        B = half
-    _validate(solve, line, pixel, H, image_shape, options.validation_samples, seed, stats)
+    u_origin, v_origin = math.floor(uc.min()), math.floor(vc.min())
+    bu = np.floor((uc - u_origin) / B).astype(np.int64)
+    bv = np.floor((vc - v_origin) / B).astype(np.int64)
+    block_of_cell, first = _group(bu * (2**31) + bv)
+    K = first.size - 1
+    order = np.argsort(block_of_cell, kind="stable")
+    cells_sorted = order
+    u0 = u_origin + bu[order[first[:-1]]] * B
+    v0 = v_origin + bv[order[first[:-1]]] * B
+    Bu = np.full(K, B, np.int64)
+    Bv = np.full(K, B, np.int64)
+    pending = _Pending(cells_sorted, first, u0, v0, Bu, Bv)
+    while pending.count:
+        pending = _refine(pending, uc, vc, hc, nodes, solve, lattice, height, H0, dH, image_shape, tol,
+                          options, stats, cells, line, pixel)
+    line, pixel = line.reshape(R, C), pixel.reshape(R, C)
+    _validate(solve, grid, line, pixel, H, image_shape, options.validation_samples, seed, stats)
     return line, pixel, stats
 
 
-def _solve_cells(solve, r0, c0, B, H, line, pixel, stats) -> None:
-    """Exact (line, pixel) for every cell with a height in blocks of size B."""
-    rows, cols, exists = _cells(r0, c0, B, H.shape)
-    rows, cols = rows[exists], cols[exists]
-    ok = np.isfinite(H[rows, cols])
-    rows, cols = rows[ok], cols[ok]
-    line[rows, cols], pixel[rows, cols] = solve(rows, cols, H[rows, cols])
-    stats.exact_cells += rows.size
+def _nearest_cell_height(grid: TileGrid, H: np.ndarray) -> HeightFunction:
+    R, C = H.shape
+
+    def height(x, y):
+        col = np.clip(np.rint((np.asarray(x) - grid.x0) / grid.res), 0, C - 1).astype(int)
+        row = np.clip(np.rint((grid.y0 - np.asarray(y)) / grid.res), 0, R - 1).astype(int)
+        return H[row, col]
+
+    return height
 
 
-def _validate(solve, line, pixel, H, image_shape, n, seed, stats) -> None:
+def _group(ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Dense group index of every element and the start offsets (K + 1) of the groups when sorted."""
+    uniq, inverse, counts = np.unique(ids, return_inverse=True, return_counts=True)
+    return inverse, np.concatenate([[0], np.cumsum(counts)])
+
+
+@dataclass
+class _Pending:
+    """Blocks still to settle, with their cells (indices into the tile's valid cells, grouped)."""
+
+    cells: np.ndarray  # cell indices sorted by block
+    first: np.ndarray  # (K + 1) offsets of each block's cells in ``cells``
+    u0: np.ndarray
+    v0: np.ndarray
+    Bu: np.ndarray
+    Bv: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return self.u0.size
+
+    def block_of(self) -> np.ndarray:
+        return np.repeat(np.arange(self.count), np.diff(self.first))
+
+
+def _block_interp(L, P, u0, v0, Bu, Bv, klo, nseg, H0, dH, u, v, h):
+    """(line, pixel) at (u, v, h) in blocks with corner node values L, P (n, levels, 4)."""
+    fu = (u - u0) / Bu
+    fv = (v - v0) / Bv
+    s = (h - H0) / dH - klo
+    i = np.clip(np.floor(s), 0, nseg - 1).astype(np.intp)
+    f = s - i
+    w = np.stack([(1 - fu) * (1 - fv), fu * (1 - fv), (1 - fu) * fv, fu * fv], axis=-1)
+    n = np.arange(u.size)
+    out = []
+    for V in (L, P):
+        a = np.einsum("nj,nj->n", V[n, i], w)
+        b = np.einsum("nj,nj->n", V[n, i + 1], w)
+        out.append(a + f * (b - a))
+    return out
+
+
+def _refine(pb: _Pending, uc, vc, hc, nodes: _Nodes, solve, lattice, height, H0, dH, shape, tol, options,
+            stats, cells, line, pixel) -> _Pending:
+    K = pb.count
+    hs = hc[pb.cells]
+    Hlo = np.minimum.reduceat(hs, pb.first[:-1])
+    Hhi = np.maximum.reduceat(hs, pb.first[:-1])
+    klo = np.floor((Hlo - H0) / dH + 1e-9).astype(np.int64)
+    khi = np.maximum(np.ceil((Hhi - H0) / dH - 1e-9).astype(np.int64), klo + 1)
+    nseg = khi - klo
+    maxlev = int(nseg.max()) + 1
+    # corner nodes on each block's levels (padded by repeating the top level)
+    lev = np.minimum(klo[:, None] + np.arange(maxlev), khi[:, None])  # (K, maxlev)
+    cu = np.stack([pb.u0, pb.u0 + pb.Bu, pb.u0, pb.u0 + pb.Bu], 1)  # (K, 4)
+    cv = np.stack([pb.v0, pb.v0, pb.v0 + pb.Bv, pb.v0 + pb.Bv], 1)
+    L, P = nodes.get(np.broadcast_to(cu[:, None, :], (K, maxlev, 4)), np.broadcast_to(cv[:, None, :], (K, maxlev, 4)),
+                     np.broadcast_to(lev[:, :, None], (K, maxlev, 4)))
+    nodes_bad = ~np.all(np.isfinite(L) & np.isfinite(P), axis=(1, 2))
+    # check points: fractions along u and v, the corner left out, at the worst height there
+    fu = np.broadcast_to(_fractions(pb.Bu), (K, 6))
+    fv = np.broadcast_to(_fractions(pb.Bv), (K, 6))
+    qu = (pb.u0[:, None] + fu * pb.Bu[:, None])[:, :, None] * np.ones((1, 1, 6))
+    qv = (pb.v0[:, None] + fv * pb.Bv[:, None])[:, None, :] * np.ones((1, 6, 1))
+    on_u_edge = np.broadcast_to((fv == 0)[:, None, :], qu.shape).reshape(K, -1)
+    on_v_edge = np.broadcast_to((fu == 0)[:, :, None], qu.shape).reshape(K, -1)
+    qu, qv = qu.reshape(K, -1), qv.reshape(K, -1)
+    qx, qy = lattice.to_xy(qu, qv)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        qh = np.clip(np.asarray(height(qx, qy), float), Hlo[:, None], Hhi[:, None])
+    seg = np.clip(np.floor((qh - H0) / dH) - klo[:, None], 0, nseg[:, None] - 1)
+    qh = H0 + (klo[:, None] + seg + 0.5) * dH
+    dup_u = np.concatenate([np.zeros((K, 1), bool), fu[:, 1:] == fu[:, :-1]], axis=1)
+    dup_v = np.concatenate([np.zeros((K, 1), bool), fv[:, 1:] == fv[:, :-1]], axis=1)
+    dup = (dup_u[:, :, None] | dup_v[:, None, :]).reshape(K, -1)
+    usable = np.isfinite(qh) & ~(on_u_edge & on_v_edge) & ~dup
+    el, ep = np.full(qu.shape, np.nan), np.full(qu.shape, np.nan)
+    el[usable], ep[usable] = solve(qx[usable], qy[usable], qh[usable])
+    kk = np.broadcast_to(np.arange(K)[:, None], qu.shape)
+    il, ip = np.full(qu.shape, np.nan), np.full(qu.shape, np.nan)
+    k_u = kk[usable]
+    il[usable], ip[usable] = _block_interp(
+        L[k_u], P[k_u], pb.u0[k_u], pb.v0[k_u], pb.Bu[k_u], pb.Bv[k_u], klo[k_u], nseg[k_u], H0, dH,
+        qu[usable], qv[usable], qh[usable])
+    relevant = usable & _in_image(el, ep, shape)
+    with np.errstate(invalid="ignore"):
+        err = np.where(relevant, np.maximum(np.abs(il - el), np.abs(ip - ep)), 0.0)
+    err = np.where(relevant & ~np.isfinite(err), np.inf, err)
+    e_u = np.where(on_u_edge, err, 0).max(axis=1)
+    e_v = np.where(on_v_edge, err, 0).max(axis=1)
+    e_in = np.where(~on_u_edge & ~on_v_edge, err, 0).max(axis=1)
+    # which blocks are settled
+    pts_l = np.concatenate([L.reshape(K, -1), el], axis=1)
+    pts_p = np.concatenate([P.reshape(K, -1), ep], axis=1)
+    present = np.concatenate([np.ones((K, 4 * maxlev), bool), usable], axis=1)
+    empty = _beyond_one_edge(pts_l, pts_p, present, shape)
+    inside = _in_image(pts_l, pts_p, shape)
+    across_edge = (inside & present).any(axis=1) & (~inside & present).any(axis=1)
+    small = pb.Bu * pb.Bv <= options.exact_cells
+    across_edge &= ~small
+    accept = ~empty & ~nodes_bad & ~across_edge & (np.maximum(np.maximum(e_u, e_v), e_in) <= tol)
+    exact = ~empty & ~accept & small
+    split = ~empty & ~accept & ~small
+    block = pb.block_of()
+    # settle accepted blocks
+    if accept.any():
+        for key in zip(pb.Bu[accept], pb.Bv[accept]):
+            key = (int(key[0]), int(key[1]))
+            stats.blocks[key] = stats.blocks.get(key, 0) + 1
+        sel = accept[block]
+        c = pb.cells[sel]
+        k = block[sel]
+        ci = cells[c]
+        line[ci], pixel[ci] = _block_interp(L[k], P[k], pb.u0[k], pb.v0[k], pb.Bu[k], pb.Bv[k], klo[k], nseg[k],
+                                            H0, dH, uc[c], vc[c], hc[c])
+    if exact.any():
+        c = pb.cells[exact[block]]
+        x, y = lattice.to_xy(uc[c], vc[c])
+        line[cells[c]], pixel[cells[c]] = solve(x, y, hc[c])
+        stats.exact_cells += c.size
+    if not split.any():
+        return _Pending(np.zeros(0, np.int64), np.zeros(1, np.int64), *(np.zeros(0, np.int64),) * 4)
+    # split along the axis whose edge shows the larger error (the bilinear error is a sum of one
+    # term per axis; each edge sees its own), both when comparable or unclear; never below a cell.
+    # The error shrinks with the square of the size: split straight into as many parts as needed.
+    e_max = np.maximum(e_u, e_v)
+    unclear = nodes_bad | across_edge | ~(e_max > 0.25 * tol) | ~np.isfinite(e_max)
+    want_u = unclear | (e_u >= 0.5 * e_max)
+    want_v = unclear | (e_v >= 0.5 * e_max)
+    su = want_u & (pb.Bu > 1)
+    sv = want_v & (pb.Bv > 1)
+    su |= ~su & ~sv & (pb.Bu > 1)
+    sv |= ~su & ~sv
+    nu = np.where(su, _parts(np.where(unclear, 0.0, e_u), tol, pb.Bu), 1)
+    nv = np.where(sv, _parts(np.where(unclear, 0.0, e_v), tol, pb.Bv), 1)
+    sel = split[block]
+    c = pb.cells[sel]
+    k = block[sel]
+    hu, hv = pb.Bu // nu, pb.Bv // nv
+    iu = np.minimum(np.floor((uc[c] - pb.u0[k]) / hu[k]), nu[k] - 1).astype(np.int64)
+    iv = np.minimum(np.floor((vc[c] - pb.v0[k]) / hv[k]), nv[k] - 1).astype(np.int64)
+    child = (k * 64 + iu) * 64 + iv
+    group, first = _group(child)
+    order = np.argsort(group, kind="stable")
+    starts = child[order[first[:-1]]]
+    kp, rest = np.divmod(starts, 64 * 64)
+    ju, jv = np.divmod(rest, 64)
+    return _Pending(c[order], first, pb.u0[kp] + ju * hu[kp], pb.v0[kp] + jv * hv[kp], hu[kp], hv[kp])
+
+
+def _parts(err: np.ndarray, tol: float, B: np.ndarray) -> np.ndarray:
+    """Parts (a power of two, 2 .. B, at most 32) to split an axis into so its error falls below
+    ``tol``: the error of linear interpolation shrinks with the square of the spacing."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        need = np.sqrt(np.maximum(err, 0.0) / tol) * 1.25
+    n = 2 ** np.ceil(np.log2(np.maximum(need, 2.0)))
+    return np.minimum(np.minimum(n, 32), B).astype(np.int64)
+
+
+def _validate(solve, grid, line, pixel, H, image_shape, n, seed, stats) -> None:
     """Compare a random sample of interpolated cells with exact solutions."""
     lines, pixels = image_shape
     with np.errstate(invalid="ignore"):
@@ -366,7 +462,8 @@ def _validate(solve, line, pixel, H, image_shape, n, seed, stats) -> None:
     rng = np.random.default_rng(seed)
     pick = rng.choice(ok, size=min(n, ok.size), replace=False)
     rows, cols = np.unravel_index(pick, line.shape)
-    el, ep = solve(rows, cols, H[rows, cols])
+    x, y = grid.xy(rows, cols)
+    el, ep = solve(x, y, H[rows, cols])
     err = np.maximum(np.abs(el - line[rows, cols]), np.abs(ep - pixel[rows, cols]))
     err = np.where(np.isfinite(err), err, np.inf)
     stats.validated += pick.size

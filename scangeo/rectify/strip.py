@@ -153,9 +153,10 @@ def _pass1_tile(geometry, grid, w, options, track, orientation, zbuf, work, stat
     x, y = grid.x_of_col(cols), grid.y_of_row(rows)
     X, Y = np.meshgrid(x, y)
     H = np.asarray(geometry.height(X, Y), dtype=float)
+    along = (track[0][-1] - track[0][0], track[1][-1] - track[1][0])
     line, pixel, st = build_inverse_map(
         geometry.ground_to_image, TileGrid(x[0], y[0], grid.resolution), H,
-        (geometry.lines, geometry.pixels), options.inverse_map, seed=seed,
+        (geometry.lines, geometry.pixels), options.inverse_map, seed=seed, along=along, height=geometry.height,
     )
     stats.merge(st)
     near = np.isfinite(line) & np.isfinite(pixel)
