@@ -267,31 +267,30 @@ def _condition(t, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp):
     return f, df
 
 
-@nb.njit(**_opts)
-def _coarse_g(k, P, tan_a, cR, cp):
-    g = 0.0
-    for i in range(3):
-        g += (cR[k, i, 0] - tan_a * cR[k, i, 2]) * (P[i] - cp[k, i])
-    return g
+@nb.njit(inline="always", **_opts)
+def _coarse_g(k, P, cA, cC):
+    """The scan-plane condition at coarse epoch k: ``A_k . P - C_k`` with
+    ``A_k = R_PS[:,0] - tan_c R_PS[:,2]`` and ``C_k = A_k . p_S`` precomputed (tan_c: centre pixel)."""
+    return cA[k, 0] * P[0] + cA[k, 1] * P[1] + cA[k, 2] * P[2] - cC[k]
 
 
 MAX_CROSSINGS = 8
 
 
 @nb.njit(**_opts)
-def _sign_change(k, P, tan_a, cR, cp):
-    ga = _coarse_g(k, P, tan_a, cR, cp)
-    gb = _coarse_g(k + 1, P, tan_a, cR, cp)
+def _sign_change(k, P, cA, cC):
+    ga = _coarse_g(k, P, cA, cC)
+    gb = _coarse_g(k + 1, P, cA, cC)
     return (ga >= 0 and gb < 0) or (ga < 0 and gb >= 0)
 
 
 @nb.njit(**_opts)
-def _grazes(k, P, tan_a, cR, cp):
+def _grazes(k, P, cA, cC):
     """True if the parabola through samples k-1, k, k+1 crosses zero twice between them while the
     samples themselves keep one sign."""
-    gm = _coarse_g(k - 1, P, tan_a, cR, cp)
-    g0 = _coarse_g(k, P, tan_a, cR, cp)
-    gp = _coarse_g(k + 1, P, tan_a, cR, cp)
+    gm = _coarse_g(k - 1, P, cA, cC)
+    g0 = _coarse_g(k, P, cA, cC)
+    gp = _coarse_g(k + 1, P, cA, cC)
     if (gm >= 0) != (g0 >= 0) or (gp >= 0) != (g0 >= 0):
         return False
     curv = gp - 2 * g0 + gm
@@ -305,23 +304,23 @@ def _grazes(k, P, tan_a, cR, cp):
 
 
 @nb.njit(**_opts)
-def _find_crossings(P, tan_a, cR, cp, k_warm, window, out):
+def _find_crossings(P, cA, cC, k_warm, window, out):
     """Coarse intervals where the scan-plane condition changes sign, in time order (at most
     MAX_CROSSINGS); returns their count and the number of sightings including double crossings
     between coarse samples (grazing). With ``window == 0`` the strip is monotonic (one crossing,
     found by galloping from ``k_warm`` and bisection); otherwise all crossings within ``window``
     intervals of a first one are collected."""
-    M = cR.shape[0]
-    g0 = _coarse_g(0, P, tan_a, cR, cp)
-    gM = _coarse_g(M - 1, P, tan_a, cR, cp)
+    M = cA.shape[0]
+    g0 = _coarse_g(0, P, cA, cC)
+    gM = _coarse_g(M - 1, P, cA, cC)
     k0 = -1
     if g0 >= 0 and gM < 0:
         k = min(max(k_warm, 0), M - 2)
-        if _coarse_g(k, P, tan_a, cR, cp) >= 0:
+        if _coarse_g(k, P, cA, cC) >= 0:
             lo = k
             step = 1
             hi = min(M - 1, lo + step)
-            while _coarse_g(hi, P, tan_a, cR, cp) >= 0:
+            while _coarse_g(hi, P, cA, cC) >= 0:
                 lo = hi
                 step *= 2
                 hi = min(M - 1, lo + step)
@@ -329,20 +328,20 @@ def _find_crossings(P, tan_a, cR, cp, k_warm, window, out):
             hi = k
             step = 1
             lo = max(0, hi - step)
-            while _coarse_g(lo, P, tan_a, cR, cp) < 0:
+            while _coarse_g(lo, P, cA, cC) < 0:
                 hi = lo
                 step *= 2
                 lo = max(0, hi - step)
         while hi - lo > 1:
             mid = (lo + hi) // 2
-            if _coarse_g(mid, P, tan_a, cR, cp) >= 0:
+            if _coarse_g(mid, P, cA, cC) >= 0:
                 lo = mid
             else:
                 hi = mid
         k0 = lo
     elif window > 0:
         for kk in range(M - 1):
-            if _sign_change(kk, P, tan_a, cR, cp):
+            if _sign_change(kk, P, cA, cC):
                 k0 = kk
                 break
     if k0 < 0:
@@ -353,12 +352,12 @@ def _find_crossings(P, tan_a, cR, cp, k_warm, window, out):
     count = 0
     grazing = 0
     for kk in range(max(0, k0 - window), min(M - 1, k0 + window + 1)):
-        if _sign_change(kk, P, tan_a, cR, cp):
+        if _sign_change(kk, P, cA, cC):
             out[count] = kk
             count += 1
             if count == MAX_CROSSINGS:
                 break
-        elif kk > 0 and _grazes(kk, P, tan_a, cR, cp):
+        elif kk > 0 and _grazes(kk, P, cA, cC):
             grazing += 2
     # a double crossing between coarse samples (the scan plane turning near the point) is counted
     # for the over-scanning flag; its times are not solved
@@ -366,13 +365,17 @@ def _find_crossings(P, tan_a, cR, cp, k_warm, window, out):
 
 
 @nb.njit(**_opts)
-def _solve_in(k, P, tan_a, ctimes, cR, cp, t0, dt, coef, lever, R_BS, toff, tol_t, R, p, dR, dp):
+def _solve_in(k, P, tan_a, tan_c, ctimes, cA, cC, t0, dt, coef, lever, R_BS, toff, tol_t, R, p, dR, dp):
     """Safeguarded Newton for the time in coarse interval k (either sign change); NaN if none."""
     M = ctimes.shape[0]
     a = ctimes[k]
     b = ctimes[k + 1]
-    fa = _coarse_g(k, P, tan_a, cR, cp)  # the coarse poses are the spline's poses
-    fb = _coarse_g(k + 1, P, tan_a, cR, cp)
+    if tan_a == tan_c:
+        fa = _coarse_g(k, P, cA, cC)  # the coarse poses are the spline's poses
+        fb = _coarse_g(k + 1, P, cA, cC)
+    else:
+        fa, _ = _condition(a, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+        fb, _ = _condition(b, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
     if (fa >= 0) == (fb >= 0):  # a changed along-track angle moved the crossing: widen
         a = ctimes[max(0, k - 1)]
         b = ctimes[min(M - 1, k + 2)]
@@ -400,11 +403,12 @@ def _solve_in(k, P, tan_a, ctimes, cR, cp, t0, dt, coef, lever, R_BS, toff, tol_
 
 @nb.njit(parallel=True, **_opts)
 def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, table,
-                           lt0, lrate, ltable, n_lines, ctimes, cR, cp, window, tol_t, n_chunks,
+                           lt0, lrate, ltable, n_lines, ctimes, cA, cC, window, tol_t, n_chunks,
                            out_line, out_pixel, out_status):
     """Solve (line, pixel) for ground points (n, 3) in the project frame, in parallel chunks.
 
-    ``ctimes, cR, cp``: coarse sensor times with R_PS and p_S there (bracketing); ``window``: number
+    ``ctimes, cA, cC``: coarse sensor times and the condition's coefficients there for the centre
+    pixel's along-track angle (bracketing, see ``_coarse_g``); ``window``: number
     of coarse intervals searched around a solution for further solutions (0 = strip monotonic).
     The first solution in time that lies inside the image is returned; MULTIPLE flags points with
     several.
@@ -418,7 +422,7 @@ def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, ta
         p = np.empty(3)
         dp = np.empty(3)
         crossings = np.empty(MAX_CROSSINGS, dtype=np.int64)
-        k_warm = cR.shape[0] // 2
+        k_warm = cA.shape[0] // 2
         for q in range(c * chunk, min(n, (c + 1) * chunk)):
             P = points[q]
             out_line[q] = np.nan
@@ -427,7 +431,7 @@ def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, ta
             if not (np.isfinite(P[0]) and np.isfinite(P[1]) and np.isfinite(P[2])):
                 continue
             tan_c = sensor_along_tan(kind, sp, table, 0.5 * (npix - 1))
-            count, sightings = _find_crossings(P, tan_c, cR, cp, k_warm, window, crossings)
+            count, sightings = _find_crossings(P, cA, cC, k_warm, window, crossings)
             flag = MULTIPLE if sightings > 1 else 0
             if count > 0:
                 k_warm = crossings[0]
@@ -438,7 +442,7 @@ def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, ta
                 pixel = np.nan
                 t = np.nan
                 for outer in range(8):  # pushbroom: iterate the along-track angle of the pixel
-                    t = _solve_in(k, P, tan_a, ctimes, cR, cp, t0, dt, coef, lever, R_BS, toff, tol_t, R, p, dR, dp)
+                    t = _solve_in(k, P, tan_a, tan_c, ctimes, cA, cC, t0, dt, coef, lever, R_BS, toff, tol_t, R, p, dR, dp)
                     if np.isnan(t):
                         status = NO_CONVERGENCE
                         break

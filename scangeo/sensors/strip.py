@@ -190,13 +190,16 @@ class StripGeometry:
         n = len(p_P)
         times, R, p, _, _ = self._coarse
         kind, sp, table = self.sensor.kernel_params()
+        tan_c = float(np.tan(self.sensor.along_angle(np.array([0.5 * (self.sensor.pixels - 1)]))[0]))
+        cA = np.ascontiguousarray(R[:, :, 0] - tan_c * R[:, :, 2])
+        cC = np.einsum("ki,ki->k", cA, p)
         line = np.empty(n)
         pixel = np.empty(n)
         status = np.empty(n, dtype=np.int64)
         window = self.overscan_window(p_P)
         K.ground_to_image_kernel(
             p_P, *self._mount_args(), kind, sp, np.ascontiguousarray(table, dtype=float),
-            *self._timing_args(), float(self.n_lines), times, np.ascontiguousarray(R), np.ascontiguousarray(p), window,
+            *self._timing_args(), float(self.n_lines), times, cA, cC, window,
             tol_line / self.timing.mean_rate, max(1, min(n, 256)), line, pixel, status,
         )
         return line, pixel, status
