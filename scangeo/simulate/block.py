@@ -131,7 +131,8 @@ def simulate(out: str | Path, config: SimulationConfig, seed: int | None = None,
         shutil.rmtree(staging)
     (staging / "truth").mkdir(parents=True)
     (staging / "nav").mkdir()
-    (staging / "images").mkdir()
+    if config.output.images:
+        (staging / "images").mkdir()
     try:
         block = _simulate_into(staging, config, seed, dtm_file, texture, progress)
     except BaseException:
@@ -219,8 +220,11 @@ def _write_project(root: Path, config: SimulationConfig, seed: int, map_frame: M
         write_trajectory_csv(root / "nav" / f"{s.strip_id}.csv", s.measured)
         write_trajectory_csv(root / "truth" / f"trajectory_{s.strip_id}.csv", s.true_stream)
         writer.write_errors(root / "truth" / f"errors_{s.strip_id}.csv", s.errors)
-        entries.append({"id": s.strip_id, "image": f"images/{s.strip_id}{image_ext}", "trajectory": f"nav/{s.strip_id}.csv",
+        entries.append({"id": s.strip_id, "trajectory": f"nav/{s.strip_id}.csv",
                         "first_line_time": plan_strip.first_line_time, "lines": plan_strip.lines})
+        if config.output.images:
+            entries[-1]["image"] = f"images/{s.strip_id}{image_ext}"
+
     frame = map_frame.frame
     origin = (float(np.degrees(frame.lat0)), float(np.degrees(frame.lon0)), float(frame.h0))
     writer.write_raster(root / "dtm.tif", terrain.dtm, description="DTM height (orthometric, m)")
@@ -229,7 +233,7 @@ def _write_project(root: Path, config: SimulationConfig, seed: int, map_frame: M
                         dataclasses.replace(terrain.dtm, values=terrain.dtm_error), description="DTM minus truth (m)")
     pc = config.points
     sigmas = {"control": (pc.control_sigma_xy_m, pc.control_sigma_z_m), "check": (pc.control_sigma_xy_m, pc.control_sigma_z_m),
-              "height": (0.0, pc.height_sigma_z_m)}
+              "height": (pc.height_sigma_xy_m, pc.height_sigma_z_m)}
     rng = rng_for(seed, "ground coordinates")
     given = np.column_stack([points.x, points.y, points.z])
     for i, kind in enumerate(points.kind):

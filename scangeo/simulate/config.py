@@ -177,6 +177,7 @@ class PointsConfig:
     control_sigma_xy_m: float = 0.05
     control_sigma_z_m: float = 0.08
     height_sigma_z_m: float = 0.1
+    height_sigma_xy_m: float = 1.0
     blunders: int = 0
     blunder_px: tuple[float, ...] = (10.0, 40.0)
 

@@ -88,8 +88,9 @@ def project_toml(*, crs: str, origin_deg: tuple[float, float, float], geoid_undu
         f"wavelengths_nm = [{centres}]",
     ]
     for s in strips:
-        lines += ["", "[[strips]]", f'id = "{s["id"]}"', f'image = "{s["image"]}"', f'trajectory = "{s["trajectory"]}"',
-                  f"first_line_time = {s['first_line_time']!r}", f"lines = {s['lines']}"]
+        lines += ["", "[[strips]]", f'id = "{s["id"]}"']
+        lines += [f'image = "{s["image"]}"'] if "image" in s else []
+        lines += [f'trajectory = "{s["trajectory"]}"', f"first_line_time = {s['first_line_time']!r}", f"lines = {s['lines']}"]
     return "\n".join(lines) + "\n"
 
 
