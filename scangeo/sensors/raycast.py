@@ -142,6 +142,10 @@ def _cast_one(q, o, d, coef, exps, centre, scale, values, inv, h_min, h_max, ste
                 l_prev = la + i * dl
                 continue
         v, code = dtm_sample(values, inv, x, y)
+        if code == 2 and H > h_max:
+            # above the highest terrain over a nodata hole: cannot meet the ground there
+            l_prev = lam
+            continue
         if code != 0:
             if seen_valid:
                 status = LEAVES_DTM if code == 1 else NODATA
