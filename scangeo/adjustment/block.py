@@ -127,7 +127,8 @@ def _correction_block(params: Parameters, m: GpsImuModel, v: Variant) -> None:
                      v.constant_sigma_m if v.constant_sigma_m else np.inf)
     prior = np.where(deg >= 1, sig_coef, np.where(deg == 0, const, np.inf))
     params.add(m.key, np.zeros(len(names)), True, prior_sigma=prior, prior_values=np.zeros(len(names)),
-               regularisation_sigma=np.where(deg < 0, 1e-3, sig_coef), names=names, conditions=m.conditions)
+               regularisation_sigma=np.where(deg < 0, 1e-3, np.minimum(sig_coef, np.where(angular, 0.01, 10.0))),
+               names=names, conditions=m.conditions)
 
 
 def build_block(project: Project, variant: Variant, points: ImagePoints, ground: GroundPoints) -> Block:

@@ -96,10 +96,14 @@ def residual_rows(result: VariantResult):
                    "" if not math.isfinite(w[i]) else f"{w[i]:.3f}", "" if not math.isfinite(red[i]) else f"{red[i]:.4f}",
                    int(flagged)]
     c = result.checks
-    for p, s, dl, dp, st in zip(c.point, c.strip, c.line, c.pixel, c.status):
+    crit = result.variant.critical_value
+    for p, s, dl, dp, st, sig in zip(c.point, c.strip, c.line, c.pixel, c.status, c.sigma_px):
         ok = st == 0
-        yield ["check points", p, s, "check", "line", f"{dl:.6g}" if ok else "", "line", "", "", "", int(not ok)]
-        yield ["check points", p, s, "check", "pixel", f"{dp:.6g}" if ok else "", "px", "", "", "", int(not ok)]
+        for comp, unit, v in (("line", "line", dl), ("pixel", "px", dp)):
+            # w of a check measurement: its residual over its measurement sigma (orientation error ignored)
+            w = v / sig
+            yield ["check points", p, s, "check", comp, f"{v:.6g}" if ok else "", unit, f"{sig:.6g}",
+                   f"{w:.3f}" if ok else "", "", int(not ok or abs(w) > crit)]
 
 
 def write_results(result: VariantResult, out_dir=None) -> Path:

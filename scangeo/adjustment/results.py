@@ -36,6 +36,7 @@ class CheckResiduals:
     line: np.ndarray
     pixel: np.ndarray
     status: np.ndarray
+    sigma_px: np.ndarray | None = None
 
 
 @dataclass
@@ -112,7 +113,7 @@ def evaluate_checks(result_block: Block, geometry_of) -> CheckResiduals:
     """Project every check point into the strips that measured it; compare with the measurements."""
     b = result_block
     given = {str(p): i for i, p in enumerate(b.ground.point)}
-    pts, strips, dl, dp, st = [], [], [], [], []
+    pts, strips, dl, dp, st, sig = [], [], [], [], [], []
     for sid in b.strips:
         sel = [i for i, (p, s) in enumerate(zip(b.points.point, b.points.strip))
                if str(s) == sid and b.role(str(p)) == "check" and str(p) in given]
@@ -127,10 +128,11 @@ def evaluate_checks(result_block: Block, geometry_of) -> CheckResiduals:
         dl.append(line - b.points.line[sel])
         dp.append(pixel - b.points.pixel[sel])
         st.append(status & ~16)  # over-scanning flag: the first sighting is a valid answer
+        sig.append(b.points.sigma_px[sel])
     if not pts:
         e = np.zeros(0)
-        return CheckResiduals(e.astype(object), e.astype(object), e, e, e.astype(int))
-    return CheckResiduals(*(np.concatenate(c) for c in (pts, strips, dl, dp, st)))
+        return CheckResiduals(e.astype(object), e.astype(object), e, e, e.astype(int), e)
+    return CheckResiduals(*(np.concatenate(c) for c in (pts, strips, dl, dp, st, sig)))
 
 
 def run_variant(project_root, variant: str | Variant, variants_file=None,

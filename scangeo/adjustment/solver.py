@@ -131,7 +131,7 @@ class Solver:
         self.callback = callback
         self.factorizer = Factorizer(options.backend)
         self.regularisation: list[RegularisationNote] = []
-        self._regularised: set[int] = set()
+        self._regularised: dict[int, int] = {}   # column -> times tightened
 
     # -- assembly -------------------------------------------------------------------------------
     def system(self, values, active: list[np.ndarray]) -> System:
@@ -153,17 +153,17 @@ class Solver:
         Dinv = sp.diags(1.0 / scale)
         return System(r, J, scale, (Dinv @ N @ Dinv).tocsc(), (J.T @ r) / scale, slices)
 
-    def _regularise(self, values, columns: np.ndarray, reason: str) -> PseudoObservations:
+    def _regularise(self, values, columns: np.ndarray, reason: str, tighten: float = 1.0) -> PseudoObservations:
         keys, comps, vals, sig, names = [], [], [], [], []
         for col in columns:
             key, i = self.layout.locate(int(col))
             block = self.parameters[key]
+            sigma = float(block.regularisation_sigma[i]) / tighten
             keys.append(key), comps.append(i), vals.append(values[key][i])
-            sig.append(block.regularisation_sigma[i]), names.append(block.names[i])
-            self.regularisation.append(RegularisationNote(key, block.names[i], float(block.regularisation_sigma[i]), reason))
-            self._regularised.add(int(col))
-            log.warning("regularised %s[%s] with sigma %g: %s", key.label, block.names[i],
-                        block.regularisation_sigma[i], reason)
+            sig.append(sigma), names.append(block.names[i])
+            self.regularisation.append(RegularisationNote(key, block.names[i], sigma, reason))
+            self._regularised[int(col)] = self._regularised.get(int(col), -1) + 1
+            log.warning("regularised %s[%s] with sigma %g: %s", key.label, block.names[i], sigma, reason)
         return PseudoObservations("regularisation", keys, np.array(comps), np.array(vals), np.array(sig), names)
 
     def factorize(self, values, active: list[np.ndarray]) -> tuple[System, Factor]:
@@ -184,10 +184,14 @@ class Solver:
                     return system, factor
                 empty = bad
                 reason = "singular or nearly singular normal equations (scaled pivot below %g)" % self.options.pivot_tolerance
-            empty = np.array([c for c in empty if int(c) not in self._regularised], dtype=np.int64)
-            if empty.size == 0:
-                raise NotPositiveDefinite("regularisation did not make the normal equations regular", pivots)
-            group = self._regularise(values, empty, reason)
+            tighten = 1.0
+            fresh = np.array([c for c in empty if int(c) not in self._regularised], dtype=np.int64)
+            if fresh.size == 0:  # already regularised, still undetermined: a pseudo-observation 100x tighter
+                rounds = max(self._regularised[int(c)] for c in empty) + 1
+                if rounds > 4:
+                    raise NotPositiveDefinite("regularisation did not make the normal equations regular", pivots)
+                fresh, tighten = empty, 100.0 ** rounds
+            group = self._regularise(values, fresh, reason, tighten)
             self.groups.append(group)
             active = active + [np.ones(group.n_rows, bool)]
 

@@ -1,0 +1,215 @@
+"""The adjustment of simulated blocks (``scangeo simulate --preset small``) against their truth."""
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from scangeo.adjustment.outputs import write_results
+from scangeo.adjustment.results import evaluate_checks, run_variant
+from scangeo.adjustment.variants import Variant, StripModels, read_variants
+from scangeo.cli import main
+from scangeo.errors import ProjectFileError
+from scangeo.sensors.strip import Mounting, StripGeometry
+from scangeo.simulate.block import simulate
+from scangeo.simulate.config import load_preset
+from scangeo.trajectory.readers import read_trajectory
+from scangeo.trajectory.spline import OrientationSpline
+
+NO_IMAGES = {"output": {"images": False, "truth_ortho": False}}
+#: GPS/IMU errors a degree-0 model describes exactly: per-strip position shifts only.
+SHIFT_ONLY = {"sensor": {"boresight_error_deg": [0.0, 0.0, 0.0]}, "gpsimu_errors": {"defaults": {
+    "drift_m": 0.0, "drift_deg": 0.0, "random_walk_m": 0.0, "random_walk_deg": 0.0, "attitude_offset_deg": 0.0,
+    "white_noise_m": 0.0, "white_noise_deg": 0.0, "height_wander_m": 0.0, "rotation_deg": 0.0}}}
+
+
+def _simulate(root, overrides):
+    simulate(root, load_preset("small", {**NO_IMAGES, **overrides}))
+    ground = root / "ground.csv"
+    # simulate writes sigma_xy = 0 for height points, which the ground.csv reader rejects (reported);
+    # the value plays no role for a height point
+    ground.write_text(ground.read_text().replace(",0,0.1,height", ",1,0.1,height"))
+    return root
+
+
+@pytest.fixture(scope="module")
+def small(tmp_path_factory):
+    return _simulate(tmp_path_factory.mktemp("adj") / "small", {})
+
+
+@pytest.fixture(scope="module")
+def shifted(tmp_path_factory):
+    return _simulate(tmp_path_factory.mktemp("adj") / "shift", SHIFT_ONLY)
+
+
+def true_geometry(result, root, sid):
+    proj = result.block.project
+    err = json.loads((root / "truth" / "errors.json").read_text())
+    traj = read_trajectory(root / "truth" / f"trajectory_{sid}.csv", crs=proj.crs).to_project(proj.map_frame.frame)
+    m = proj.sensor.mounting
+    return StripGeometry(proj.sensor.model, OrientationSpline.from_trajectory(traj, proj.knot_spacing),
+                         proj.timing(sid), proj.n_lines(sid),
+                         Mounting(m.lever_arm_B, np.radians(err["true_boresight_deg"]), m.time_offset), sid)
+
+
+def _pooled_rms(checks):
+    ok = checks.status == 0
+    return float(np.sqrt(np.mean(np.concatenate([checks.line[ok], checks.pixel[ok]]) ** 2)))
+
+
+def test_se_recovers_each_strips_datum_shift_within_3_sigma(small):
+    result = run_variant(small, "SE")
+    err = json.loads((small / "truth" / "errors.json").read_text())
+    stats = result.adjustment.statistics
+    assert result.adjustment.solution.converged
+    for m in result.block.models:
+        (sid,) = m.strips
+        shift = np.array(err["strips"][sid]["shift_m"])
+        est = result.adjustment.parameters[m.key].values[:3]   # x0, y0, z0: the correction = -error
+        sigma = stats.sigmas(m.key)[:3]
+        assert np.all(np.abs(est + shift) < 3 * sigma), (sid, est, -shift, sigma)
+        assert np.all(sigma < 20.0)
+
+
+def test_shift_only_block_recovers_shifts_and_checks_reach_the_noise(shifted):
+    variant = Variant("SHIFT", "SE", attitude_degree=-1)
+    result = run_variant(shifted, variant)
+    err = json.loads((shifted / "truth" / "errors.json").read_text())
+    stats = result.adjustment.statistics
+    for m in result.block.models:
+        (sid,) = m.strips
+        shift = np.array(err["strips"][sid]["shift_m"])
+        est, sigma = result.adjustment.parameters[m.key].values, stats.sigmas(m.key)
+        assert np.all(np.abs(est + shift) < 3 * sigma), (sid, est, -shift, sigma)
+        assert np.all(sigma[:2] < 0.5)     # planimetric shifts to decimetres
+    assert 0.7 < stats.sigma0 < 1.3
+    # check points: their rms with the true orientation is the measurement noise alone
+    noise = _pooled_rms(evaluate_checks(result.block, lambda s: true_geometry(result, shifted, s)))
+    adjusted = _pooled_rms(result.checks)
+    assert adjusted < 1.2 * noise, (adjusted, noise)
+    # direct georeferencing is clearly worse
+    dg = run_variant(shifted, "DG")
+    assert _pooled_rms(dg.checks) > 1.5 * adjusted
+
+
+def test_injected_blunders_are_flagged(shifted, tmp_path):
+    root = tmp_path / "blunders"
+    shutil.copytree(shifted, root)
+    rows = list(csv.reader(open(root / "points.csv")))
+    head, body = rows[0], rows[1:]
+    count = {}
+    for r in body:
+        count[r[0]] = count.get(r[0], 0) + 1
+    rng = np.random.default_rng(11)
+    candidates = [i for i, r in enumerate(body) if count[r[0]] >= 2 and r[0][0] in "ET"]
+    blunder_points, picked = set(), []
+    for i in rng.permutation(candidates):
+        if body[i][0] not in blunder_points and len(picked) < 6:
+            blunder_points.add(body[i][0])
+            picked.append(i)
+    for i in picked:
+        a, size = rng.uniform(0, 2 * np.pi), rng.uniform(10, 30)
+        body[i][2] = f"{float(body[i][2]) + size * np.cos(a):.4f}"
+        body[i][3] = f"{float(body[i][3]) + size * np.sin(a):.4f}"
+    with open(root / "points.csv", "w", newline="") as f:
+        csv.writer(f).writerows([head] + body)
+    result = run_variant(root, Variant("SHIFT", "SE", attitude_degree=-1))
+    flagged_points = {r.id for r in result.adjustment.rejections}
+    # a tie point seen in two strips shows a blunder but cannot say which of its two rays holds it:
+    # detection is counted per point
+    assert len(flagged_points & blunder_points) >= 0.95 * len(blunder_points)
+    good = len(set(count) - blunder_points)
+    assert len(flagged_points - blunder_points) <= 0.01 * good
+
+
+def test_rank_deficient_setup_ends_with_a_regularisation_note(small, tmp_path):
+    # a degree-4 position and attitude polynomial per strip, no preventive regularisation, control
+    # only at one end of the block: the far end's polynomial terms are undetermined
+    points = list(csv.DictReader(open(small / "points.csv")))
+    far = sorted({p["point"] for p in points if p["point"].startswith(("E", "H")) and float(p["line"]) > 300})
+    roles = {p: "check" for p in far}
+    variant = Variant("P4ONE", "P", position_degree=4, attitude_degree=4, coefficient_sigma_m=1e12,
+                      coefficient_sigma_deg=1e12, roles=tuple(roles.items()), snooping=False)
+    result = run_variant(small, variant)
+    notes = result.adjustment.solution.regularisation
+    assert notes, "expected regularised unknowns"
+    assert all(n.sigma > 0 for n in notes)
+    report = json_report(result, tmp_path)
+    assert report["regularisation"] and report["regularisation"][0]["sigma"] > 0
+
+
+def json_report(result, tmp_path):
+    out = write_results(result, tmp_path / "out")
+    return json.loads((out / "report.json").read_text())
+
+
+def test_split_model_is_continuous_in_the_adjusted_block(small):
+    variant = Variant("S2", "S", strips=(StripModels("01", position_degree=2, breaks_lines=(200.0, 400.0)),),
+                      dtm_heights=True)
+    result = run_variant(small, variant)
+    models = result.block.models
+    subs = [m for m in models if m.id.startswith("01.")]
+    assert [m.id for m in subs] == ["01.1", "01.2", "01.3"]
+    coef = {m.key: result.adjustment.parameters[m.key].values for m in models}
+    strip = result.block.strips["01"]
+    for m in subs[1:]:
+        t = np.array([m.t_start - 1e-7, m.t_start + 1e-7])
+        p = np.interp(t, strip.epochs, strip.gpsimu[:, 0])[:, None] * np.ones(3)
+        c = models.correction("01", t, p, coef)
+        assert np.abs(c[1] - c[0]).max() < 1e-3
+    acc = result.adjustment.statistics.accounting
+    assert acc.conditions == 2 * 6   # 2 breaks x (3 position + 3 attitude) continuity conditions
+    assert acc.parameters == acc.unknowns + acc.conditions
+
+
+def test_cli_writes_results(small, capsys):
+    assert main(["adjust", str(small), "--variant", "SE", "--no-progress"]) == 0
+    out = small / "results" / "SE"
+    report = json.loads((out / "report.json").read_text())
+    assert report["accounting"]["redundancy"] > 0 and report["sigma0"] > 0
+    assert set(report["strips"]) == {"01", "02"} and report["strips"]["01"]["check"]["n"] > 0
+    assert {c["block"] for c in report["coefficients"]} == {"Correction(model=01)", "Correction(model=02)"}
+    rows = list(csv.DictReader(open(out / "residuals.csv")))
+    kinds = {r["kind"] for r in rows}
+    assert {"gpsimu", "control", "tie", "check"} <= kinds
+    for sid in ("01", "02"):
+        traj = read_trajectory(out / f"trajectory_{sid}.csv")
+        assert len(traj.time) > 100
+        spline = json.loads((out / f"spline_{sid}.json").read_text())
+        assert np.array(spline["coef"]).shape[1] == 6
+    assert "sigma0" in capsys.readouterr().out
+    assert not list((small / "results").glob(".*"))   # no temporary folder left behind
+
+
+def test_bad_inputs_give_clear_errors(small, tmp_path, capsys):
+    root = tmp_path / "bad"
+    shutil.copytree(small, root, ignore=shutil.ignore_patterns("results"))
+    (root / "variants.toml").write_text('[variants.X]\nstrategy = "SE"\ndegree = 3\n')
+    with pytest.raises(ProjectFileError, match="unknown key degree"):
+        read_variants(root / "variants.toml")
+    assert main(["adjust", str(root), "--variant", "X", "--no-progress"]) == 1
+    assert "unknown key degree" in capsys.readouterr().err
+    (root / "variants.toml").unlink()
+    assert main(["adjust", str(root), "--variant", "NOPE", "--no-progress"]) == 1
+    assert "no variant 'NOPE'" in capsys.readouterr().err
+    text = (root / "points.csv").read_text().splitlines()
+    text.append("Z999,99,10.0,10.0,0.3")
+    (root / "points.csv").write_text("\n".join(text) + "\n")
+    assert main(["adjust", str(root), "--variant", "SE", "--no-progress"]) == 1
+    err = capsys.readouterr().err
+    assert "strip '99' is not in the project" in err and "line" in err
+
+
+def test_strip_without_control_gives_a_warning(small, caplog):
+    points = list(csv.DictReader(open(small / "points.csv")))
+    in01 = {p["point"] for p in points if p["strip"] == "01"}
+    in02 = {p["point"] for p in points if p["strip"] == "02"}
+    only01 = sorted(p for p in in01 - in02 if p[0] in "EH")
+    variant = Variant("NOCTL", "SE", roles=tuple((p, "check") for p in sorted(in02 - in01) if p[0] in "EH")
+                      + tuple((p, "check") for p in sorted(in01 & in02) if p[0] in "EH"), snooping=False)
+    result = run_variant(small, variant)
+    assert only01
+    assert any("strip 02 has no control point" in n for n in result.notes)
