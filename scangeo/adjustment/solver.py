@@ -212,6 +212,13 @@ class Solver:
             active += [np.ones(g.n_rows, bool) for g in self.groups[n_groups:]]
             cost = system.cost
             step = factor.solve(-system.gradient)
+            if float(np.max(np.abs(step), initial=0.0)) < opts.step_tolerance:  # converged: no trial needed
+                values = self.layout.add_step(values, step / system.scale)
+                iterations.append(IterationInfo(it, cost, float(np.max(np.abs(step), initial=0.0)), 0.0,
+                                                time.perf_counter() - t0))
+                self.callback(it, opts.max_iterations, f"iteration {it}: cost {cost:.6g}")
+                converged = True
+                break
             new_values = self.layout.add_step(values, step / system.scale)
             new_cost = self._cost(new_values, active)
             lam = 0.0
