@@ -21,6 +21,8 @@ LAYERS = {
     "view_zenith": "angle between the ray to the sensor and the vertical, degrees",
     "time": "acquisition time, seconds of the project's time base",
     "ground_pixel": "ground pixel size: square root of the ground area of the image pixel, metres",
+    "image_line": "image line the cell was resampled at (the inverse map; 0-based, pixel centres at integers)",
+    "image_pixel": "image pixel the cell was resampled at (the inverse map)",
 }
 
 

@@ -343,6 +343,10 @@ def _layer_values(geometry, work, rs, cs, line, pixel, valid, layers) -> np.ndar
         elif name == "time":
             values = np.full(line.shape, np.nan)
             values[valid] = geometry.time(line[valid], pixel[valid]) - time_origin(geometry)
+        elif name == "image_line":
+            values = line
+        elif name == "image_pixel":
+            values = pixel
         elif name in LAYERS:
             values = np.asarray(work[name][rs, cs])
         out[k] = np.where(valid, values, np.nan)
