@@ -122,7 +122,8 @@ class StripErrorConfig:
     ``excursion_lines`` are the epochs (image lines) between which the excursions are piecewise
     smooth: values at the epochs (``excursion_*_m``, ``excursion_roll_deg``) are joined linearly,
     and each piece gets a half-sine bulge (``bulge_*``, one per piece): continuous, with kinks at
-    the inner epochs. Empty lists mean no excursion. Position components in the project frame
+    the inner epochs (``excursion_shape = "smooth"``: a natural cubic spline through the values
+    instead of straight lines, plus the bulges). Empty lists mean no excursion. Position components in the project frame
     (x east, y north, z up).
     """
 
@@ -140,6 +141,7 @@ class StripErrorConfig:
     white_noise_m: float = 0.03
     white_noise_deg: float = 0.002
     height_wander_m: float = 1.0
+    excursion_shape: str = "kinked"
     excursion_lines: tuple[float, ...] = ()
     excursion_x_m: tuple[float, ...] = ()
     excursion_y_m: tuple[float, ...] = ()
@@ -355,6 +357,8 @@ def _validate_strip_errors(errors: StripErrorConfig, config: SimulationConfig) -
     if len(errors.shift_m) != 2:
         raise ProjectFileError(f"{config.source} [{key}.shift_m]: expected [smallest, largest] in metres")
     n = len(errors.excursion_lines)
+    if errors.excursion_shape not in ("kinked", "smooth"):
+        raise ProjectFileError(f"{config.source} [{key}.excursion_shape]: expected kinked or smooth")
     for name in ("excursion_x_m", "excursion_y_m", "excursion_z_m", "excursion_roll_deg"):
         if len(getattr(errors, name)) not in (0, n):
             raise ProjectFileError(f"{config.source} [{key}.{name}]: expected {n} values (one per excursion line)")

@@ -57,11 +57,19 @@ class StripErrors:
         return sum(self.attitude.values())
 
 
-def piecewise_excursion(t: np.ndarray, t_knots: np.ndarray, values: tuple, bulges: tuple) -> np.ndarray:
-    """Linear through ``values`` at ``t_knots`` plus a half-sine ``bulge`` per piece; constant outside."""
+def piecewise_excursion(t: np.ndarray, t_knots: np.ndarray, values: tuple, bulges: tuple,
+                        shape: str = "kinked") -> np.ndarray:
+    """Through ``values`` at ``t_knots``, constant outside: ``kinked`` joins them linearly and adds a
+    half-sine ``bulge`` per piece (C0, kinks at the knots); ``smooth`` is a natural cubic spline through
+    them (C2) plus the same bulges."""
     if not len(values):
         return np.zeros_like(t)
-    out = np.interp(t, t_knots, values)
+    if shape == "smooth" and len(values) > 2:
+        from scipy.interpolate import CubicSpline
+
+        out = CubicSpline(t_knots, values, bc_type="natural")(np.clip(t, t_knots[0], t_knots[-1]))
+    else:
+        out = np.interp(t, t_knots, values)
     for k, b in enumerate(bulges):
         a, c = t_knots[k], t_knots[k + 1]
         inside = (t >= a) & (t <= c)
@@ -148,11 +156,13 @@ def draw_errors(config: StripErrorConfig, time: np.ndarray, first_line_time: flo
     for k, (values, bulges) in enumerate(((config.excursion_x_m, config.bulge_x_m),
                                           (config.excursion_y_m, config.bulge_y_m),
                                           (config.excursion_z_m, config.bulge_z_m))):
-        excursion[:, k] = piecewise_excursion(time, t_knots, values, bulges or (0.0,) * max(len(values) - 1, 0))
+        excursion[:, k] = piecewise_excursion(time, t_knots, values, bulges or (0.0,) * max(len(values) - 1, 0),
+                                             config.excursion_shape)
     pos["excursion"] = excursion
     roll_exc = np.zeros((n, 3))
     roll_exc[:, 0] = deg * piecewise_excursion(time, t_knots, config.excursion_roll_deg,
-                                               config.bulge_roll_deg or (0.0,) * max(len(config.excursion_roll_deg) - 1, 0))
+                                               config.bulge_roll_deg or (0.0,) * max(len(config.excursion_roll_deg) - 1, 0),
+                                               config.excursion_shape)
     att["excursion"] = roll_exc
 
     pos["white_noise"] = rng.standard_normal((n, 3)) * config.white_noise_m

@@ -81,24 +81,29 @@ class _Placer:
             ok &= (pixel >= self.margin) & (pixel <= g.sensor.pixels - 1 - self.margin)
         return ok, p_P
 
-    def draw(self, count: int, xr, yr, strips, stratify_y: bool = True) -> tuple[np.ndarray, np.ndarray]:
-        """``count`` map points (x, y) in the rectangle xr x yr visible in ``strips``, spread in y."""
-        xs, ys = [], []
+    def draw(self, count: int, xr, yr, strips, tries: int = 16, rounds: int = 20) -> tuple[np.ndarray, np.ndarray]:
+        """``count`` map points (x, y) in the rectangle xr x yr visible in ``strips``, one per equal
+        slice of the y range (so they spread along the strips); slices without a visible open-ground
+        candidate after ``rounds`` rounds stay empty."""
         if count <= 0:
             return np.zeros(0), np.zeros(0)
-        edges = np.linspace(yr[0], yr[1], count + 1) if stratify_y else np.array([yr[0]] * count + [yr[1]])
-        for k in range(count):
-            lo, hi = (edges[k], edges[k + 1]) if stratify_y else (yr[0], yr[1])
-            for _attempt in range(40):
-                cx = self.rng.uniform(*xr, 16)
-                cy = self.rng.uniform(lo, hi, 16)
-                ok, _ = self.visible(cx, cy, strips)
-                if ok.any():
-                    i = int(np.flatnonzero(ok)[0])
-                    xs.append(cx[i])
-                    ys.append(cy[i])
-                    break
-        return np.array(xs), np.array(ys)
+        edges = np.linspace(yr[0], yr[1], count + 1)
+        xs, ys = np.full(count, np.nan), np.full(count, np.nan)
+        for _round in range(rounds):
+            todo = np.flatnonzero(np.isnan(xs))
+            if todo.size == 0:
+                break
+            cx = self.rng.uniform(xr[0], xr[1], (todo.size, tries))
+            cy = self.rng.uniform(edges[todo][:, None], edges[todo + 1][:, None], (todo.size, tries))
+            ok, _ = self.visible(cx.ravel(), cy.ravel(), strips)
+            ok = ok.reshape(todo.size, tries)
+            found = ok.any(axis=1)
+            first = ok.argmax(axis=1)
+            rows = np.flatnonzero(found)
+            xs[todo[rows]] = cx[rows, first[rows]]
+            ys[todo[rows]] = cy[rows, first[rows]]
+        keep = ~np.isnan(xs)
+        return xs[keep], ys[keep]
 
 
 def _line_to_y(plan: FlightPlan, strip_index: int, line: float) -> float:
