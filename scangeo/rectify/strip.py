@@ -38,10 +38,12 @@ from scangeo.rectify.resample import RESAMPLING, in_image, line_window, remap_ba
 
 log = logging.getLogger(__name__)
 
-#: memory the interpreter, numba, GDAL's cache and small arrays need besides the tiles, bytes
-BASE_MEMORY = 48 * 2**20
-#: GDAL block cache during rectification, bytes
+#: GDAL block cache during rectification, bytes (at most an eighth of the memory budget)
 GDAL_CACHE = 32 * 2**20
+
+
+def gdal_cache(options: RectifyOptions) -> int:
+    return int(min(GDAL_CACHE, options.memory_budget_mb * 2**20 / 8))
 
 
 @dataclass
@@ -81,10 +83,14 @@ def strip_grid(geometry: StripGeometry, options: RectifyOptions) -> OutputGrid:
 def choose_tile_size(
     options: RectifyOptions, geometry: StripGeometry, bands: int, itemsize: int, resolution: float
 ) -> int:
-    """The largest tile (cells per side) whose working arrays fit the memory budget."""
+    """The largest tile (cells per side) whose working arrays fit the memory budget.
+
+    The budget covers the data rectification holds (z-buffer, tile arrays, the image lines of a
+    tile, GDAL's block cache), not the interpreter and its libraries.
+    """
     if options.tile_size:
         return options.tile_size
-    budget = options.memory_budget_mb * 2**20 - BASE_MEMORY - GDAL_CACHE
+    budget = options.memory_budget_mb * 2**20 - gdal_cache(options)
     if options.occlusion:
         budget -= geometry.lines * geometry.pixels * 4
     gsd = nadir_ground_pixel(geometry)
@@ -164,7 +170,7 @@ def _pass1_tile(geometry, grid, w, options, track, orientation, zbuf, work, stat
         near &= (line > -2) & (line < geometry.lines + 1) & (pixel > -2) & (pixel < geometry.pixels + 1)
     line[~near] = np.nan
     pixel[~near] = np.nan
-    tr = np.arange(geometry.lines, dtype=float)
+    tr = np.arange(-1, geometry.lines + 1, dtype=float)
     sx, sy, sH = (np.interp(line, tr, t) for t in track)
     rng = np.sqrt((X - sx) ** 2 + (Y - sy) ** 2 + (H - sH) ** 2)
     rs, cs = _tile_slices(w)
@@ -223,7 +229,7 @@ def rectify_strip(
             src_ctx = rasterio.open(image)
     except rasterio.errors.RasterioIOError as exc:
         raise InputFileError(f"{image}: cannot read the strip image ({exc})") from exc
-    with rasterio.Env(GDAL_CACHEMAX=GDAL_CACHE), src_ctx as src:
+    with rasterio.Env(GDAL_CACHEMAX=gdal_cache(options)), src_ctx as src:
         if (src.height, src.width) != (geometry.lines, geometry.pixels):
             raise InputFileError(
                 f"{image}: image has {src.height} lines x {src.width} pixels, the strip's geometry "
@@ -241,7 +247,8 @@ def rectify_strip(
             extra = tuple(n for n in ("view_zenith", "ground_pixel") if n in layers)
             work = _WorkArrays(work_dir, grid.shape, extra)
             zbuf = occlusion.ZBuffer(geometry.lines, geometry.pixels) if options.occlusion else None
-            track = geometry.sensor_position(np.arange(geometry.lines, dtype=float))
+            # the projection centre at every line, one beyond each end (cells reach half a line out)
+            track = geometry.sensor_position(np.arange(-1, geometry.lines + 1, dtype=float))
             orientation = _orientation(geometry, grid)
             for i, w in enumerate(windows):
                 _pass1_tile(geometry, grid, w, options, track, orientation, zbuf, work, result.stats, seed=i)
