@@ -27,7 +27,8 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class SnoopingOptions:
     """Data snooping: ``critical_value`` of |w|, at most ``max_rejections`` units, ``per_round`` per
-    re-solution (1 is Baarda's strategy; more is faster on blocks with many blunders)."""
+    re-solution (1 is Baarda's strategy; more is faster on large blocks with many blunders: the
+    worst units of distinct points are removed together)."""
 
     enabled: bool = True
     critical_value: float = 3.29
@@ -77,7 +78,15 @@ def _worst_units(stats: Statistics, crit: float, count: int) -> list[tuple[int, 
             if best[u] > crit:
                 found.append((float(best[u]), gi, int(u)))
     found.sort(reverse=True)
-    return [(gi, u, w) for w, gi, u in found[:count]]
+    out, points = [], set()
+    for w, gi, u in found:  # one unit per point and round: a point's other rays share its blunder's smear
+        pid = str(sol.groups[gi].ids[sol.groups[gi].row_unit == u][0])
+        if pid not in points:
+            points.add(pid)
+            out.append((gi, u, w))
+        if len(out) == count:
+            break
+    return out
 
 
 def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],

@@ -204,6 +204,7 @@ class Solver:
         active += [np.ones(g.n_rows, bool) for g in self.groups[len(active):]]
         iterations: list[IterationInfo] = []
         converged = False
+        final = None
         lam = 0.0
         for it in range(1, opts.max_iterations + 1):
             t0 = time.perf_counter()
@@ -218,6 +219,7 @@ class Solver:
                                                 time.perf_counter() - t0))
                 self.callback(it, opts.max_iterations, f"iteration {it}: cost {cost:.6g}")
                 converged = True
+                final = (system, factor)  # the step is negligible: keep this linearisation and factor
                 break
             new_values = self.layout.add_step(values, step / system.scale)
             new_cost = self._cost(new_values, active)
@@ -247,7 +249,12 @@ class Solver:
                 break
         self.callback(opts.max_iterations, opts.max_iterations, "adjusted" if converged else "not converged")
         n_groups = len(self.groups)
-        system, factor = self.factorize(values, active)
+        if final is not None:
+            system, factor = final
+            system.residuals = np.concatenate([np.where(a, g.residuals(values), 0.0)
+                                               for g, a in zip(self.groups, active)])
+        else:
+            system, factor = self.factorize(values, active)
         active += [np.ones(g.n_rows, bool) for g in self.groups[n_groups:]]
         self.parameters.set_values(values)
         return Solution(self.parameters, self.layout, list(self.groups), active, system, factor,

@@ -54,6 +54,7 @@ class Variant:
     calibrate: tuple[str, ...] = ()
     snooping: bool = True
     critical_value: float = 3.29
+    rejections_per_round: int = 1
     max_iterations: int = 20
     backend: str = "auto"
 
@@ -88,7 +89,7 @@ def _variant(t: Table, name: str, defaults: dict) -> Variant:
     kw: dict = {"name": name}
     kw["strategy"] = t.choice("strategy", STRATEGIES, "SE")
     kw["description"] = t.get("description", str, "")
-    for key in ("position_degree", "attitude_degree", "max_iterations"):
+    for key in ("position_degree", "attitude_degree", "max_iterations", "rejections_per_round"):
         kw[key] = t.get(key, int, getattr(Variant, key))
     for key in ("rotation", "dtm_heights", "snooping"):
         kw[key] = t.get(key, bool, getattr(Variant, key))
