@@ -52,7 +52,7 @@ def main() -> None:
         print(f"  P -> map, local polynomial (baseline)        {n / t_local / 1e6:8.2f}"
               f"   (max difference to pyproj {err * 1000:.3f} mm)")
         print(f"  P -> map, pyproj (used)                      {n / t_pyproj / 1e6:8.2f}"
-              f"   speed-up pyproj/local {t_pyproj / t_local:5.1f}x")
+              f"   speed-up pyproj/local {t_local / t_pyproj:5.1f}x")
         print(f"  scene evaluation, 11 bands (procedural)      {n / t_scene / 1e6:8.2f}")
         total = t_cast + min(t_local, t_pyproj) + t_scene
         print(f"  -> a 7000-line strip (pyproj conversion) would take about {7000 / 256 * total:6.1f} s")
