@@ -114,3 +114,18 @@ def test_deterministic_per_seed(tmp_path):
         assert (a.root / name).read_bytes() != (c.root / name).read_bytes(), name
     with open(a.root / "points.csv") as f:
         assert next(csv.reader(f)) == ["point", "strip", "line", "pixel", "sigma_px"]
+
+
+def test_envi_images_write_and_read_back(tmp_path):
+    from scangeo.simulate.render import write_image
+
+    image = (np.arange(30 * 16 * N_BANDS) % 4000).reshape(30, 16, N_BANDS).astype(np.uint16)
+    write_image(tmp_path / "01.bsq", image, "ENVI")
+    names = {p.name for p in tmp_path.iterdir()}
+    assert {"01.bsq", "01.hdr"} <= names and not any("partial" in n for n in names)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+        with rasterio.open(tmp_path / "01.bsq") as src:
+            back = np.moveaxis(src.read(), 0, -1)
+            assert src.descriptions[10].startswith("ch11_thermal")
+    np.testing.assert_array_equal(back, image)
