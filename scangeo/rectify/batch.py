@@ -31,7 +31,7 @@ from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify.core_geometry import CoreStripGeometry
 from scangeo.rectify.geolocation import write_igm
 from scangeo.rectify.geometry import nadir_ground_pixel
-from scangeo.rectify.geotiff import BandInfo, bands_of
+from scangeo.rectify.geotiff import BandInfo, remove_partials
 from scangeo.rectify.options import RectifyOptions
 from scangeo.rectify.orientation import OrientationSource, core_geometry, orientation_source, results_folder
 from scangeo.rectify.output_grid import OutputGrid, nice_resolution
@@ -193,6 +193,8 @@ def rectify_project(
     tasks = []
     for sid in ids:
         out = folder / f"{sid}.tif"
+        for product in (out, out.with_name(f"{sid}.layers.tif"), out.with_suffix(".glt"), out.with_suffix(".igm")):
+            remove_partials(product)  # left by a killed run
         fp = fingerprint(project, source, sid, options)
         if is_complete(out, fp):
             result.strips[sid] = {"strip": sid, "status": "skipped", "path": str(out)}
