@@ -212,6 +212,16 @@ def _stream_of_spline(spline: OrientationSpline, time: np.ndarray, map_frame: Ma
     return GpsImuStream.from_project(trajectory, map_frame.frame)
 
 
+def _mean_errors(strip: SimulatedStrip, plan_strip, line_rate: float) -> dict:
+    """Mean position and attitude error over the strip's imaging time: what a degree-0 (SE)
+    correction would take up, before the boresight error (which adds to the attitude part)."""
+    t = strip.errors.time
+    t1 = plan_strip.first_line_time + (plan_strip.lines - 1) / line_rate
+    inside = (t >= plan_strip.first_line_time) & (t <= t1)
+    return {"mean_position_error_m": strip.errors.position_total[inside].mean(axis=0).tolist(),
+            "mean_attitude_error_deg": np.degrees(strip.errors.attitude_total[inside].mean(axis=0)).tolist()}
+
+
 def _write_project(root: Path, config: SimulationConfig, seed: int, map_frame: MapFrame, terrain: Terrain,
                    plan: FlightPlan, strips: list[SimulatedStrip], points: PointSet, crab: float) -> None:
     image_ext = ".tif" if config.output.image_format == "GTiff" else ".bsq"
@@ -249,7 +259,8 @@ def _write_project(root: Path, config: SimulationConfig, seed: int, map_frame: M
         "true_boresight_deg": list(np.add(config.sensor.boresight_deg, config.sensor.boresight_error_deg)),
         "crab_deg": float(np.degrees(crab)),
         "position_frame": "project frame P (x east, y north, z up) of project.toml's origin",
-        "strips": {s.strip_id: s.errors.parameters for s in strips},
+        "strips": {s.strip_id: {**s.errors.parameters, **_mean_errors(s, plan_strip, config.sensor.line_rate_hz)}
+                   for s, plan_strip in zip(strips, plan.strips)},
     })
     writer.write_json(root / "truth" / "scenario.json", {
         "seed": seed, "config_source": config.source, "config": dataclasses.asdict(config),

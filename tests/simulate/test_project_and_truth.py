@@ -99,6 +99,10 @@ def test_recorded_errors_are_measured_minus_true(small_block):
         shift = np.array(json.loads((root / "truth" / "errors.json").read_text())["strips"][s]["shift_m"])
         assert 1.0 <= np.linalg.norm(shift) <= 3.0
         np.testing.assert_allclose(data["shift_x_m"], shift[0], atol=1e-5)
+        strip_info = json.loads((root / "truth" / "errors.json").read_text())["strips"][s]
+        t0 = small_block.plan.strips[int(s) - 1].first_line_time
+        inside = (data["time"] >= t0) & (data["time"] <= t0 + 599 / 25.0)
+        np.testing.assert_allclose(strip_info["mean_position_error_m"][2], data["total_z_m"][inside].mean(), atol=1e-4)
 
 
 def test_deterministic_per_seed(tmp_path):
