@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from scangeo.errors import ProjectFileError
-from scangeo.io.points import _floats, _read_rows, write_csv
+from scangeo.io.points import column_floats, read_rows, write_csv
 from scangeo.io.project import Project
 from scangeo.sensors.strip import StripGeometry, status_text
 
@@ -124,22 +124,22 @@ def _text(value: float, digits: int) -> str:
 def read_image_points(path) -> tuple[list[str], np.ndarray, np.ndarray]:
     """``point,line,pixel`` CSV -> point ids, lines, pixels."""
     path = Path(path)
-    header, body, numbers = _read_rows(path, ["point", "line", "pixel"], [])
+    header, body, numbers = read_rows(path, ["point", "line", "pixel"], [])
     if not body:
         raise ProjectFileError(f"{path}: no points after the header")
     points = [r[header.index("point")] for r in body]
-    return points, _floats(path, header, body, numbers, "line"), _floats(path, header, body, numbers, "pixel")
+    return points, column_floats(path, header, body, numbers, "line"), column_floats(path, header, body, numbers, "pixel")
 
 
 def read_map_points(path) -> tuple[list[str], np.ndarray]:
     """``point,x,y[,z]`` CSV (map CRS, orthometric z) -> point ids, (n, 3) with NaN for missing z."""
     path = Path(path)
-    header, body, numbers = _read_rows(path, ["point", "x", "y"], ["z"])
+    header, body, numbers = read_rows(path, ["point", "x", "y"], ["z"])
     if not body:
         raise ProjectFileError(f"{path}: no points after the header")
     points = [r[header.index("point")] for r in body]
-    xyz = np.column_stack([_floats(path, header, body, numbers, "x"), _floats(path, header, body, numbers, "y"),
-                           _floats(path, header, body, numbers, "z", default=np.nan)])
+    xyz = np.column_stack([column_floats(path, header, body, numbers, "x"), column_floats(path, header, body, numbers, "y"),
+                           column_floats(path, header, body, numbers, "z", default=np.nan)])
     return points, xyz
 
 

@@ -20,7 +20,7 @@ from scangeo.errors import ProjectFileError
 ROLES = ("control", "check", "height", "planimetric")
 
 
-def _read_rows(path: Path, required: list[str], optional: list[str]) -> tuple[list[str], list[list[str]], list[int]]:
+def read_rows(path: Path, required: list[str], optional: list[str]) -> tuple[list[str], list[list[str]], list[int]]:
     try:
         with open(path, newline="", encoding="utf-8") as f:
             reader = csv.reader(f)
@@ -47,7 +47,7 @@ def _read_rows(path: Path, required: list[str], optional: list[str]) -> tuple[li
     return header, body, numbers
 
 
-def _floats(path, header, body, numbers, column, default=None) -> np.ndarray:
+def column_floats(path, header, body, numbers, column, default=None) -> np.ndarray:
     if column not in header:
         return np.full(len(body), np.nan if default is None else default)
     k = header.index(column)
@@ -84,15 +84,15 @@ class ImagePoints:
     @classmethod
     def read(cls, path, default_sigma_px: float = 0.3) -> "ImagePoints":
         path = Path(path)
-        header, body, numbers = _read_rows(path, ["point", "strip", "line", "pixel"], ["sigma_px"])
+        header, body, numbers = read_rows(path, ["point", "strip", "line", "pixel"], ["sigma_px"])
         point = np.array([r[header.index("point")] for r in body], dtype=object)
         strip = np.array([r[header.index("strip")] for r in body], dtype=object)
-        sigma = _floats(path, header, body, numbers, "sigma_px", default_sigma_px)
+        sigma = column_floats(path, header, body, numbers, "sigma_px", default_sigma_px)
         bad = np.flatnonzero(sigma <= 0)
         if bad.size:
             raise ProjectFileError(f"{path} line {numbers[bad[0]]}: sigma_px must be positive")
-        pts = cls(point, strip, _floats(path, header, body, numbers, "line"),
-                  _floats(path, header, body, numbers, "pixel"), sigma, np.array(numbers), str(path))
+        pts = cls(point, strip, column_floats(path, header, body, numbers, "line"),
+                  column_floats(path, header, body, numbers, "pixel"), sigma, np.array(numbers), str(path))
         seen: dict[tuple, int] = {}
         for i, key in enumerate(zip(point, strip)):
             if key in seen:
@@ -136,7 +136,7 @@ class GroundPoints:
     @classmethod
     def read(cls, path) -> "GroundPoints":
         path = Path(path)
-        header, body, numbers = _read_rows(path, ["point", "x", "y", "z", "sigma_xy", "sigma_z", "role"], [])
+        header, body, numbers = read_rows(path, ["point", "x", "y", "z", "sigma_xy", "sigma_z", "role"], [])
         role = np.array([r[header.index("role")].lower() for r in body], dtype=object)
         for i, r in enumerate(role):
             if r not in ROLES:
@@ -146,9 +146,9 @@ class GroundPoints:
         if (counts > 1).any():
             dup = ids[counts > 1][0]
             raise ProjectFileError(f"{path}: point {dup} appears more than once")
-        xyz = np.column_stack([_floats(path, header, body, numbers, c) for c in ("x", "y", "z")])
-        sxy = _floats(path, header, body, numbers, "sigma_xy")
-        sz = _floats(path, header, body, numbers, "sigma_z")
+        xyz = np.column_stack([column_floats(path, header, body, numbers, c) for c in ("x", "y", "z")])
+        sxy = column_floats(path, header, body, numbers, "sigma_xy")
+        sz = column_floats(path, header, body, numbers, "sigma_z")
         for name, arr in (("sigma_xy", sxy), ("sigma_z", sz)):
             bad = np.flatnonzero(arr <= 0)
             if bad.size:

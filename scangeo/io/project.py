@@ -134,7 +134,10 @@ class Project:
         crs = p.get("crs", str)
         dtm = root / p.get("dtm", str)
         geoid_file = p.get("geoid", str, None)
-        undulation = p.get("geoid_undulation_m", float, 0.0)
+        undulation = p.get("geoid_undulation_m", float, None)
+        if geoid_file and undulation is not None:
+            raise ProjectFileError(f"{file} [project]: give geoid or geoid_undulation_m, not both")
+        undulation = 0.0 if undulation is None else undulation
         geoid = Geoid.from_raster(root / geoid_file) if geoid_file else Geoid(undulation)
         origin = p.vector("origin", 3, None)
         knot_spacing = p.get("knot_spacing_s", float, 0.2)
