@@ -1,0 +1,161 @@
+"""The comparison table as Markdown, CSV and JSON (``PROJECT/results/comparison.{md,csv,json}``).
+
+* Markdown: one row per variant: type, control configuration, maximum degree, sigma0 and sigma0 in
+  % of the reference, and per strip the number of check-point measurements and their rms along and
+  across track in pixels with the % of the reference; a second table with the accounting; on a
+  simulated project a third with the true error of every variant.
+* CSV: one row per variant and strip with every figure (a tidy table for spreadsheets).
+* JSON: :meth:`Comparison.as_dict` (what ``scangeo report`` reads back).
+
+Every file is written under a temporary name and renamed.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+from pathlib import Path
+
+from scangeo.reports.comparison import Comparison, VariantSummary
+
+FILES = ("comparison.md", "comparison.csv", "comparison.json")
+
+
+def _f(x, digits: int = 2) -> str:
+    return "–" if x is None else f"{x:.{digits}f}"
+
+
+def _pct(x) -> str:
+    return "" if x is None else f" ({x:.0f} %)"
+
+
+def _check_cell(c: Comparison, v: VariantSummary, sid: str, key: str) -> str:
+    value = v.strips.get(sid, {}).get("check", {}).get(f"rms_{key}_px")
+    return _f(value) + _pct(c.check_percent(v, sid, key))
+
+
+def markdown_tables(c: Comparison) -> dict[str, tuple[list[str], list[list[str]]]]:
+    """The tables (header, rows) by title: ``check points``, ``accounting`` and, with truth, ``true error``."""
+    head = ["variant", "type", "control", "max degree", "sigma0", "sigma0 %"]
+    for sid in c.strips:
+        head += [f"{sid} n", f"{sid} along px (%)", f"{sid} across px (%)"]
+    rows = []
+    for v in c.variants:
+        if v.error:
+            rows.append([v.name, v.strategy, f"failed: {v.error}"] + [""] * (len(head) - 3))
+            continue
+        row = [v.name, v.strategy, v.control_label, "–" if v.max_degree is None else str(v.max_degree),
+               _f(v.sigma0, 3), _f(c.sigma0_percent(v), 0)]
+        for sid in c.strips:
+            row += [str(v.strips.get(sid, {}).get("check", {}).get("n", 0)),
+                    _check_cell(c, v, sid, "along"), _check_cell(c, v, sid, "across")]
+        rows.append(row)
+    tables = {"check points": (head, rows)}
+    acc_head = ["variant", "description", "DTM heights", "observations", "pseudo-observations", "parameters",
+                "conditions", "unknowns", "redundancy", "rejected", "regularised", "converged", "seconds"]
+    acc_rows = []
+    for v in c.variants:
+        a = v.accounting
+        acc_rows.append([v.name, v.description, str(v.dtm_heights)] + [str(a.get(k, "")) for k in (
+            "observations", "pseudo_observations", "parameters", "conditions", "unknowns", "redundancy")]
+            + [str(v.rejected), str(v.regularised), "yes" if v.converged else "NO", f"{v.seconds:.1f}"])
+    tables["accounting"] = (acc_head, acc_rows)
+    if c.truth:
+        t_head = ["variant"]
+        for sid in c.strips:
+            t_head += [f"{sid} along px", f"{sid} across px", f"{sid} ground m"]
+        t_rows = []
+        for v in c.variants:
+            row = [v.name]
+            for sid in c.strips:
+                t = v.strips.get(sid, {}).get("true", {})
+                row += [_f(t.get("rms_along_px")), _f(t.get("rms_across_px")), _f(t.get("rms_ground_m"))]
+            t_rows.append(row)
+        tables["true error"] = (t_head, t_rows)
+    return tables
+
+
+def _md_table(head: list[str], rows: list[list[str]]) -> str:
+    esc = (lambda s: str(s).replace("|", "\\|"))
+    lines = ["| " + " | ".join(map(esc, head)) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(map(esc, r)) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def markdown(c: Comparison) -> str:
+    """The comparison as a Markdown document."""
+    tables = markdown_tables(c)
+    best = c.best
+    out = [f"# Comparison of strategies: {c.project}", "",
+           f"Variants from `{c.variants_file}`. Reference: **{c.reference}** (100 %)"
+           + (f"; best (lowest check-point rms): **{best}**." if best else "."),
+           "Check points: rms of the residuals (model - measured) along track in lines (= pixels) and across "
+           "track in pixels, per strip, with the % of the reference.", "",
+           _md_table(*tables["check points"]), "", "## Accounting", "", _md_table(*tables["accounting"])]
+    if "true error" in tables:
+        out += ["", "## True error (simulated project)", "",
+                "rms of the adjusted orientation's error against truth/ over a grid of image positions: "
+                "along and across track in pixels, horizontal ground error in metres.", "",
+                _md_table(*tables["true error"])]
+    return "\n".join(out) + "\n"
+
+
+CSV_FIELDS = ["variant", "type", "description", "control", "dtm_heights", "max_degree", "unknowns", "redundancy",
+              "rejected", "sigma0", "sigma0_percent", "strip", "check_n", "check_rms_along_px",
+              "check_rms_across_px", "check_along_percent", "check_across_percent", "control_n",
+              "control_rms_along_px", "control_rms_across_px", "true_n", "true_rms_along_px", "true_rms_across_px",
+              "true_rms_ground_m", "true_max_ground_m", "error"]
+
+
+def csv_text(c: Comparison) -> str:
+    """One row per variant and strip (``CSV_FIELDS``); empty cells where a figure does not exist."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(CSV_FIELDS)
+    g = (lambda x: "" if x is None else (f"{x:.6g}" if isinstance(x, float) else str(x)))
+    for v in c.variants:
+        for sid in c.strips:
+            e = v.strips.get(sid, {})
+            ch, co, tr = e.get("check", {}), e.get("control", {}), e.get("true", {})
+            w.writerow([g(x) for x in (
+                v.name, v.strategy, v.description, v.control_label, v.dtm_heights, v.max_degree,
+                v.accounting.get("unknowns"), v.accounting.get("redundancy"), v.rejected, v.sigma0,
+                c.sigma0_percent(v), sid, ch.get("n"), ch.get("rms_along_px"), ch.get("rms_across_px"),
+                c.check_percent(v, sid, "along"), c.check_percent(v, sid, "across"), co.get("n"),
+                co.get("rms_along_px"), co.get("rms_across_px"), tr.get("n"), tr.get("rms_along_px"),
+                tr.get("rms_across_px"), tr.get("rms_ground_m"), tr.get("max_ground_m"), v.error)])
+    return buf.getvalue()
+
+
+def _write(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def write_comparison(c: Comparison, folder=None) -> list[Path]:
+    """Write comparison.md, .csv and .json to ``folder`` (default PROJECT/results); returns the paths."""
+    out = Path(folder) if folder else Path(c.project) / "results"
+    out.mkdir(parents=True, exist_ok=True)
+    texts = (markdown(c), csv_text(c), json.dumps(c.as_dict(), indent=1) + "\n")
+    paths = [out / name for name in FILES]
+    for p, t in zip(paths, texts):
+        _write(p, t)
+    return paths
+
+
+def read_comparison(folder) -> Comparison:
+    """The comparison written by :func:`write_comparison` (``PROJECT/results/comparison.json``)."""
+    from scangeo.errors import ProjectFileError
+
+    path = Path(folder) / "comparison.json"
+    if not path.exists():
+        raise ProjectFileError(f"{path}: no comparison yet (run 'scangeo compare' on the project first)")
+    try:
+        return Comparison.from_dict(json.loads(path.read_text(encoding="utf-8")))
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ProjectFileError(f"{path}: not a comparison written by scangeo compare ({exc})") from exc
+
+
+__all__ = ["CSV_FIELDS", "FILES", "csv_text", "markdown", "markdown_tables", "read_comparison", "write_comparison"]
