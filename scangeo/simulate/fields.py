@@ -7,6 +7,9 @@ orthoimage then sample one and the same scene.
 """
 from __future__ import annotations
 
+import math
+
+import numba as nb
 import numpy as np
 
 _M1 = np.uint64(0x9E3779B97F4A7C15)
@@ -41,41 +44,67 @@ def spectral_field(shape: tuple[int, int], resolution_m: float, rng: np.random.G
     return field / std if std > 0 else field
 
 
-def hash_uniform(ix: np.ndarray, iy: np.ndarray, seed: int) -> np.ndarray:
-    """Uniform [0, 1) numbers from integer lattice coordinates and a seed (splitmix64 mixing)."""
-    with np.errstate(over="ignore"):
-        h = (np.asarray(ix).astype(np.int64).astype(np.uint64) * _M1) ^ (
-            np.asarray(iy).astype(np.int64).astype(np.uint64) * _M3) ^ (np.uint64(seed & 0xFFFFFFFF) * _M2)
-        h = (h ^ (h >> np.uint64(30))) * _M2
-        h = (h ^ (h >> np.uint64(27))) * _M3
-        h = h ^ (h >> np.uint64(31))
-    return (h >> np.uint64(11)).astype(np.float64) / float(1 << 53)
+@nb.njit(cache=True, inline="always")
+def hash01(ix: float, iy: float, seed: int) -> float:
+    """Uniform [0, 1) number from integer lattice coordinates and a seed (splitmix64 mixing)."""
+    h = (np.uint64(np.int64(ix)) * _M1) ^ (np.uint64(np.int64(iy)) * _M3) ^ (np.uint64(seed & 0xFFFFFFFF) * _M2)
+    h = (h ^ (h >> np.uint64(30))) * _M2
+    h = (h ^ (h >> np.uint64(27))) * _M3
+    h = h ^ (h >> np.uint64(31))
+    return float(h >> np.uint64(11)) / 9007199254740992.0
 
 
-def value_noise(x: np.ndarray, y: np.ndarray, wavelength_m: float, seed: int) -> np.ndarray:
-    """Smooth lattice noise in [-1, 1] at map points, lattice spacing ``wavelength_m`` (C1, quintic fade)."""
-    u = np.asarray(x, dtype=float) / wavelength_m
-    v = np.asarray(y, dtype=float) / wavelength_m
-    iu, iv = np.floor(u), np.floor(v)
-    fu, fv = u - iu, v - iv
+@nb.njit(cache=True)
+def noise_at(x: float, y: float, wavelength_m: float, seed: int) -> float:
+    """Smooth lattice noise in [-1, 1] at one map point, lattice spacing ``wavelength_m`` (C1, quintic fade)."""
+    u = x / wavelength_m
+    v = y / wavelength_m
+    iu = math.floor(u)
+    iv = math.floor(v)
+    fu = u - iu
+    fv = v - iv
     fu = fu * fu * fu * (fu * (fu * 6 - 15) + 10)
     fv = fv * fv * fv * (fv * (fv * 6 - 15) + 10)
-    a = hash_uniform(iu, iv, seed)
-    b = hash_uniform(iu + 1, iv, seed)
-    c = hash_uniform(iu, iv + 1, seed)
-    d = hash_uniform(iu + 1, iv + 1, seed)
+    a = hash01(iu, iv, seed)
+    b = hash01(iu + 1, iv, seed)
+    c = hash01(iu, iv + 1, seed)
+    d = hash01(iu + 1, iv + 1, seed)
     top = a + fu * (b - a)
     bottom = c + fu * (d - c)
     return 2.0 * (top + fv * (bottom - top)) - 1.0
 
 
-def fbm(x: np.ndarray, y: np.ndarray, wavelength_m: float, seed: int, octaves: int = 4,
-        gain: float = 0.5) -> np.ndarray:
-    """Fractal sum of value noise, octaves halving the wavelength; roughly in [-1, 1]."""
-    total = np.zeros(np.shape(x))
-    amplitude, norm = 1.0, 0.0
+@nb.njit(cache=True)
+def fbm_at(x: float, y: float, wavelength_m: float, seed: int, octaves: int = 4, gain: float = 0.5) -> float:
+    """Fractal sum of lattice noise at one point, octaves halving the wavelength; roughly in [-1, 1]."""
+    total = 0.0
+    amplitude = 1.0
+    norm = 0.0
+    wl = wavelength_m
     for k in range(octaves):
-        total += amplitude * value_noise(x, y, wavelength_m / 2**k, seed + 7919 * k)
+        total += amplitude * noise_at(x, y, wl, seed + 7919 * k)
         norm += amplitude
         amplitude *= gain
+        wl *= 0.5
     return total / norm
+
+
+@nb.njit(parallel=True, cache=True)
+def _fbm_array(x, y, wavelength_m, seed, octaves, gain, out):
+    for i in nb.prange(x.size):
+        out[i] = fbm_at(x[i], y[i], wavelength_m, seed, octaves, gain)
+
+
+def value_noise(x: np.ndarray, y: np.ndarray, wavelength_m: float, seed: int) -> np.ndarray:
+    """Lattice noise (``noise_at``) at arrays of map points."""
+    return fbm(x, y, wavelength_m, seed, octaves=1)
+
+
+def fbm(x: np.ndarray, y: np.ndarray, wavelength_m: float, seed: int, octaves: int = 4,
+        gain: float = 0.5) -> np.ndarray:
+    """Fractal noise (``fbm_at``) at arrays of map points."""
+    xa = np.ascontiguousarray(np.asarray(x, dtype=float).ravel())
+    ya = np.ascontiguousarray(np.broadcast_to(np.asarray(y, dtype=float), np.shape(x)).ravel())
+    out = np.empty(xa.size)
+    _fbm_array(xa, ya, float(wavelength_m), int(seed), int(octaves), float(gain), out)
+    return out.reshape(np.shape(x))

@@ -16,7 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from scangeo.simulate.fields import fbm, hash_uniform, value_noise
+import math
+
+import numba as nb
+
+from scangeo.simulate.fields import fbm, fbm_at, hash01, noise_at, value_noise
 
 #: Daedalus AADS 1268 channels: band name, lower and upper wavelength (micrometres).
 BANDS = (
@@ -104,83 +108,123 @@ class LandcoverScene:
 
     def values(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Band values (n, 11): reflectance (bands 1-10), brightness temperature in K (band 11)."""
-        X = np.asarray(x, float).ravel() - self.x0
-        Y = np.asarray(y, float).ravel() - self.y0
-        cls, brightness = self._evaluate(X, Y)
+        X = np.ascontiguousarray(np.asarray(x, float).ravel() - self.x0)
+        Y = np.ascontiguousarray(np.asarray(y, float).ravel() - self.y0)
         out = np.empty((X.size, N_BANDS))
-        out[:, :10] = _SPECTRA[cls] * brightness[:, None]
-        out[:, 10] = _TEMPERATURE[cls] + 2.0 * (brightness - 1.0) * 10.0 + 0.8 * value_noise(X, Y, 60.0, self.seed + 5)
+        _landcover_values(X, Y, self.seed, self._params(), _SPECTRA, _TEMPERATURE, out)
         return out
 
+    def _params(self) -> np.ndarray:
+        return np.array([self.urban_threshold, self.forest_threshold, self.river_x, self.river_phase[0],
+                         self.river_phase[1], 1.0 if self.river else 0.0])
+
     def _evaluate(self, X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        s = self.seed
-        cls = np.full(X.shape, CLASS_ID["grass"], dtype=np.intp)
-        bright = 1.0 + 0.06 * fbm(X, Y, 40.0, s + 1, octaves=3)
-        urban = self._urbanness(X, Y) > self.urban_threshold
-        forest = ~urban & (self._forestness(X, Y) > self.forest_threshold)
-        rural = ~urban & ~forest
+        """Class ids and brightness factors at block-relative coordinates (compiled, parallel)."""
+        Xa = np.ascontiguousarray(np.asarray(X, float).ravel())
+        Ya = np.ascontiguousarray(np.broadcast_to(np.asarray(Y, float), np.shape(X)).ravel())
+        cls = np.empty(Xa.size, dtype=np.int64)
+        bright = np.empty(Xa.size)
+        _landcover(Xa, Ya, self.seed, self._params(), cls, bright)
+        return cls.reshape(np.shape(X)), bright.reshape(np.shape(X))
 
-        # rural: staggered parcels on a gently warped grid, crops by parcel, farm tracks and roads
-        wx = X + 30.0 * value_noise(X, Y, 500.0, s + 2)
-        wy = Y + 30.0 * value_noise(X, Y, 500.0, s + 3)
-        i = np.floor(wx / self.FIELD_W)
-        shift = hash_uniform(i, 0, s + 4) * self.FIELD_H
-        j = np.floor((wy + shift) / self.FIELD_H)
-        h = hash_uniform(i, j, s + 5)
-        crop = np.select([h < 0.3, h < 0.55, h < 0.75], [CLASS_ID["crop_green"], CLASS_ID["crop_ripe"],
-                                                         CLASS_ID["grass"]], CLASS_ID["soil"])
-        fx = wx / self.FIELD_W - i
-        fy = (wy + shift) / self.FIELD_H - j
-        d_vertical = np.minimum(fx, 1 - fx) * self.FIELD_W
-        d_horizontal = np.minimum(fy, 1 - fy) * self.FIELD_H
-        rows_dir = hash_uniform(i, j, s + 6) < 0.5
-        phase = np.where(rows_dir, wx, wy)
-        field_bright = 0.85 + 0.3 * hash_uniform(i, j, s + 7) + 0.05 * np.sin(2 * np.pi * phase / 18.0)
-        road = (d_vertical < 4.0) & (hash_uniform(np.round(wx / self.FIELD_W), 1, s + 8) < 0.25)
-        track = (d_horizontal < 2.5) & (hash_uniform(i, j, s + 9) < 0.35)
-        rural_cls = np.where(road, CLASS_ID["asphalt"], np.where(track, CLASS_ID["track"], crop))
-        cls = np.where(rural, rural_cls, cls)
-        bright = np.where(rural & ~road & ~track, bright * field_bright, bright)
 
-        # forest: crowns as strong small-scale texture, clearings of grass
-        crowns = fbm(X, Y, 12.0, s + 12, octaves=2)
-        cls = np.where(forest, np.where(crowns < -0.55, CLASS_ID["grass"], CLASS_ID["forest"]), cls)
-        bright = np.where(forest, 1.0 + 0.35 * crowns, bright)
+# class ids for the compiled kernel (the order of CLASSES)
+_WATER, _ASPHALT, _CONCRETE, _ROOF_TILE, _ROOF_DARK, _GRASS, _CROP_GREEN, _CROP_RIPE, _SOIL, _FOREST, _TRACK = range(11)
+_FIELD_W, _FIELD_H = LandcoverScene.FIELD_W, LandcoverScene.FIELD_H
+_BLOCK_W, _BLOCK_H, _STREET = LandcoverScene.BLOCK_W, LandcoverScene.BLOCK_H, LandcoverScene.STREET_HALF
 
-        # urban: perimeter blocks with streets, sidewalks, roofs in house segments, courtyards, parks
-        ux = X + 6.0 * value_noise(X, Y, 900.0, s + 13)
-        uy = Y + 6.0 * value_noise(X, Y, 900.0, s + 14)
-        bi, bj = np.floor(ux / self.BLOCK_W), np.floor(uy / self.BLOCK_H)
-        gx, gy = (ux / self.BLOCK_W - bi) * self.BLOCK_W, (uy / self.BLOCK_H - bj) * self.BLOCK_H
-        edge = np.minimum.reduce([gx, self.BLOCK_W - gx, gy, self.BLOCK_H - gy])
-        along = np.where(np.minimum(gx, self.BLOCK_W - gx) < np.minimum(gy, self.BLOCK_H - gy), gy, gx)
-        house = hash_uniform(np.floor(along / 14.0) + 97 * bi, bj, s + 15)
-        hb = hash_uniform(bi, bj, s + 16)
-        roof = np.where(hb < 0.55, CLASS_ID["roof_tile"], np.where(hb < 0.8, CLASS_ID["roof_dark"], CLASS_ID["concrete"]))
-        court = np.where(hash_uniform(bi, bj, s + 17) < 0.5, CLASS_ID["grass"], CLASS_ID["forest"])
+
+@nb.njit(cache=True)
+def _landcover_point(X, Y, s, urban_thr, forest_thr, river_x, p1, p2, river):
+    """(class id, brightness) of one block-relative point: see LandcoverScene."""
+    cls = _GRASS
+    bright = 1.0 + 0.06 * fbm_at(X, Y, 40.0, s + 1, 3, 0.5)
+    urban = fbm_at(X, Y, 4000.0, s + 11, 3, 0.5) > urban_thr
+    forest = (not urban) and fbm_at(X, Y, 2500.0, s + 23, 3, 0.5) > forest_thr
+    crowns = fbm_at(X, Y, 12.0, s + 12, 2, 0.5)
+    if urban:
+        # perimeter blocks: streets, pavements, roofs in house segments, courtyards, parks
+        ux = X + 6.0 * noise_at(X, Y, 900.0, s + 13)
+        uy = Y + 6.0 * noise_at(X, Y, 900.0, s + 14)
+        bi = math.floor(ux / _BLOCK_W)
+        bj = math.floor(uy / _BLOCK_H)
+        gx = ux - bi * _BLOCK_W
+        gy = uy - bj * _BLOCK_H
+        ex = min(gx, _BLOCK_W - gx)
+        ey = min(gy, _BLOCK_H - gy)
+        edge = min(ex, ey)
+        along = gy if ex < ey else gx
+        hb = hash01(bi, bj, s + 16)
         park = hb > 0.93
-        urban_cls = np.select(
-            [edge < self.STREET_HALF, edge < self.STREET_HALF + 3.0, (edge < self.STREET_HALF + 17.0) & ~park],
-            [CLASS_ID["asphalt"], CLASS_ID["concrete"], roof],
-            np.where(park, CLASS_ID["grass"], court),
-        )
-        urban_bright = np.where((edge >= self.STREET_HALF + 3.0) & (edge < self.STREET_HALF + 17.0) & ~park,
-                                0.8 + 0.4 * house, 1.0 + 0.25 * crowns * (urban_cls == CLASS_ID["forest"]))
-        cls = np.where(urban, urban_cls, cls)
-        bright = np.where(urban, urban_bright * (1.0 + 0.04 * fbm(X, Y, 20.0, s + 18, octaves=2)), bright)
-
-        # water: a meandering river and ponds, over everything else
-        if self.river:
-            p1, p2 = self.river_phase
-            xr = self.river_x + 350.0 * np.sin(2 * np.pi * Y / 6000.0 + p1) + 120.0 * np.sin(2 * np.pi * Y / 1700.0 + p2)
-            width = 35.0 + 12.0 * value_noise(X, Y, 800.0, s + 19)
-            water = np.abs(X - xr) < width
+        bright = 1.0
+        if edge < _STREET:
+            cls = _ASPHALT
+        elif edge < _STREET + 3.0:
+            cls = _CONCRETE
+        elif edge < _STREET + 17.0 and not park:
+            cls = _ROOF_TILE if hb < 0.55 else (_ROOF_DARK if hb < 0.8 else _CONCRETE)
+            bright = 0.8 + 0.4 * hash01(math.floor(along / 14.0) + 97 * bi, bj, s + 15)
+        elif park:
+            cls = _GRASS
         else:
-            water = np.zeros(X.shape, bool)
-        water |= ~urban & (fbm(X, Y, 700.0, s + 20, octaves=2) > 0.62)
-        cls = np.where(water, CLASS_ID["water"], cls)
-        bright = np.where(water, 1.0 + 0.1 * value_noise(X, Y, 150.0, s + 21), bright)
-        return cls, np.clip(bright, 0.3, 2.0)
+            cls = _GRASS if hash01(bi, bj, s + 17) < 0.5 else _FOREST
+            if cls == _FOREST:
+                bright = 1.0 + 0.25 * crowns
+        bright *= 1.0 + 0.04 * fbm_at(X, Y, 20.0, s + 18, 2, 0.5)
+    elif forest:
+        cls = _GRASS if crowns < -0.55 else _FOREST
+        bright = 1.0 + 0.35 * crowns
+    else:
+        # staggered parcels on a gently warped grid: crops, rows, farm tracks and roads
+        wx = X + 30.0 * noise_at(X, Y, 500.0, s + 2)
+        wy = Y + 30.0 * noise_at(X, Y, 500.0, s + 3)
+        i = math.floor(wx / _FIELD_W)
+        shift = hash01(i, 0.0, s + 4) * _FIELD_H
+        j = math.floor((wy + shift) / _FIELD_H)
+        h = hash01(i, j, s + 5)
+        fx = wx / _FIELD_W - i
+        fy = (wy + shift) / _FIELD_H - j
+        d_vertical = min(fx, 1 - fx) * _FIELD_W
+        d_horizontal = min(fy, 1 - fy) * _FIELD_H
+        if d_vertical < 4.0 and hash01(round(wx / _FIELD_W), 1.0, s + 8) < 0.25:
+            cls = _ASPHALT
+        elif d_horizontal < 2.5 and hash01(i, j, s + 9) < 0.35:
+            cls = _TRACK
+        else:
+            cls = _CROP_GREEN if h < 0.3 else (_CROP_RIPE if h < 0.55 else (_GRASS if h < 0.75 else _SOIL))
+            phase = wx if hash01(i, j, s + 6) < 0.5 else wy
+            bright *= 0.85 + 0.3 * hash01(i, j, s + 7) + 0.05 * math.sin(2 * math.pi * phase / 18.0)
+    # water: a meandering river and ponds, over everything else
+    water = False
+    if river:
+        xr = river_x + 350.0 * math.sin(2 * math.pi * Y / 6000.0 + p1) + 120.0 * math.sin(2 * math.pi * Y / 1700.0 + p2)
+        water = abs(X - xr) < 35.0 + 12.0 * noise_at(X, Y, 800.0, s + 19)
+    if not water and not urban:
+        water = fbm_at(X, Y, 700.0, s + 20, 2, 0.5) > 0.62
+    if water:
+        cls = _WATER
+        bright = 1.0 + 0.1 * noise_at(X, Y, 150.0, s + 21)
+    return cls, min(max(bright, 0.3), 2.0)
+
+
+@nb.njit(parallel=True, cache=True)
+def _landcover(X, Y, seed, params, cls_out, bright_out):
+    for k in nb.prange(X.size):
+        c, b = _landcover_point(X[k], Y[k], seed, params[0], params[1], params[2], params[3], params[4],
+                                params[5] > 0.5)
+        cls_out[k] = c
+        bright_out[k] = b
+
+
+@nb.njit(parallel=True, cache=True)
+def _landcover_values(X, Y, seed, params, spectra, temperature, out):
+    """Band values (n, 11) of block-relative points: class spectrum x brightness; thermal in K."""
+    for k in nb.prange(X.size):
+        c, b = _landcover_point(X[k], Y[k], seed, params[0], params[1], params[2], params[3], params[4],
+                                params[5] > 0.5)
+        for band in range(spectra.shape[1]):
+            out[k, band] = spectra[c, band] * b
+        out[k, spectra.shape[1]] = temperature[c] + 20.0 * (b - 1.0) + 0.8 * noise_at(X[k], Y[k], 60.0, seed + 5)
 
 
 class TextureScene:
