@@ -4,7 +4,9 @@ Every iteration linearises all observation groups at the current values, forms t
 ``N dx = -J^T r`` (Jacobi-scaled to a unit diagonal), factorises them by sparse Cholesky and steps. A
 step that does not lower the cost is retried with damping ``(N + lambda I)``. The iteration stops when
 the largest step is below ``step_tolerance`` in units of ``1/sqrt(N_ii)`` (a lower bound of each
-unknown's standard deviation) or the cost no longer decreases.
+unknown's standard deviation), or ``dx^T N dx`` (the step's squared length measured in standard
+deviations of the unknowns, i.e. the cost decrease it promises) is below ``chi2_tolerance`` (1e-3: a
+step of about 3 % of a standard deviation), or the cost no longer decreases.
 
 Regularisation on the fly: an unknown without any observation (zero column), or whose scaled pivot
 falls below ``pivot_tolerance`` (it is, numerically, a combination of others), gets the
@@ -31,6 +33,9 @@ from scangeo.progress import ProgressCallback, no_progress
 
 log = logging.getLogger(__name__)
 
+#: A relative cost increase below this is rounding, not a failed step (the iteration has converged).
+FLOOR = 1e-9
+
 
 @dataclass(frozen=True)
 class SolverOptions:
@@ -43,6 +48,7 @@ class SolverOptions:
     max_iterations: int = 30
     step_tolerance: float = 1e-3
     cost_tolerance: float = 1e-10
+    chi2_tolerance: float = 1e-3
     backend: str = "auto"
     pivot_tolerance: float = 1e-10
     damping: bool = True
@@ -213,7 +219,10 @@ class Solver:
             active += [np.ones(g.n_rows, bool) for g in self.groups[n_groups:]]
             cost = system.cost
             step = factor.solve(-system.gradient)
-            if float(np.max(np.abs(step), initial=0.0)) < opts.step_tolerance:  # converged: no trial needed
+            # dx^T N dx: the step's squared length in standard deviations of the unknowns
+            predicted = float(step @ -system.gradient)
+            if (float(np.max(np.abs(step), initial=0.0)) < opts.step_tolerance
+                    or predicted < opts.chi2_tolerance):  # converged: no trial needed
                 values = self.layout.add_step(values, step / system.scale)
                 iterations.append(IterationInfo(it, cost, float(np.max(np.abs(step), initial=0.0)), 0.0,
                                                 time.perf_counter() - t0))
@@ -224,6 +233,14 @@ class Solver:
             new_values = self.layout.add_step(values, step / system.scale)
             new_cost = self._cost(new_values, active)
             lam = 0.0
+            if new_cost > cost and new_cost <= cost * (1 + FLOOR):
+                # the Gauss-Newton step changes the cost only at the rounding level: a minimum
+                iterations.append(IterationInfo(it, cost, float(np.max(np.abs(step), initial=0.0)), 0.0,
+                                                time.perf_counter() - t0))
+                self.callback(it, opts.max_iterations, f"iteration {it}: cost {cost:.6g}")
+                converged = True
+                final = (system, factor)
+                break
             if opts.damping and new_cost > cost * (1 + 1e-12) + 1e-300:
                 lam = 1e-4
                 for _ in range(opts.max_damping_steps):
