@@ -213,3 +213,21 @@ def test_strip_without_control_gives_a_warning(small, caplog):
     result = run_variant(small, variant)
     assert only01
     assert any("strip 02 has no control point" in n for n in result.notes)
+
+
+def test_boresight_calibration_and_the_index_error_it_cannot_tell_apart(tmp_path):
+    over = {"gpsimu_errors": SHIFT_ONLY["gpsimu_errors"]}   # keep small's boresight error
+    root = _simulate(tmp_path / "bore", over)
+    true = np.radians(json.loads((root / "truth" / "errors.json").read_text())["true_boresight_deg"])
+    from scangeo.adjustment.keys import Boresight, ScanIndex
+    result = run_variant(root, Variant("CAL", "SE", attitude_degree=-1, calibrate=("boresight",), dtm_heights=True))
+    est = result.adjustment.parameters[Boresight()].values
+    sigma = result.adjustment.statistics.sigmas(Boresight())
+    assert np.all(np.abs(est - true) < 3 * sigma), (np.degrees(est), np.degrees(true), np.degrees(sigma))
+    assert sigma[2] < np.radians(0.05)          # heading well determined by the two opposite strips
+    assert not result.adjustment.solution.regularisation
+    # a whiskbroom's index error is a boresight roll: calibrating both is a rank defect, regularised
+    both = run_variant(root, Variant("CAL2", "SE", attitude_degree=-1, calibrate=("boresight", "index_error"),
+                                     dtm_heights=True))
+    keys = {n.key for n in both.adjustment.solution.regularisation}
+    assert keys & {ScanIndex(), Boresight()}
