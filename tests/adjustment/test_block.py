@@ -231,3 +231,15 @@ def test_boresight_calibration_and_the_index_error_it_cannot_tell_apart(tmp_path
                                      dtm_heights=True))
     keys = {n.key for n in both.adjustment.solution.regularisation}
     assert keys & {ScanIndex(), Boresight()}
+
+
+def test_scipy_fallback_gives_the_same_adjustment(shifted):
+    fast = run_variant(shifted, Variant("A", "SE", attitude_degree=-1, snooping=False, backend="auto"))
+    slow = run_variant(shifted, Variant("B", "SE", attitude_degree=-1, snooping=False, backend="superlu"))
+    assert slow.adjustment.solution.factor.backend == "superlu"
+    assert slow.adjustment.statistics.sigma0 == pytest.approx(fast.adjustment.statistics.sigma0, rel=1e-6)
+    for m in fast.block.models:
+        np.testing.assert_allclose(slow.adjustment.parameters[m.key].values, fast.adjustment.parameters[m.key].values,
+                                   atol=1e-4)
+        np.testing.assert_allclose(slow.adjustment.statistics.sigmas(m.key), fast.adjustment.statistics.sigmas(m.key),
+                                   rtol=1e-5)

@@ -117,3 +117,13 @@ def test_rigid_rotation_of_a_model_rotates_positions_about_its_centre():
     c = ModelSet([m]).correction("A", np.array([0.5, 0.5]), p, {m.key: np.array([0.0, 0.0, 0.01])})
     # a small rotation of 0.01 rad about z: (0, 50) -> (-0.5, 0); (100, 0) -> (0, 1)
     np.testing.assert_allclose(c[:, :3], [[-0.5, 0, 0], [0, 1.0, 0]], atol=1e-12)
+
+
+def test_pushbroom_image_observations_are_refused_clearly():
+    from scangeo.errors import AdjustmentError
+    from scangeo.sensors.models import Pushbroom
+
+    spline, *_ = wavy_strip()
+    sensor = Pushbroom(pixels=100, focal_length=0.05, pitch=1e-5)
+    with pytest.raises(AdjustmentError, match="whiskbroom"):
+        ImageObservations("A", sensor, spline, LineTiming(0.0, 25.0), ["G0"], [1.0], [2.0], 0.3)
