@@ -23,6 +23,9 @@ COMMANDS = [
     "simulate",
     "adjust",
     "rectify",
+    "compare",
+    "report",
+    "demo",
 ]
 
 

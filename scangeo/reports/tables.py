@@ -76,6 +76,12 @@ def markdown_tables(c: Comparison) -> dict[str, tuple[list[str], list[list[str]]
     return tables
 
 
+def text_table(head: list[str], rows: list[list[str]]) -> str:
+    """A plain-text table with aligned columns (for the terminal)."""
+    widths = [max(len(str(x)) for x in col) for col in zip(head, *rows)]
+    return "\n".join("  ".join(str(x).ljust(w) for x, w in zip(r, widths)).rstrip() for r in [head, *rows])
+
+
 def _md_table(head: list[str], rows: list[list[str]]) -> str:
     esc = (lambda s: str(s).replace("|", "\\|"))
     lines = ["| " + " | ".join(map(esc, head)) + " |", "|" + "---|" * len(head)]
@@ -158,4 +164,5 @@ def read_comparison(folder) -> Comparison:
         raise ProjectFileError(f"{path}: not a comparison written by scangeo compare ({exc})") from exc
 
 
-__all__ = ["CSV_FIELDS", "FILES", "csv_text", "markdown", "markdown_tables", "read_comparison", "write_comparison"]
+__all__ = ["CSV_FIELDS", "FILES", "csv_text", "markdown", "markdown_tables", "read_comparison", "text_table",
+           "write_comparison"]

@@ -1,0 +1,53 @@
+"""``scangeo compare PROJECT``: every strategy of a variants file, the comparison table and the report.
+
+A thin shell over :func:`scangeo.reports.comparison.compare_project`,
+:func:`scangeo.reports.tables.write_comparison` and :func:`scangeo.reports.report.write_report`.
+"""
+from __future__ import annotations
+
+import sys
+
+
+def add_parser(subparsers, common) -> None:
+    p = subparsers.add_parser(
+        "compare", parents=[common], help="adjust every strategy of a variants file and compare them",
+        description="Run every variant (docs/adjustment.md) on the project, write each one's results to "
+                    "PROJECT/results/NAME/, the comparison table to PROJECT/results/comparison.{md,csv,json} and "
+                    "the report (report.html, residuals.gpkg; docs/reports.md). Without PROJECT/variants.toml the "
+                    "default variants (data/variants.toml) are filled in and written there.",
+    )
+    p.add_argument("project", help="the project folder")
+    p.add_argument("--variants", default=None, help="variants file (default PROJECT/variants.toml)")
+    p.add_argument("--only", nargs="+", default=None, metavar="NAME", help="run only these variants")
+    p.add_argument("--reference", default="SE", help="the variant that is 100 %% (default SE)")
+    p.add_argument("--problem-strip", default=None, metavar="ID",
+                   help="for the default variants: the strip with the GPS/IMU problem (simulated projects: from truth/)")
+    p.add_argument("--breaks-lines", type=float, nargs="+", default=None, metavar="LINE",
+                   help="for the default variants: the problem strip's break lines")
+    p.add_argument("--no-report", dest="report", action="store_false", help="write the tables only")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from scangeo.cli import progress_of
+    from scangeo.reports.comparison import compare_project
+    from scangeo.reports.report import write_report
+    from scangeo.reports.tables import markdown_tables, text_table, write_comparison
+
+    progress = progress_of(args)
+    comparison = compare_project(args.project, args.variants, reference=args.reference, names=args.only,
+                                 problem_strip=args.problem_strip,
+                                 breaks_lines=tuple(args.breaks_lines) if args.breaks_lines else None,
+                                 callback=progress)
+    paths = write_comparison(comparison)
+    print(text_table(*markdown_tables(comparison)["check points"]))
+    if comparison.best:
+        print(f"reference {comparison.reference}; best (lowest check-point rms): {comparison.best}")
+    for v in comparison.variants:
+        if v.error:
+            print(f"variant {v.name} failed: {v.error}")
+    print("tables: " + ", ".join(str(p) for p in paths), file=sys.stderr)
+    if args.report:
+        files = write_report(args.project, callback=progress)
+        print(f"report: {files.html}" + (f", {files.geopackage}" if files.geopackage else ""), file=sys.stderr)
+    return 0

@@ -1,0 +1,37 @@
+"""``scangeo demo [OUT]``: simulate the reference block, compare all strategies, rectify, report.
+
+A thin shell over :func:`scangeo.reports.demo.run_demo` (docs/reports.md).
+"""
+from __future__ import annotations
+
+
+def add_parser(subparsers, common) -> None:
+    p = subparsers.add_parser(
+        "demo", parents=[common], help="all of it on a built-in block: simulate, compare, rectify, report",
+        description="Simulate the vienna2000 block (DESIGN section 7) into OUT, compare the default strategies, "
+                    "rectify the strips with the best one and write the report (docs/reports.md).",
+    )
+    p.add_argument("out", nargs="?", default="scangeo-demo", help="folder to create (default ./scangeo-demo)")
+    p.add_argument("--preset", default="vienna2000", help="simulation preset or TOML file (default vienna2000)")
+    p.add_argument("--seed", type=int, default=None, help="random seed (default: the preset's)")
+    p.add_argument("--no-rectify", dest="rectify", action="store_false", help="skip the rectification")
+    p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from scangeo.cli import progress_of
+    from scangeo.reports.demo import run_demo
+    from scangeo.reports.tables import markdown_tables, text_table
+
+    result = run_demo(args.out, args.preset, seed=args.seed, rectify=args.rectify, overwrite=args.overwrite,
+                      callback=progress_of(args))
+    print(text_table(*markdown_tables(result.comparison)["check points"]))
+    print(f"best variant: {result.best}")
+    if result.ortho:
+        print(f"orthoimages: {result.ortho}")
+    print(f"report: {result.report}")
+    if result.geopackage:
+        print(f"residual vectors: {result.geopackage}")
+    print("seconds: " + ", ".join(f"{k} {v:.0f}" for k, v in result.seconds.items()))
+    return 0

@@ -1,0 +1,240 @@
+"""The residual report of a compared project: ``PROJECT/results/report.html`` and ``residuals.gpkg``.
+
+:func:`write_report` reads what ``scangeo compare`` wrote (``results/comparison.json`` and every
+variant's ``results/NAME/``), and writes one self-contained HTML file (figures embedded as PNG):
+
+1. the comparison table (and, on a simulated project, the true error of every variant);
+2. per strip the check-point residual vectors over the strip's footprint, the reference variant
+   and the best variant side by side;
+3. the correction functions over time per strip, and for each problem strip (a strip some variant
+   corrects with a polynomial or a split) the Z corrections of the P and S variants with the
+   GPS/IMU height's deviation from the mean flight height;
+4. the GPS/IMU data of each strip (tracks and flight direction, positions and angles over time);
+5. the accounting of unknowns, observations and conditions, per variant and per GPS/IMU model;
+6. the regularisation and blunder notes of every variant.
+
+The residual vectors of every variant also go to a GeoPackage (:mod:`scangeo.reports.geopackage`).
+"""
+from __future__ import annotations
+
+import datetime
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from scangeo import __version__
+from scangeo.io.project import Project
+from scangeo.progress import ProgressCallback, no_progress
+from scangeo.reports import figures, html
+from scangeo.reports.comparison import Comparison
+from scangeo.reports.corrections import (breaks_of, correction_series, gpsimu_series, problem_strips,
+                                         true_gps_error)
+from scangeo.reports.geopackage import write_geopackage
+from scangeo.reports.residual_vectors import ResidualVectors, check_vectors
+from scangeo.reports.tables import markdown_tables, read_comparison
+
+
+@dataclass(frozen=True)
+class ReportFiles:
+    """What :func:`write_report` wrote, and how many figures the HTML holds."""
+
+    html: Path
+    geopackage: Path | None
+    figures: int
+
+
+def strip_frame(project: Project, strip_id: str, samples: int = 40) -> figures.StripFrame:
+    """The strip's footprint (closed polygon, map x, y in m) from its image edges, and its flight axes
+    (origin: the nadir point of the first line), from the GPS/IMU as measured."""
+    g = project.geometry(strip_id)
+    lines = np.linspace(0.0, g.n_lines - 1.0, samples)
+    edges = []
+    for pixel in (0.0, 0.5 * (g.sensor.pixels - 1.0), g.sensor.pixels - 1.0):
+        p_P, _ = g.image_to_ground(lines, np.full(samples, pixel), project.dtm)
+        x, y, _ = project.map_frame.project_to_map(p_P)
+        edges.append(np.column_stack([x, y]))
+    poly = np.vstack([edges[0], edges[2][::-1], edges[0][:1]])
+    centre = edges[1][np.isfinite(edges[1]).all(axis=1)]
+    u = centre[-1] - centre[0]
+    return figures.StripFrame(centre[0], u / np.linalg.norm(u), poly[np.isfinite(poly).all(axis=1)])
+
+
+def _rms_title(c: Comparison, name: str, sid: str) -> str:
+    ch = c.variant(name).strips.get(sid, {}).get("check", {})
+    if not ch.get("n"):
+        return f"{name}: no check points"
+    return (f"{name}: check rms along {ch['rms_along_px']:.2f} px, across {ch['rms_across_px']:.2f} px "
+            f"(n = {ch['n']})")
+
+
+def _variant_report(project: Project, name: str) -> dict:
+    path = project.root / "results" / name / "report.json"
+    return json.loads(path.read_text()) if path.exists() else {}
+
+
+def _comparison_section(c: Comparison) -> html.Section:
+    tables = markdown_tables(c)
+    sec = html.Section("Comparison of strategies", "comparison")
+    sec.parts.append(html.paragraph(
+        f"Reference {c.reference} = 100 %. Check points: rms of the residuals (model - measured) along track in "
+        "lines (= pixels) and across track in pixels, per strip, with the % of the reference. Control: the control "
+        "points the adjustment used, by the coordinates they give."))
+    sec.parts.append(html.table(*tables["check points"], table_id="comparison-table", text_columns=(0, 1, 2)))
+    ok = [v for v in c.variants if v.error is None]
+    across = {v.name: [v.strips.get(s, {}).get("check", {}).get("rms_across_px") for s in c.strips] for v in ok}
+    sec.parts.append(html.figure(figures.rms_chart(c.strips, [v.name for v in ok], across, c.reference),
+                                 "Check-point rms across track per strip and variant", "fig-rms"))
+    if "true error" in tables:
+        sec.parts.append("<h3>True error (simulated project)</h3>")
+        sec.parts.append(html.paragraph(
+            "rms of each variant's orientation error against truth/ over a grid of image positions: along and "
+            "across track in pixels, horizontal ground error in metres (no DTM error, no measurement noise)."))
+        sec.parts.append(html.table(*tables["true error"], table_id="true-error-table", text_columns=(0,)))
+    return sec
+
+
+def _vectors_section(project: Project, c: Comparison, vectors: dict[str, ResidualVectors],
+                     frames: dict[str, figures.StripFrame]) -> html.Section:
+    sec = html.Section("Residual vectors at the check points", "residual-vectors")
+    shown = [n for n in dict.fromkeys([c.reference, c.best]) if n in vectors]
+    sec.parts.append(html.paragraph(
+        "Arrows: the ground error of the adjusted orientation at each check point (where the orientation puts the "
+        "measured image point minus the point's coordinates), exaggerated; red: flagged by its test. "
+        f"Above the reference {c.reference}, below the best variant {c.best or '-'} (lowest check-point rms)."))
+    for sid in c.strips:
+        png = figures.residual_map(frames[sid], [vectors[n].of_strip(sid) for n in shown],
+                                   [_rms_title(c, n, sid) for n in shown], sid)
+        sec.parts.append(html.figure(png, f"Strip {sid}: residual vectors of {' and '.join(shown)}", f"fig-vectors-{sid}"))
+    return sec
+
+
+def _corrections_section(project: Project, c: Comparison) -> html.Section:
+    sec = html.Section("Correction functions", "corrections")
+    adjusted = [v.name for v in c.variants if v.error is None and v.strategy != "DG"]
+    sec.parts.append(html.paragraph(
+        "The correction each variant applied to the GPS/IMU: adjusted orientation minus GPS/IMU as measured, over "
+        "the image (x east, y north, z up in the project frame; angles w.r.t. the project frame's NED axes)."))
+    for sid in problem_strips(project, adjusted):
+        ps = [v.name for v in c.variants if v.name in adjusted and v.strategy in ("P", "S")]
+        series = {n: correction_series(project, n, sid) for n in ps}
+        height, _ = gpsimu_series(project, sid)
+        breaks = sorted({b for n in ps for b in breaks_of(project, n, sid)})
+        png = figures.height_correction_plot(sid, series, height, true_gps_error(project, sid), breaks)
+        sec.parts.append(html.figure(png, f"Problem strip {sid}: Z corrections of {', '.join(ps)} and the GPS/IMU "
+                                          "height's deviation from the mean flight height", f"fig-height-{sid}"))
+    for sid in c.strips:
+        series = {n: correction_series(project, n, sid) for n in adjusted}
+        breaks = sorted({b for n in adjusted for b in breaks_of(project, n, sid)})
+        sec.parts.append(html.figure(figures.correction_plot(sid, series, breaks),
+                                     f"Strip {sid}: corrections of {', '.join(adjusted)} over time", f"fig-corr-{sid}"))
+    return sec
+
+
+def _gpsimu_section(project: Project, c: Comparison, frames: dict[str, figures.StripFrame]) -> html.Section:
+    sec = html.Section("GPS/IMU data", "gpsimu")
+    tracks, directions = {}, {}
+    for sid in c.strips:
+        tracks[sid], directions[sid] = gpsimu_series(project, sid)
+    sec.parts.append(html.figure(figures.tracks_map(tracks, {s: f.footprint for s, f in frames.items()}), "Strips, tracks and flight directions",
+                                 "fig-tracks"))
+    for sid in c.strips:
+        sec.parts.append(html.figure(figures.gpsimu_plot(sid, tracks[sid], directions[sid]),
+                                     f"Strip {sid}: GPS/IMU positions and angles, flying {directions[sid]}",
+                                     f"fig-gpsimu-{sid}"))
+    return sec
+
+
+def _accounting_section(project: Project, c: Comparison) -> html.Section:
+    sec = html.Section("Unknowns, observations and conditions", "accounting")
+    sec.parts.append(html.paragraph(
+        "unknowns = parameters - conditions (the C0 continuity of split models, eliminated by their "
+        "parametrisation); redundancy = observations + pseudo-observations - unknowns."))
+    sec.parts.append(html.table(*markdown_tables(c)["accounting"], table_id="accounting-table", text_columns=(0, 1)))
+    rows = []
+    for v in c.variants:
+        for m in _variant_report(project, v.name).get("models", []):
+            rows.append([v.name, m["id"], ", ".join(m.get("strips", [])), f"{m['t_end'] - m['t_start']:.1f}",
+                         str(m["position_degree"]), str(m["attitude_degree"]), "yes" if m.get("rotation") else "",
+                         m.get("follows") or "", str(m["unknowns"]), str(m["conditions"])])
+    if rows:
+        sec.parts.append("<h3>GPS/IMU models</h3>")
+        sec.parts.append(html.table(["variant", "model", "strips", "span (s)", "position degree", "attitude degree",
+                                     "rotation", "follows", "unknowns", "conditions"], rows, text_columns=(0, 1, 2)))
+    return sec
+
+
+def _notes_section(project: Project, c: Comparison) -> html.Section:
+    sec = html.Section("Regularisation and blunders", "notes")
+    for v in c.variants:
+        sec.parts.append(f"<h3>{html.esc(v.name)}</h3>")
+        if v.error:
+            sec.parts.append(html.paragraph(f"the adjustment failed: {v.error}", "warn"))
+            continue
+        r = _variant_report(project, v.name)
+        reg = [f"{n['unknown']} [{n['component']}]: pseudo-observation with sigma {n['sigma']:g} ({n['reason']})"
+               for n in r.get("regularisation", [])]
+        rej = [f"{x['group']} {x['id']} ({', '.join(x['components'])}): w = {x['w']:.1f}, round {x['round']}"
+               if x.get("w") is not None else f"{x['group']} {x['id']}" for x in r.get("rejections", [])]
+        sec.parts.append(html.paragraph(f"regularised unknowns: {len(reg) or 'none'}"))
+        sec.parts.append(html.bullet_list(reg))
+        sec.parts.append(html.paragraph(f"observations rejected by data snooping: {len(rej) or 'none'}"))
+        sec.parts.append(html.bullet_list(rej))
+        sec.parts.append(html.bullet_list([f"note: {n}" for n in r.get("notes", [])]))
+    return sec
+
+
+def write_report(project_root, out=None, *, geopackage: bool = True,
+                 callback: ProgressCallback = no_progress) -> ReportFiles:
+    """Write ``report.html`` (and ``residuals.gpkg``) of a compared project into ``out`` (default PROJECT/results)."""
+    root = Path(project_root)
+    project = Project.load(root)
+    comparison = read_comparison(root / "results")
+    folder = Path(out) if out else root / "results"
+    folder.mkdir(parents=True, exist_ok=True)
+    names = [v.name for v in comparison.variants if v.error is None]
+    steps, done = len(names) + 6, 0
+
+    def step(message: str) -> None:
+        nonlocal done
+        callback(done, steps, f"report: {message}")
+        done += 1
+
+    vectors = {}
+    for n in names:
+        step(f"residual vectors {n}")
+        vectors[n] = check_vectors(project, n)
+    step("footprints")
+    frames = {sid: strip_frame(project, sid) for sid in comparison.strips}
+    sections = []
+    for title, make in (("comparison", lambda: _comparison_section(comparison)),
+                        ("residual vectors", lambda: _vectors_section(project, comparison, vectors, frames)),
+                        ("corrections", lambda: _corrections_section(project, comparison)),
+                        ("GPS/IMU", lambda: _gpsimu_section(project, comparison, frames)),
+                        ("accounting and notes", lambda: _accounting_section(project, comparison))):
+        step(title)
+        sections.append(make())
+    sections.append(_notes_section(project, comparison))
+    gpkg = None
+    if geopackage:
+        gpkg = write_geopackage(folder / "residuals.gpkg", [vectors[n] for n in names], project.crs)
+    files = [f"comparison.md, comparison.csv, comparison.json: the table ({comparison.variants_file})",
+             *([f"{gpkg.name}: residual vectors of every variant (layers check_NAME, vectors_NAME), {project.crs}"]
+               if gpkg else []),
+             "NAME/: every variant's adjusted trajectories, splines, residuals.csv and report.json"]
+    sections.append(html.Section("Files", "files", [html.bullet_list(files)]))
+    stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    intro = [html.paragraph(f"Project {root.resolve()} ({project.crs}, {len(comparison.strips)} strips); "
+                            f"variants from {comparison.variants_file}; scangeo {__version__}, {stamp}.")]
+    text = html.document(f"scangeo residual report: {root.name}", intro, sections)
+    path = folder / "report.html"
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+    callback(steps, steps, "report: done")
+    return ReportFiles(path, gpkg, text.count('class="report-figure"'))
+
+
+__all__ = ["ReportFiles", "strip_frame", "write_report"]
