@@ -24,6 +24,7 @@ from scangeo.errors import AdjustmentError
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
 from scangeo.models import GpsImuModel, ModelSet
+from scangeo.sensors.models import Whiskbroom
 from scangeo.sensors.strip import StripGeometry
 from scangeo.trajectory.spline import COMPONENTS, OrientationSpline
 from scangeo.trajectory.stream import ProjectTrajectory
@@ -146,6 +147,10 @@ def build_block(project: Project, variant: Variant, points: ImagePoints, ground:
         _correction_block(params, m, variant)
     mount, sensor = project.sensor.mounting, project.sensor.model
     cal = set(variant.calibrate)
+    scan_errors = sorted(cal & {"index_error", "scale_error"})
+    if scan_errors and not isinstance(sensor, Whiskbroom):
+        raise AdjustmentError(f"variant {variant.name}: calibrate {', '.join(scan_errors)} is a whiskbroom (scan "
+                              f"mirror) parameter, but the project's sensor is a {project.sensor.kind}")
     params.add(Boresight(), mount.boresight, "boresight" in cal, regularisation_sigma=0.01, names=["roll", "pitch", "heading"])
     params.add(LeverArm(), mount.lever_arm_B, "lever_arm" in cal, regularisation_sigma=0.5, names=["x", "y", "z"])
     params.add(TimeOffset(), [mount.time_offset], "time_offset" in cal, regularisation_sigma=0.01, names=["dt"])

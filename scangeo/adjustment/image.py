@@ -1,33 +1,39 @@
-"""Image measurements of ground points in a line-scanner strip (whiskbroom).
+"""Image measurements of ground points in a line-scanner strip (whiskbroom or pushbroom).
 
 For a measurement (line, pixel) of ground point ``P`` the model finds the sensor time ``t`` at which
-``P`` lies in the scan plane, ``x`` of ``v_S = R_PS(t)^T (P - p_S(t))`` equal to zero (Newton from the
-observed time, to 1e-10 s), then the pixel from the scan angle ``theta = atan2(v_y, v_z)`` and the
-line from ``t`` minus the pixel's time offset. Residuals are ``model - observed`` in lines (along
-track) and pixels (across track), whitened by the measurement's sigma (pixels).
+``P`` lies in the scan plane, ``g(v_S) = 0`` for ``v_S = R_PS(t)^T (P - p_S(t))`` (Newton from the
+observed time, to 1e-10 s), then the pixel from the across-track direction of ``v_S`` and the line
+from ``t`` minus the pixel's time offset. The sensor's terms (``g``, the pixel, the time offset and
+their derivatives) are in ``scangeo.adjustment.scanplane``: ``g = v_x / v_z`` for a whiskbroom,
+``g = v_x / v_z - tan(along(pixel))`` for a pushbroom (the along-track look angle of the pixel that
+sees the point). Residuals are ``model - observed`` in lines (along track) and pixels (across
+track), whitened by the measurement's sigma (pixels).
 
 Pose: ``p_S = p(t_nav) + R_PB l_B``, ``R_PS = R_PB R_BS``, ``R_PB = R_ENU_NED Rz(h) Ry(p) Rx(r)`` with
 ``(x, y, z, r, p, h)(t_nav)`` the strip's spline at navigation time ``t_nav = t + time_offset``.
 
-Analytic Jacobian by the implicit function theorem: ``g(t, x) = v_x / v_z = 0`` gives
-``dt/dx = -g_x / g_t``; then ``dv/dx + dv/dt dt/dx`` into the pixel and the line. Unknowns:
-``Knots(strip)`` (the 4 coefficients of the segment at ``t_nav``), ``Ground(point)``,
-``Boresight()``, ``LeverArm()``, ``TimeOffset()``, ``ScanIndex()``, ``ScanScale()``.
+Analytic Jacobian by the implicit function theorem: ``g(v(t, x)) = 0`` gives
+``dt/dx = -(dg/dv dv/dx) / (dg/dv dv/dt)``; then ``dv/dx + dv/dt dt/dx`` into the pixel and the line.
+Unknowns: ``Knots(strip)`` (the 4 coefficients of the segment at ``t_nav``), ``Ground(point)``,
+``Boresight()``, ``LeverArm()``, ``TimeOffset()``, and for a whiskbroom ``ScanIndex()`` and
+``ScanScale()`` (they move the pixel only, not the scan plane).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, TimeOffset
 from scangeo.adjustment.observations import Linearisation, ObservationGroup
 from scangeo.adjustment.parameters import JacobianPart
+from scangeo.adjustment.scanplane import scan_plane
 from scangeo.errors import AdjustmentError
 from scangeo.rotation import R_ENU_NED, rph_to_matrix_with_derivatives
-from scangeo.sensors.models import Whiskbroom
+from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.timing import LineTiming
 from scangeo.trajectory.spline import OrientationSpline, bspline_basis
 
-CALIBRATION_KEYS = (Boresight(), LeverArm(), TimeOffset(), ScanIndex(), ScanScale())
+#: The mounting's calibration keys (the sensor's own, if any, come from ``scanplane``).
+MOUNTING_KEYS = (Boresight(), LeverArm(), TimeOffset())
 
 
 def _T(R: np.ndarray) -> np.ndarray:
@@ -35,24 +41,27 @@ def _T(R: np.ndarray) -> np.ndarray:
 
 
 class ImageObservations(ObservationGroup):
-    """Measurements (line, pixel) of ground points in one whiskbroom strip.
+    """Measurements (line, pixel) of ground points in one line-scanner strip.
 
     Parameters
     ----------
     strip : strip id.
-    sensor : the whiskbroom model (its geometry; index and scale errors come from the unknowns).
+    sensor : the whiskbroom or pushbroom model (its geometry; a whiskbroom's index and scale errors
+        come from the unknowns).
     spline : the strip's spline (layout only: t0, spacing, number of coefficients).
     timing : the strip's line timing.
     points : (n,) ids of the measured points; line, pixel : (n,) measurements; sigma_px : (n,).
     """
 
-    def __init__(self, strip: str, sensor: Whiskbroom, spline: OrientationSpline, timing: LineTiming,
+    def __init__(self, strip: str, sensor: Whiskbroom | Pushbroom, spline: OrientationSpline, timing: LineTiming,
                  points, line, pixel, sigma_px, name: str | None = None) -> None:
-        if not isinstance(sensor, Whiskbroom):
-            raise AdjustmentError(f"strip {strip}: image observations are implemented for whiskbroom sensors only")
+        if not isinstance(sensor, (Whiskbroom, Pushbroom)):
+            raise AdjustmentError(f"strip {strip}: image observations need a whiskbroom or pushbroom sensor, "
+                                  f"not {type(sensor).__name__}")
         self.name = name or f"image {strip}"
         self.strip = strip
         self.sensor = sensor
+        self.plane = scan_plane(sensor)
         self.t0, self.spacing, self.n_coef = spline.t0, spline.spacing, spline.n_coef
         self.timing = timing
         self.points = np.asarray(points, dtype=object)
@@ -67,7 +76,7 @@ class ImageObservations(ObservationGroup):
         self.t_obs = timing.time_of_line(self.line) + sensor.time_offset(self.pixel)
 
     def keys(self):
-        return [self.knots, *dict.fromkeys(self._ground), *CALIBRATION_KEYS]
+        return [self.knots, *dict.fromkeys(self._ground), *MOUNTING_KEYS, *self.plane.calibration_keys]
 
     # -- model ----------------------------------------------------------------------------------
     def _pose(self, values, t: np.ndarray, P: np.ndarray):
@@ -102,9 +111,8 @@ class ImageObservations(ObservationGroup):
         t = self.t_obs.copy()
         for _ in range(12):
             f = self._pose(values, t, P)
-            v, dv = f["v"], f["dv_dt"]
-            g = v[:, 0] / v[:, 2]
-            g_t = (dv[:, 0] * v[:, 2] - v[:, 0] * dv[:, 2]) / v[:, 2] ** 2
+            g, dg_dv = self.plane.condition(f["v"], values)
+            g_t = np.einsum("ni,ni->n", dg_dv, f["dv_dt"])
             step = g / g_t
             t = t - step
             if np.all(np.abs(step) < 1e-10):
@@ -117,21 +125,12 @@ class ImageObservations(ObservationGroup):
                                   f"orientation (measured at line {self.line[i]:.1f}, pixel {self.pixel[i]:.1f})")
         return t, f
 
-    def _pixel(self, values, v: np.ndarray):
-        sen = self.sensor
-        index = float(values[ScanIndex()][0])
-        scale = float(values[ScanScale()][0])
-        k = sen.scan_direction / (sen.step * (1 + scale))
-        theta = np.arctan2(v[:, 1], v[:, 2])
-        pixel = sen.centre + k * (theta - index)
-        return pixel, k, index, scale
-
     def predict(self, values) -> tuple[np.ndarray, np.ndarray]:
         """Model line and pixel of every measurement's ground point."""
         P = np.array([values[g] for g in self._ground], float).reshape(-1, 3)
         t, f = self._solve_time(values, P)
-        pixel, *_ = self._pixel(values, f["v"])
-        line = self.timing.line_of_time(t - self.sensor.time_offset(pixel))
+        pixel, *_ = self.plane.pixel(f["v"], values)
+        line = self.timing.line_of_time(t - self.plane.time_offset(pixel))
         return line, pixel
 
     def residuals(self, values) -> np.ndarray:
@@ -143,19 +142,19 @@ class ImageObservations(ObservationGroup):
         P = np.array([values[g] for g in self._ground], float).reshape(-1, 3)
         t, f = self._solve_time(values, P)
         v = f["v"]
-        pixel, k, _, scale = self._pixel(values, v)
-        dt_pix = self.sensor.dt_pixel
-        t_line = t - self.sensor.time_offset(pixel)
+        pixel, dpix_dv, direct = self.plane.pixel(v, values)
+        _, dg_dv = self.plane.condition(v, values)
+        dt_pix = self.plane.dt_pixel
+        t_line = t - self.plane.time_offset(pixel)
         line = self.timing.line_of_time(t_line)
         h = 1e-4
         rate = (self.timing.line_of_time(t_line + h) - self.timing.line_of_time(t_line - h)) / (2 * h)
-        vx, vy, vz = v[:, 0], v[:, 1], v[:, 2]
-        dg_dv = np.column_stack([1 / vz, np.zeros(n), -vx / vz**2])
-        dpix_dv = k * np.column_stack([np.zeros(n), vz, -vy]) / (vy**2 + vz**2)[:, None]
         g_t = np.einsum("ni,ni->n", dg_dv, f["dv_dt"])
 
         def chain(dv_dx: np.ndarray, dpix_direct: np.ndarray | None = None):
-            """(n, 3, m) direct derivatives of v -> (dline, dpixel) (n, m)."""
+            """(n, 3, m) direct derivatives of v -> (dline, dpixel) (n, m). ``dpix_direct``: derivatives
+            of the pixel that do not go through v (a whiskbroom's scan errors, which leave the scan
+            plane, and so t, unchanged)."""
             dt_dx = -np.einsum("ni,nim->nm", dg_dv, dv_dx) / g_t[:, None]
             total = dv_dx + f["dv_dt"][:, :, None] * dt_dx[:, None, :]
             dpix = np.einsum("ni,nim->nm", dpix_dv, total)
@@ -191,11 +190,9 @@ class ImageObservations(ObservationGroup):
         add([LeverArm()], dl, dp, np.arange(3))
         dl, dp = chain(f["dv_dt"][:, :, None])
         add([TimeOffset()], dl, dp, np.arange(1))
-        # scan index and scale: the pixel directly
-        zeros = np.zeros((n, 3, 1))
-        dl, dp = chain(zeros, np.full((n, 1), -k))
-        add([ScanIndex()], dl, dp, np.arange(1))
-        dl, dp = chain(zeros, (-(pixel - self.sensor.centre) / (1 + scale))[:, None])
-        add([ScanScale()], dl, dp, np.arange(1))
+        # the sensor's own calibration (whiskbroom index and scale error): the pixel directly
+        for key, dpix_dkey in direct.items():
+            dl, dp = chain(np.zeros((n, 3, dpix_dkey.shape[1])), dpix_dkey)
+            add([key], dl, dp, np.arange(dpix_dkey.shape[1]))
         r = np.column_stack([line - self.line, pixel - self.pixel]).ravel() / self.sigma
         return Linearisation(r, parts)
