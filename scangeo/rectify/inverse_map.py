@@ -25,6 +25,7 @@ import warnings
 from dataclasses import dataclass, field
 from typing import Callable
 
+import numba
 import numpy as np
 
 from scangeo.errors import ScangeoError
@@ -38,6 +39,10 @@ HeightFunction = Callable[[np.ndarray, np.ndarray], np.ndarray]
 OUTSIDE_MARGIN_PX = 2.0
 #: most height segments in a tile
 MAX_SEGMENTS = 256
+#: along-track checks of a block: every lattice line up to this many
+DENSE_U = 32
+#: blocks across an image edge (or with unseen corners) of at most this many cells are solved per cell
+EDGE_EXACT_CELLS = 64
 
 
 @dataclass(frozen=True)
@@ -120,10 +125,12 @@ class Lattice:
 
 
 class _Nodes:
-    """Exact (line, pixel) at lattice nodes (iu, iv) on height levels k, each solved once."""
+    """Exact (line, pixel) minus the baseline at lattice nodes (iu, iv) on height levels k, each
+    solved once."""
 
     def __init__(self, solve, lattice: Lattice, H0: float, dH: float) -> None:
         self.solve, self.lattice, self.H0, self.dH = solve, lattice, H0, dH
+        self.baseline = None  # set before the first node is asked for
         self.keys = np.zeros(0, np.int64)
         self.line = np.zeros(0)
         self.pixel = np.zeros(0)
@@ -141,6 +148,8 @@ class _Nodes:
             iu_n = new // 2**42 - 2**20
             x, y = self.lattice.to_xy(iu_n, iv_n)
             line, pixel = self.solve(x, y, self.H0 + kk * self.dH)
+            gl, gp = self.baseline(iu_n.astype(float), iv_n.astype(float), self.H0 + kk * self.dH)
+            line, pixel = line - gl, pixel - gp
             keys_all = np.concatenate([self.keys, new])
             order = np.argsort(keys_all, kind="stable")
             self.keys = keys_all[order]
@@ -184,12 +193,12 @@ def _beyond_one_edge(line, pixel, present, shape) -> np.ndarray:
 
 def _fractions(B: np.ndarray) -> np.ndarray:
     """(K, 6) check fractions along an axis of size B (repeated where the block is short): eighths
-    on long axes (32 cells and more), quarters from 4 cells, the middle below."""
+    on axes of 64 cells and more, quarters from 4 cells, the middle below."""
     f6 = np.array([0.0, 0.125, 0.375, 0.5, 0.625, 0.875])
     f4 = np.array([0.0, 0.25, 0.5, 0.75, 0.75, 0.75])
     f2 = np.array([0.0, 0.5, 0.5, 0.5, 0.5, 0.5])
     B = B[:, None]
-    return np.where(B >= 32, f6, np.where(B >= 4, f4, f2))
+    return np.where(B >= 64, f6, np.where(B >= 4, f4, f2))
 
 
 def _height_levels(solve, lattice, uv_cells, H_cells, tol_level) -> tuple[float, float]:
@@ -261,14 +270,17 @@ def build_inverse_map(
         height = _nearest_cell_height(grid, H)
     B = options.initial_block
     u_origin, v_origin = math.floor(uc.min()), math.floor(vc.min())
+    baseline = _Baseline.measure(solve, lattice, uc, vc, hc, u_origin, v_origin, B)
+    nodes.baseline = baseline
     bu = np.floor((uc - u_origin) / B).astype(np.int64)
     bv = np.floor((vc - v_origin) / B).astype(np.int64)
     block_of_cell, first = _group(bu * (2**31) + bv)
     K = first.size - 1
     order = np.argsort(block_of_cell, kind="stable")
     cells_sorted = order
-    u0 = u_origin + bu[order[first[:-1]]] * B
-    v0 = v_origin + bv[order[first[:-1]]] * B
+    head = order[first[:-1]]
+    u0 = u_origin + bu[head] * B
+    v0 = v_origin + bv[head] * B
     Bu = np.full(K, B, np.int64)
     Bv = np.full(K, B, np.int64)
     pending = _Pending(cells_sorted, first, u0, v0, Bu, Bv)
@@ -278,6 +290,100 @@ def build_inverse_map(
     line, pixel = line.reshape(R, C), pixel.reshape(R, C)
     _validate(solve, grid, line, pixel, H, image_shape, options.validation_samples, seed, stats)
     return line, pixel, stats
+
+
+class _Baseline:
+    """The along-track profile of the map, subtracted before interpolating and added back after.
+
+    Attitude shakes the map along track only, in a way that changes smoothly across the swath (a
+    roll moves every pixel alike; with a pitched scan plane it also moves lines, by an amount that
+    grows with the scan angle; a heading change moves lines in proportion to the distance from the
+    track) and with the height (the ground distance to the sensor). Exact profiles at unit spacing
+    along ``u``, at up to ``MAX_PROFILES`` positions spread over the part of the tile inside the
+    swath, and at the tile's lowest and highest height, capture it; ``g(u, v, h)`` interpolates
+    them linearly in ``u`` and ``h`` and by a polynomial (Lagrange) in ``v``, held constant beyond
+    the outer profiles. What remains, ``f - g``, is smooth and interpolates on large blocks.
+    """
+
+    #: spacing of the candidate profiles across track, lattice units, and how many are used
+    PROFILE_SPACING = 32
+    MAX_PROFILES = 5
+
+    def __init__(self, u, vs, hs, lines, pixels) -> None:
+        self.u, self.vs, self.hs, self.lines, self.pixels = u, vs, hs, lines, pixels
+
+    @classmethod
+    def measure(cls, solve, lattice, uc, vc, hc, u_origin, v_origin, B) -> "_Baseline":
+        # cover every node of the lattice blocks, which reach up to a block beyond the last cell
+        u_end = u_origin + (math.floor((uc.max() - u_origin) / B) + 1) * B
+        u = np.arange(u_origin - 1, u_end + 2, dtype=float)
+        lo, hi = float(v_origin), float(v_origin + (math.floor((vc.max() - v_origin) / B) + 1) * B)
+        n = max(2, int(math.ceil((hi - lo) / cls.PROFILE_SPACING)) + 1)
+        candidates = np.linspace(lo, hi, n)
+        h_lo, h_hi = float(hc.min()), float(hc.max())
+        hs = np.array([h_lo, h_hi]) if h_hi - h_lo > 1.0 else np.array([h_lo])
+        # which candidate positions lie inside the swath (probed at three places along track)
+        pu, pv = np.meshgrid(np.quantile(u, [0.1, 0.5, 0.9]), candidates, indexing="ij")
+        px, py = lattice.to_xy(pu, pv)
+        pl, pp = solve(px, py, np.full(px.shape, 0.5 * (h_lo + h_hi)))
+        inside = np.flatnonzero((np.isfinite(pl) & np.isfinite(pp)).sum(axis=0) >= 2)
+        if inside.size == 0:
+            zero = np.zeros((u.size, 1, hs.size))
+            return cls(u, np.zeros(1), hs, zero, zero)
+        # at most MAX_PROFILES of them, spread evenly
+        pick = inside[np.unique(np.round(np.linspace(0, inside.size - 1, min(cls.MAX_PROFILES, inside.size))).astype(int))]
+        vs = candidates[pick]
+        uu, vv, hh = np.meshgrid(u, vs, hs, indexing="ij")
+        x, y = lattice.to_xy(uu, vv)
+        line, pixel = solve(x, y, hh)  # (u, v, h)
+        good = np.isfinite(line) & np.isfinite(pixel)
+        # a profile that leaves the swath somewhere (the edge moves with the roll) would be filled
+        # across its gap with a straight line: keep only profiles seen as far as the best one is
+        share = good.mean(axis=0).min(axis=1)
+        keep = (share > 0.5) & (share >= share.max() - 0.01)
+        if not keep.any():
+            zero = np.zeros((u.size, 1, hs.size))
+            return cls(u, np.zeros(1), hs, zero, zero)
+        kept = np.flatnonzero(keep)
+        g = good[:, kept]
+        fill = lambda a: np.stack([np.stack([_fill(a[:, i, k], g[:, i, k]) for k in range(hs.size)], -1)
+                                   for i in range(kept.size)], 1)
+        return cls(u, vs[kept], hs, fill(line[:, kept]), fill(pixel[:, kept]))
+
+    def __call__(self, u, v, h) -> tuple[np.ndarray, np.ndarray]:
+        u = np.asarray(u, float)
+        v = np.asarray(v, float)
+        h = np.asarray(h, float)
+        shape = np.broadcast(u, v, h).shape
+        u, v, h = (np.broadcast_to(a, shape) for a in (u, v, h))
+        if self.hs.size == 2:
+            t = (h - self.hs[0]) / (self.hs[1] - self.hs[0])
+            wh = [1.0 - t, t]
+        else:
+            wh = [np.ones(shape)]
+        # a polynomial across track through the profiles (Lagrange), held constant beyond the outer ones
+        v = np.clip(v, self.vs[0], self.vs[-1])
+        fu = np.clip(u - self.u[0], 0, self.u.size - 1.000001)
+        j = np.floor(fu).astype(np.intp)
+        a = fu - j
+        gl = np.zeros(shape)
+        gp = np.zeros(shape)
+        for i, vi in enumerate(self.vs):
+            w = np.ones(shape)
+            for m, vm in enumerate(self.vs):
+                if m != i:
+                    w = w * (v - vm) / (vi - vm)
+            for k, whk in enumerate(wh):
+                for arr, out in ((self.lines, gl), (self.pixels, gp)):
+                    col = arr[:, i, k]
+                    out += w * whk * (col[j] * (1 - a) + col[j + 1] * a)
+        return gl, gp
+
+
+def _fill(values: np.ndarray, good: np.ndarray) -> np.ndarray:
+    """``values`` with gaps filled linearly from the nearest good ones (constant beyond the ends)."""
+    idx = np.arange(values.size)
+    return np.interp(idx, idx[good], values[good])
 
 
 def _nearest_cell_height(grid: TileGrid, H: np.ndarray) -> HeightFunction:
@@ -316,21 +422,35 @@ class _Pending:
         return np.repeat(np.arange(self.count), np.diff(self.first))
 
 
-def _block_interp(L, P, u0, v0, Bu, Bv, klo, nseg, H0, dH, u, v, h):
-    """(line, pixel) at (u, v, h) in blocks with corner node values L, P (n, levels, 4)."""
-    fu = (u - u0) / Bu
-    fv = (v - v0) / Bv
-    s = (h - H0) / dH - klo
-    i = np.clip(np.floor(s), 0, nseg - 1).astype(np.intp)
-    f = s - i
-    w = np.stack([(1 - fu) * (1 - fv), fu * (1 - fv), (1 - fu) * fv, fu * fv], axis=-1)
-    n = np.arange(u.size)
-    out = []
-    for V in (L, P):
-        a = np.einsum("nj,nj->n", V[n, i], w)
-        b = np.einsum("nj,nj->n", V[n, i + 1], w)
-        out.append(a + f * (b - a))
-    return out
+@numba.njit(cache=True)
+def _interp_kernel(L, P, k, u0, v0, Bu, Bv, klo, nseg, H0, dH, u, v, h, out_l, out_p):
+    for n in range(u.size):
+        b = k[n]
+        fu = (u[n] - u0[b]) / Bu[b]
+        fv = (v[n] - v0[b]) / Bv[b]
+        s = (h[n] - H0) / dH - klo[b]
+        i = min(max(int(np.floor(s)), 0), nseg[b] - 1)
+        f = s - i
+        w0, w1, w2, w3 = (1 - fu) * (1 - fv), fu * (1 - fv), (1 - fu) * fv, fu * fv
+        a = L[b, i, 0] * w0 + L[b, i, 1] * w1 + L[b, i, 2] * w2 + L[b, i, 3] * w3
+        c = L[b, i + 1, 0] * w0 + L[b, i + 1, 1] * w1 + L[b, i + 1, 2] * w2 + L[b, i + 1, 3] * w3
+        out_l[n] = a + f * (c - a)
+        a = P[b, i, 0] * w0 + P[b, i, 1] * w1 + P[b, i, 2] * w2 + P[b, i, 3] * w3
+        c = P[b, i + 1, 0] * w0 + P[b, i + 1, 1] * w1 + P[b, i + 1, 2] * w2 + P[b, i + 1, 3] * w3
+        out_p[n] = a + f * (c - a)
+
+
+def _block_interp(L, P, k, pb, klo, nseg, H0, dH, u, v, h, baseline):
+    """(line, pixel) at (u, v, h) in blocks ``k`` of ``pb`` with corner node values L, P (K, levels, 4)."""
+    out_l = np.empty(u.size)
+    out_p = np.empty(u.size)
+    _interp_kernel(np.ascontiguousarray(L), np.ascontiguousarray(P), np.ascontiguousarray(k, dtype=np.int64),
+                   pb.u0.astype(float), pb.v0.astype(float), pb.Bu.astype(float), pb.Bv.astype(float),
+                   klo.astype(np.float64), nseg.astype(np.int64), float(H0), float(dH),
+                   np.ascontiguousarray(u, dtype=float), np.ascontiguousarray(v, dtype=float),
+                   np.ascontiguousarray(h, dtype=float), out_l, out_p)
+    gl, gp = baseline(u, v, h)
+    return out_l + gl, out_p + gp
 
 
 def _refine(pb: _Pending, uc, vc, hc, nodes: _Nodes, solve, lattice, height, H0, dH, shape, tol, options,
@@ -358,6 +478,18 @@ def _refine(pb: _Pending, uc, vc, hc, nodes: _Nodes, solve, lattice, height, H0,
     on_u_edge = np.broadcast_to((fv == 0)[:, None, :], qu.shape).reshape(K, -1)
     on_v_edge = np.broadcast_to((fu == 0)[:, :, None], qu.shape).reshape(K, -1)
     qu, qv = qu.reshape(K, -1), qv.reshape(K, -1)
+    # and a dense line along u through the block's middle: the attitude's residue can wiggle at a
+    # few lines' period, which a coarse pattern would straddle
+    ku = np.arange(1, DENSE_U)
+    dense_ok = ku[None, :] < pb.Bu[:, None]
+    du = pb.u0[:, None] + np.minimum(ku[None, :], pb.Bu[:, None] - 1)
+    dv = np.broadcast_to((pb.v0 + 0.5 * pb.Bv)[:, None], du.shape)
+    n_grid = qu.shape[1]
+    qu = np.concatenate([qu, du.astype(float)], axis=1)
+    qv = np.concatenate([qv, dv], axis=1)
+    on_u_edge = np.concatenate([on_u_edge, np.zeros(du.shape, bool)], axis=1)
+    on_v_edge = np.concatenate([on_v_edge, np.zeros(du.shape, bool)], axis=1)
+    on_dense = np.concatenate([np.zeros((K, n_grid), bool), dense_ok], axis=1)
     qx, qy = lattice.to_xy(qu, qv)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -367,25 +499,31 @@ def _refine(pb: _Pending, uc, vc, hc, nodes: _Nodes, solve, lattice, height, H0,
     dup_u = np.concatenate([np.zeros((K, 1), bool), fu[:, 1:] == fu[:, :-1]], axis=1)
     dup_v = np.concatenate([np.zeros((K, 1), bool), fv[:, 1:] == fv[:, :-1]], axis=1)
     dup = (dup_u[:, :, None] | dup_v[:, None, :]).reshape(K, -1)
-    usable = np.isfinite(qh) & ~(on_u_edge & on_v_edge) & ~dup
+    dup = np.concatenate([dup, ~dense_ok], axis=1)
+    # blocks with an unseen corner fail anyway: no checks for them
+    usable = np.isfinite(qh) & ~(on_u_edge & on_v_edge) & ~dup & ~nodes_bad[:, None]
     el, ep = np.full(qu.shape, np.nan), np.full(qu.shape, np.nan)
     el[usable], ep[usable] = solve(qx[usable], qy[usable], qh[usable])
     kk = np.broadcast_to(np.arange(K)[:, None], qu.shape)
     il, ip = np.full(qu.shape, np.nan), np.full(qu.shape, np.nan)
     k_u = kk[usable]
-    il[usable], ip[usable] = _block_interp(
-        L[k_u], P[k_u], pb.u0[k_u], pb.v0[k_u], pb.Bu[k_u], pb.Bv[k_u], klo[k_u], nseg[k_u], H0, dH,
-        qu[usable], qv[usable], qh[usable])
+    il[usable], ip[usable] = _block_interp(L, P, k_u, pb, klo, nseg, H0, dH, qu[usable], qv[usable], qh[usable],
+                                           nodes.baseline)
     relevant = usable & _in_image(el, ep, shape)
     with np.errstate(invalid="ignore"):
         err = np.where(relevant, np.maximum(np.abs(il - el), np.abs(ip - ep)), 0.0)
     err = np.where(relevant & ~np.isfinite(err), np.inf, err)
-    e_u = np.where(on_u_edge, err, 0).max(axis=1)
     e_v = np.where(on_v_edge, err, 0).max(axis=1)
+    # along-track structure shows on the u edge and on the dense line
+    e_u = np.maximum(np.where(on_u_edge, err, 0).max(axis=1), np.where(on_dense, err, 0).max(axis=1))
     e_in = np.where(~on_u_edge & ~on_v_edge, err, 0).max(axis=1)
     # which blocks are settled
-    pts_l = np.concatenate([L.reshape(K, -1), el], axis=1)
-    pts_p = np.concatenate([P.reshape(K, -1), ep], axis=1)
+    # node values back in image units
+    gl, gp = nodes.baseline(np.broadcast_to(cu[:, None, :], L.shape).astype(float),
+                            np.broadcast_to(cv[:, None, :], L.shape).astype(float),
+                            (H0 + lev * dH)[:, :, None] * np.ones((1, 1, 4)))
+    pts_l = np.concatenate([(L + gl).reshape(K, -1), el], axis=1)
+    pts_p = np.concatenate([(P + gp).reshape(K, -1), ep], axis=1)
     present = np.concatenate([np.ones((K, 4 * maxlev), bool), usable], axis=1)
     empty = _beyond_one_edge(pts_l, pts_p, present, shape)
     inside = _in_image(pts_l, pts_p, shape)
@@ -393,6 +531,9 @@ def _refine(pb: _Pending, uc, vc, hc, nodes: _Nodes, solve, lattice, height, H0,
     small = pb.Bu * pb.Bv <= options.exact_cells
     across_edge &= ~small
     accept = ~empty & ~nodes_bad & ~across_edge & (np.maximum(np.maximum(e_u, e_v), e_in) <= tol)
+    # along the swath's edges the core gives no answer outside: small blocks there are solved
+    # per cell at once instead of being split down to single cells
+    small |= (nodes_bad | across_edge) & (pb.Bu * pb.Bv <= EDGE_EXACT_CELLS)
     exact = ~empty & ~accept & small
     split = ~empty & ~accept & ~small
     block = pb.block_of()
@@ -405,8 +546,7 @@ def _refine(pb: _Pending, uc, vc, hc, nodes: _Nodes, solve, lattice, height, H0,
         c = pb.cells[sel]
         k = block[sel]
         ci = cells[c]
-        line[ci], pixel[ci] = _block_interp(L[k], P[k], pb.u0[k], pb.v0[k], pb.Bu[k], pb.Bv[k], klo[k], nseg[k],
-                                            H0, dH, uc[c], vc[c], hc[c])
+        line[ci], pixel[ci] = _block_interp(L, P, k, pb, klo, nseg, H0, dH, uc[c], vc[c], hc[c], nodes.baseline)
     if exact.any():
         c = pb.cells[exact[block]]
         x, y = lattice.to_xy(uc[c], vc[c])

@@ -38,6 +38,9 @@ from scangeo.rectify.resample import RESAMPLING, in_image, line_window, remap_ba
 
 log = logging.getLogger(__name__)
 
+#: largest tile of the inverse map, cells: its along-track baseline (scangeo.rectify.inverse_map)
+#: models the attitude's effect across a tile's width, which stays simple over 640 m
+INVERSE_TILE = 256
 #: GDAL block cache during rectification, bytes (at most an eighth of the memory budget)
 GDAL_CACHE = 32 * 2**20
 
@@ -250,9 +253,10 @@ def rectify_strip(
             # the projection centre at every line, one beyond each end (cells reach half a line out)
             track = geometry.sensor_position(np.arange(-1, geometry.lines + 1, dtype=float))
             orientation = _orientation(geometry, grid)
-            for i, w in enumerate(windows):
+            inverse_tiles = list(grid.tiles(min(tile, INVERSE_TILE)))
+            for i, w in enumerate(inverse_tiles):
                 _pass1_tile(geometry, grid, w, options, track, orientation, zbuf, work, result.stats, seed=i)
-                progress(i + 1, total, f"inverse map {output.stem}")
+                progress(len(windows) * (i + 1) / len(inverse_tiles), total, f"inverse map {output.stem}")
             working = work_dir / "working.tif"
             layer_file = work_dir / "layers.tif" if layers else None
             glt = GltWriter(work_dir / "glt", grid) if options.glt else None

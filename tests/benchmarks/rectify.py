@@ -1,0 +1,171 @@
+"""Benchmark: rectify one Daedalus strip, scangeo against the GDAL geolocation route (issue 6).
+
+Run: python tests/benchmarks/rectify.py [--lines 10000] [--resampling bilinear] [--keep DIR]
+
+Set-up (not timed): a simulated project (preset ``small``, one strip of N lines x 716 pixels, its
+turbulence, true terrain and DTM at 2.5 m) and an 11-band uint16 image of that size.
+Then, side by side in this process, onto the same 2.5 m grid (the strip's footprint):
+
+* scangeo: ``rectify_strip`` (inverse map, z-buffer occlusion, cv2.remap of 11 bands in tiles,
+  COG writing), wall time from start to the final file;
+* GDAL: rasterio ``reproject`` with geolocation arrays (GDAL's geolocation transformer, bilinear, 2
+  threads) into memory, same grid; the geolocation arrays (image -> ground of every pixel corner on
+  the DTM) are computed before and timed separately: they are the IGM the route needs as input.
+
+Figures: wall time, output megapixel-bands per second (grid cells x bands / time), peak memory
+(resident set high-water mark of this process, reset before each route through
+/proc/self/clear_refs, and the numpy peak from tracemalloc), and the geometric difference of the
+two outputs (least-squares shift over the whole strip and in 128-cell windows).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import tempfile
+import time
+import tracemalloc
+import warnings
+from pathlib import Path
+
+import numpy as np
+import rasterio
+
+warnings.simplefilter("ignore")
+
+
+def reset_peak_rss() -> None:
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+    except OSError:
+        pass
+
+
+def peak_rss_mb() -> float:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def make_project(root: Path, lines: int) -> None:
+    from scangeo.simulate.block import simulate
+    from scangeo.simulate.config import load_preset
+
+    over = {
+        "flight": {"strips": 1, "lines": lines},
+        "terrain": {"resolution_m": 2.5, "dtm_resolution_m": 2.5},
+        "output": {"images": False, "truth_ortho": False},
+    }
+    simulate(root, load_preset("small", over))
+    (root / "images").mkdir(exist_ok=True)
+    rng = np.random.default_rng(3)
+    base = rng.integers(200, 4000, size=(lines // 4 + 1, 716 // 4 + 1)).astype(np.float32)
+    import cv2
+
+    smooth = cv2.resize(base, (716, lines), interpolation=cv2.INTER_CUBIC)
+    with rasterio.open(root / "images" / "01.tif", "w", driver="GTiff", width=716, height=lines, count=11,
+                       dtype="uint16", tiled=True, blockxsize=256, blockysize=256) as dst:
+        for b in range(11):
+            noise = rng.normal(0, 30, size=smooth.shape).astype(np.float32)
+            dst.write(np.clip(smooth * (0.6 + 0.05 * b) + noise, 0, 65535).astype(np.uint16), b + 1)
+
+
+def lk_shift(a: np.ndarray, b: np.ndarray, valid: np.ndarray):
+    gy, gx = np.gradient(b)
+    r = a - b
+
+    def solve(m):
+        G = np.stack([gx[m], gy[m]], 1)
+        return np.linalg.solve(G.T @ G, G.T @ r[m])
+
+    per = []
+    for r0 in range(0, a.shape[0] - 128 + 1, 128):
+        for c0 in range(0, a.shape[1] - 128 + 1, 128):
+            m = np.zeros_like(valid)
+            m[r0:r0 + 128, c0:c0 + 128] = True
+            m &= valid
+            if m.sum() > 0.9 * 128 * 128:
+                per.append(solve(m))
+    return solve(valid), np.array(per)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--lines", type=int, default=10_000)
+    ap.add_argument("--resampling", default="bilinear", choices=("nearest", "bilinear", "cubic"))
+    ap.add_argument("--keep", default=None, help="keep the project in this folder")
+    args = ap.parse_args()
+
+    from scangeo.io.project import Project
+    from scangeo.rectify.core_geometry import CoreStripGeometry
+    from scangeo.rectify.gdal_route import corner_geolocation, warp_with_geolocation
+    from scangeo.rectify.options import RectifyOptions
+    from scangeo.rectify.strip import rectify_strip
+
+    tmp = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="scangeo-bench-rectify-"))
+    root = tmp / "project"
+    t = time.perf_counter()
+    if not (root / "project.toml").exists():
+        make_project(root, args.lines)
+    print(f"set-up: simulated project and 11-band image in {time.perf_counter() - t:.1f} s ({root})")
+    project = Project.load(root)
+    image_path = root / "images" / "01.tif"
+    geometry = CoreStripGeometry(project.geometry("01"), project.dtm)
+    options = RectifyOptions(resolution=2.5, resampling=args.resampling)
+    # warm-up (numba compilation of the kernels), not timed
+    geometry.ground_to_image(np.array([0.0]), np.array([0.0]), np.array([0.0]))
+    geometry.image_to_ground(np.array([0.0]), np.array([0.0]))
+
+    out = tmp / "ortho.tif"
+    reset_peak_rss()
+    tracemalloc.start()
+    t0 = time.perf_counter()
+    result = rectify_strip(geometry, image_path, out, options)
+    t_ours = time.perf_counter() - t0
+    _, np_peak_ours = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    rss_ours = peak_rss_mb()
+    grid = result.grid
+    mpx = grid.width * grid.height * 11 / 1e6
+
+    t0 = time.perf_counter()
+    x, y = corner_geolocation(geometry)
+    t_igm = time.perf_counter() - t0
+    with rasterio.open(image_path) as src:
+        image = src.read()
+    reset_peak_rss()
+    tracemalloc.start()
+    t0 = time.perf_counter()
+    gdal = warp_with_geolocation(image, x, y, grid, args.resampling, nodata=0, threads=2)
+    t_gdal = time.perf_counter() - t0
+    _, np_peak_gdal = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    rss_gdal = peak_rss_mb()
+
+    with rasterio.open(out) as d:
+        ours = d.read(1).astype(float)
+    g = gdal[0].astype(float)
+    valid = (ours != 0) & (g != 0)
+    mean, per = lk_shift(g, ours, valid)
+    s = result.stats
+    print(f"\nstrip 716 x {args.lines} x 11 uint16 -> grid {grid.width} x {grid.height} at 2.5 m "
+          f"({mpx:.1f} Mpx-bands), {args.resampling}; OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '')}")
+    print(f"{'route':<44}{'wall s':>9}{'Mpx-bands/s':>13}{'peak RSS MB':>13}{'numpy peak MB':>15}")
+    print(f"{'scangeo rectify_strip (to the final COG)':<44}{t_ours:>9.2f}{mpx / t_ours:>13.1f}{rss_ours:>13.0f}"
+          f"{np_peak_ours / 2**20:>15.0f}")
+    print(f"{'GDAL geolocation warp (in memory)':<44}{t_gdal:>9.2f}{mpx / t_gdal:>13.1f}{rss_gdal:>13.0f}"
+          f"{np_peak_gdal / 2**20:>15.0f}")
+    print(f"{'  + its input: IGM of the pixel corners':<44}{t_igm:>9.2f}")
+    print(f"ratio scangeo / GDAL throughput: {t_gdal / t_ours:.1f}x (with the IGM: {(t_gdal + t_igm) / t_ours:.1f}x)")
+    print(f"scangeo inverse map: {s.exact_points / 1e6:.2f} M exact points for {grid.width * grid.height / 1e6:.2f} M "
+          f"cells, {s.exact_cells} cells solved exactly, validated max error {s.max_error_px:.4f} px; "
+          f"{result.valid_cells} valid, {result.hidden_cells} hidden cells; tile {result.tile_size}")
+    print(f"GDAL minus scangeo (band 1): mean shift {mean.round(4)} px (x, y), 128-cell windows rms "
+          f"{np.sqrt((per ** 2).mean(0)).round(4)} px, max |shift| {np.abs(per).max():.3f} px over {len(per)} windows")
+    if not args.keep:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
