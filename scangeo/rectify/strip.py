@@ -2,7 +2,8 @@
 
 Pass 1, per tile: DTM heights, the inverse map (exact on a coarse lattice, interpolated under
 error control), the range to the sensor, the fold test; every tile's ranges go into the strip's
-z-buffer. The per-cell results are kept in memory-mapped work files beside the output.
+z-buffer. The per-cell results are kept in memory when they take at most a quarter of the memory
+budget, else in memory-mapped work files beside the output.
 Pass 2, per tile: visibility against the complete z-buffer, the image lines the tile needs (a
 rasterio window), ``cv2.remap`` of every band, nodata outside the swath, where the DTM has none
 and where the ground is hidden; optional layers and the GLT. The working GeoTIFF is then copied
@@ -84,7 +85,8 @@ def strip_grid(geometry: StripGeometry, options: RectifyOptions) -> OutputGrid:
 
 
 def choose_tile_size(
-    options: RectifyOptions, geometry: StripGeometry, bands: int, itemsize: int, resolution: float
+    options: RectifyOptions, geometry: StripGeometry, bands: int, itemsize: int, resolution: float,
+    reserved: int = 0,
 ) -> int:
     """The largest tile (cells per side) whose working arrays fit the memory budget.
 
@@ -93,7 +95,7 @@ def choose_tile_size(
     """
     if options.tile_size:
         return options.tile_size
-    budget = options.memory_budget_mb * 2**20 - gdal_cache(options)
+    budget = options.memory_budget_mb * 2**20 - gdal_cache(options) - reserved
     if options.occlusion:
         budget -= geometry.lines * geometry.pixels * 4
     gsd = nadir_ground_pixel(geometry)
@@ -134,21 +136,28 @@ def _output_nodata(options: RectifyOptions, src) -> float:
 
 
 class _WorkArrays:
-    """Per-cell results of pass 1, memory-mapped in a work folder."""
+    """Per-cell results of pass 1: in memory when they fit the budget, else memory-mapped files."""
 
-    def __init__(self, folder: Path, shape: tuple[int, int], extra: tuple[str, ...]) -> None:
+    SPECS = {"line": np.float64, "pixel": np.float32, "range": np.float32, "tolerance": np.float32}
+
+    @classmethod
+    def nbytes(cls, shape: tuple[int, int], extra: tuple[str, ...]) -> int:
+        per_cell = sum(np.dtype(t).itemsize for t in cls.SPECS.values()) + 4 * len(extra)
+        return shape[0] * shape[1] * per_cell
+
+    def __init__(self, folder: Path, shape: tuple[int, int], extra: tuple[str, ...], in_memory: bool) -> None:
         self.arrays = {}
-        specs = {"line": np.float64, "pixel": np.float64, "range": np.float32, "tolerance": np.float32}
-        specs.update({name: np.float32 for name in extra})
+        specs = {**self.SPECS, **{name: np.float32 for name in extra}}
         for name, dtype in specs.items():
-            self.arrays[name] = np.lib.format.open_memmap(folder / f"{name}.npy", "w+", dtype, shape)
+            if in_memory:
+                self.arrays[name] = np.empty(shape, dtype)
+            else:
+                self.arrays[name] = np.lib.format.open_memmap(folder / f"{name}.npy", "w+", dtype, shape)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.arrays[name]
 
     def close(self) -> None:
-        for a in self.arrays.values():
-            a.flush()
         self.arrays.clear()
 
 
@@ -241,14 +250,17 @@ def rectify_strip(
         dtype = np.dtype(src.dtypes[0])
         nodata = _output_nodata(options, src)
         bands = bands or bands_of(src)
-        tile = choose_tile_size(options, geometry, src.count, dtype.itemsize, grid.resolution)
+        extra = tuple(n for n in ("view_zenith", "ground_pixel") if n in layers)
+        work_bytes = _WorkArrays.nbytes(grid.shape, extra)
+        in_memory = work_bytes <= options.memory_budget_mb * 2**20 / 4
+        tile = choose_tile_size(options, geometry, src.count, dtype.itemsize, grid.resolution,
+                                reserved=work_bytes if in_memory else 0)
         result = StripResult(output, grid, tile_size=tile)
         windows = list(grid.tiles(tile))
         total = 2 * len(windows)
         work_dir = Path(tempfile.mkdtemp(dir=output.parent, prefix=f".{output.name}.partial-"))
         try:
-            extra = tuple(n for n in ("view_zenith", "ground_pixel") if n in layers)
-            work = _WorkArrays(work_dir, grid.shape, extra)
+            work = _WorkArrays(work_dir, grid.shape, extra, in_memory)
             zbuf = occlusion.ZBuffer(geometry.lines, geometry.pixels) if options.occlusion else None
             # the projection centre at every line, one beyond each end (cells reach half a line out)
             track = geometry.sensor_position(np.arange(-1, geometry.lines + 1, dtype=float))
