@@ -167,9 +167,11 @@ def summarise(result: VariantResult, truth: Truth | None = None) -> VariantSumma
         entry = {}
         for kind in ("control", "check"):
             r = e[kind]
-            entry[kind] = {"n": r["n"], "rms_along_px": _num(r["rms_along_lines"]), "rms_across_px": _num(r["rms_across_px"])}
+            entry[kind] = {"n": r["n"], "rms_along_px": _num(r["rms_along_lines"]),
+                           "rms_across_px": _num(r["rms_across_px"])}
         if truth is not None:
-            entry["true"] = {k: _num(v) if k != "n" else v for k, v in truth.error(sid, result.geometry(sid)).as_dict().items()}
+            error = truth.error(sid, result.geometry(sid)).as_dict()
+            entry["true"] = {k: _num(v) if k != "n" else v for k, v in error.items()}
         strips[sid] = entry
     v = result.variant
     return VariantSummary(

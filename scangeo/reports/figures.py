@@ -104,7 +104,7 @@ def residual_map(frame: StripFrame, vectors: list[ResidualVectors], titles: list
 
 
 def rms_chart(strips: list[str], variants: list[str], across: dict[str, list[float | None]],
-              reference: str) -> bytes:
+              reference: str, colours: dict[str, str] | None = None) -> bytes:
     """Grouped bars: check-point rms across track (px) per strip, one bar per variant."""
     fig = Figure(figsize=(9, 3.6))
     ax = fig.add_subplot(1, 1, 1)
@@ -112,7 +112,7 @@ def rms_chart(strips: list[str], variants: list[str], across: dict[str, list[flo
     for i, name in enumerate(variants):
         vals = [np.nan if a is None else a for a in across[name]]
         ax.bar(np.arange(len(strips)) + (i - (len(variants) - 1) / 2) * width, vals, width * 0.95,
-               label=name + (" (ref.)" if name == reference else ""), color=colour(i))
+               label=name + (" (ref.)" if name == reference else ""), color=(colours or {}).get(name, colour(i)))
     ax.set_xticks(np.arange(len(strips)), [f"strip {s}" for s in strips])
     ax.set_ylabel("rms across track (px)")
     ax.grid(axis="y", alpha=0.3)
@@ -124,14 +124,15 @@ def rms_chart(strips: list[str], variants: list[str], across: dict[str, list[flo
 _COMPONENTS = (("x", "m"), ("y", "m"), ("z", "m"), ("roll", "deg"), ("pitch", "deg"), ("heading", "deg"))
 
 
-def correction_plot(strip_id: str, series: dict[str, Series], breaks: list[float]) -> bytes:
+def correction_plot(strip_id: str, series: dict[str, Series], breaks: list[float],
+                    colours: dict[str, str] | None = None) -> bytes:
     """The applied correction (adjusted - measured) of a strip over time: 6 panels, a line per variant."""
     fig = Figure(figsize=(11, 5.5))
     for c, (name, unit) in enumerate(_COMPONENTS):
         ax = fig.add_subplot(2, 3, c + 1)
         for i, (variant, s) in enumerate(series.items()):
             v = s.values[:, c] if c < 3 else np.degrees(s.values[:, c])
-            ax.plot(s.time, v, lw=1.0, color=colour(i), label=variant)
+            ax.plot(s.time, v, lw=1.0, color=(colours or {}).get(variant, colour(i)), label=variant)
         for b in breaks:
             ax.axvline(b, color="k", ls=":", lw=0.8)
         ax.set_title(f"{name} ({unit})", fontsize=9)
@@ -146,7 +147,7 @@ def correction_plot(strip_id: str, series: dict[str, Series], breaks: list[float
 
 
 def height_correction_plot(strip_id: str, series: dict[str, Series], height: Series, truth: Series | None,
-                           breaks: list[float]) -> bytes:
+                           breaks: list[float], colours: dict[str, str] | None = None) -> bytes:
     """Z correction of the variants together with the GPS/IMU height's deviation from its mean."""
     fig = Figure(figsize=(10, 4.2))
     ax = fig.add_subplot(1, 1, 1)
@@ -156,7 +157,8 @@ def height_correction_plot(strip_id: str, series: dict[str, Series], height: Ser
     if truth is not None:
         ax.plot(truth.time, -truth.values[:, 2], color="k", lw=1.0, ls="--", label="- injected GPS height error (truth)")
     for i, (variant, s) in enumerate(series.items()):
-        ax.plot(s.time, s.values[:, 2], lw=1.3, color=colour(i + 1), label=f"Z correction {variant}")
+        ax.plot(s.time, s.values[:, 2], lw=1.3, color=(colours or {}).get(variant, colour(i)),
+                label=f"Z correction {variant}")
     for b in breaks:
         ax.axvline(b, color="k", ls=":", lw=0.8)
     ax.set_xlabel("time since the first line (s)")
@@ -198,7 +200,8 @@ def gpsimu_plot(strip_id: str, s: Series, direction: str) -> bytes:
     xy = v[:, :2] - v[0, :2]
     u = xy[-1] / max(np.linalg.norm(xy[-1]), 1e-9)
     right = np.array([u[1], -u[0]])  # to the right of the flight direction
-    panels = [("offset right of the straight line (m)", [(xy @ right - np.polyval(np.polyfit(t, xy @ right, 1), t), "across")]),
+    offset = xy @ right
+    panels = [("offset right of the straight line (m)", [(offset - np.polyval(np.polyfit(t, offset, 1), t), "across")]),
               ("ellipsoidal height h (m)", [(v[:, 2], "h")]),
               ("roll, pitch (deg)", [(v[:, 3], "roll"), (v[:, 4], "pitch")]),
               ("heading (deg)", [(v[:, 5], "heading")])]
@@ -218,5 +221,5 @@ def gpsimu_plot(strip_id: str, s: Series, direction: str) -> bytes:
     return png(fig)
 
 
-__all__ = ["StripFrame", "correction_plot", "gpsimu_plot", "height_correction_plot", "nice", "png", "residual_map", "rms_chart",
-           "tracks_map"]
+__all__ = ["StripFrame", "correction_plot", "gpsimu_plot", "height_correction_plot", "nice", "png", "residual_map",
+           "rms_chart", "tracks_map"]

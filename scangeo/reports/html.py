@@ -28,7 +28,8 @@ def esc(text) -> str:
 def table(head: list[str], rows: list[list[str]], table_id: str | None = None, text_columns=()) -> str:
     """An HTML table; columns in ``text_columns`` are left-aligned."""
     attr = f' id="{esc(table_id)}"' if table_id else ""
-    out = [f'<div class="scroll"><table{attr}>', "<thead><tr>" + "".join(f"<th>{esc(h)}</th>" for h in head) + "</tr></thead><tbody>"]
+    out = [f'<div class="scroll"><table{attr}>',
+           "<thead><tr>" + "".join(f"<th>{esc(h)}</th>" for h in head) + "</tr></thead><tbody>"]
     for r in rows:
         cells = "".join(f'<td class="text">{esc(c)}</td>' if i in text_columns else f"<td>{esc(c)}</td>"
                         for i, c in enumerate(r))

@@ -75,6 +75,11 @@ def _variant_report(project: Project, name: str) -> dict:
     return json.loads(path.read_text()) if path.exists() else {}
 
 
+def _colours(c: Comparison) -> dict[str, str]:
+    """One colour per variant, the same in every figure."""
+    return {v.name: figures.colour(i) for i, v in enumerate(c.variants)}
+
+
 def _comparison_section(c: Comparison) -> html.Section:
     tables = markdown_tables(c)
     sec = html.Section("Comparison of strategies", "comparison")
@@ -85,7 +90,7 @@ def _comparison_section(c: Comparison) -> html.Section:
     sec.parts.append(html.table(*tables["check points"], table_id="comparison-table", text_columns=(0, 1, 2)))
     ok = [v for v in c.variants if v.error is None]
     across = {v.name: [v.strips.get(s, {}).get("check", {}).get("rms_across_px") for s in c.strips] for v in ok}
-    sec.parts.append(html.figure(figures.rms_chart(c.strips, [v.name for v in ok], across, c.reference),
+    sec.parts.append(html.figure(figures.rms_chart(c.strips, [v.name for v in ok], across, c.reference, _colours(c)),
                                  "Check-point rms across track per strip and variant", "fig-rms"))
     if "true error" in tables:
         sec.parts.append("<h3>True error (simulated project)</h3>")
@@ -122,13 +127,13 @@ def _corrections_section(project: Project, c: Comparison) -> html.Section:
         series = {n: correction_series(project, n, sid) for n in ps}
         height, _ = gpsimu_series(project, sid)
         breaks = sorted({b for n in ps for b in breaks_of(project, n, sid)})
-        png = figures.height_correction_plot(sid, series, height, true_gps_error(project, sid), breaks)
+        png = figures.height_correction_plot(sid, series, height, true_gps_error(project, sid), breaks, _colours(c))
         sec.parts.append(html.figure(png, f"Problem strip {sid}: Z corrections of {', '.join(ps)} and the GPS/IMU "
                                           "height's deviation from the mean flight height", f"fig-height-{sid}"))
     for sid in c.strips:
         series = {n: correction_series(project, n, sid) for n in adjusted}
         breaks = sorted({b for n in adjusted for b in breaks_of(project, n, sid)})
-        sec.parts.append(html.figure(figures.correction_plot(sid, series, breaks),
+        sec.parts.append(html.figure(figures.correction_plot(sid, series, breaks, _colours(c)),
                                      f"Strip {sid}: corrections of {', '.join(adjusted)} over time", f"fig-corr-{sid}"))
     return sec
 
@@ -138,7 +143,8 @@ def _gpsimu_section(project: Project, c: Comparison, frames: dict[str, figures.S
     tracks, directions = {}, {}
     for sid in c.strips:
         tracks[sid], directions[sid] = gpsimu_series(project, sid)
-    sec.parts.append(html.figure(figures.tracks_map(tracks, {s: f.footprint for s, f in frames.items()}), "Strips, tracks and flight directions",
+    footprints = {s: f.footprint for s, f in frames.items()}
+    sec.parts.append(html.figure(figures.tracks_map(tracks, footprints), "Strips, tracks and flight directions",
                                  "fig-tracks"))
     for sid in c.strips:
         sec.parts.append(html.figure(figures.gpsimu_plot(sid, tracks[sid], directions[sid]),
