@@ -6,6 +6,17 @@ adjustment (all rows of the unit, e.g. line and pixel of one image measurement) 
 is solved again from the current values, until no w exceeds the critical value. Rows with a
 redundancy number below ``MIN_REDUNDANCY`` are uncontrolled and never tested; pseudo-observations are
 never tested, nor are groups that opt out (``snooped = False``: the GPS/IMU samples).
+
+How the adjustment is solved again after a removal (``SnoopingOptions.method``):
+
+- ``"update"`` (default): by a low-rank update of the last factorisation (``removal.py``): the new
+  solution by Gauss-Newton steps with the updated inverse, the new redundancy numbers of the tested
+  rows from the last selected inverse, no factorisation. When no w exceeds the critical value any
+  more, the adjustment is solved and its statistics computed in full (factorisation, selected
+  inversion) and tested again: the reported statistics are always those of a full solution, and a
+  w that the full solution puts above the critical value is snooped as before. A removal that
+  leaves an unknown undetermined (it needs regularisation) is solved in full at once.
+- ``"resolve"``: a full solution and selected inversion after every removal (the reference).
 """
 from __future__ import annotations
 
@@ -17,8 +28,10 @@ import numpy as np
 
 from scangeo.adjustment.observations import ObservationGroup
 from scangeo.adjustment.parameters import Parameters
+from scangeo.adjustment.removal import RemovalUpdate
 from scangeo.adjustment.solver import Solution, Solver, SolverOptions
 from scangeo.adjustment.statistics import Statistics
+from scangeo.errors import AdjustmentError
 from scangeo.progress import ProgressCallback, no_progress, scaled
 
 log = logging.getLogger(__name__)
@@ -34,6 +47,13 @@ class SnoopingOptions:
     critical_value: float = 3.29
     max_rejections: int = 1000
     per_round: int = 1
+    method: str = "update"
+    #: with ``method = "update"``: at most this many rows removed between full solutions
+    max_update_rows: int = 64
+
+    def __post_init__(self) -> None:
+        if self.method not in ("update", "resolve"):
+            raise AdjustmentError(f"snooping method must be 'update' or 'resolve', not {self.method!r}")
 
 
 @dataclass(frozen=True)
@@ -55,17 +75,19 @@ class Adjustment:
     statistics: Statistics
     rejections: list[Rejection] = field(default_factory=list)
     snooping_rounds: int = 0
+    #: full solutions (factorisation and selected inversion), the first included
+    full_solutions: int = 1
 
     @property
     def parameters(self) -> Parameters:
         return self.solution.parameters
 
 
-def _worst_units(stats: Statistics, crit: float, count: int) -> list[tuple[int, int, float]]:
+def _worst_units(groups: Sequence[ObservationGroup], active: list[np.ndarray], w_tests: list[np.ndarray],
+                 crit: float, count: int) -> list[tuple[int, int, float]]:
     """Up to ``count`` (group index, unit, |w|) with the largest |w| above ``crit``, best first."""
-    sol = stats.solution
     found: list[tuple[float, int, int]] = []
-    for gi, (group, act, w) in enumerate(zip(sol.groups, sol.active, stats.w_tests())):
+    for gi, (group, act, w) in enumerate(zip(groups, active, w_tests)):
         if group.kind != "observation" or not group.snooped:
             continue
         aw = np.where(act & np.isfinite(w), np.abs(w), 0.0)
@@ -80,13 +102,18 @@ def _worst_units(stats: Statistics, crit: float, count: int) -> list[tuple[int, 
     found.sort(reverse=True)
     out, points = [], set()
     for w, gi, u in found:  # one unit per point and round: a point's other rays share its blunder's smear
-        pid = str(sol.groups[gi].ids[sol.groups[gi].row_unit == u][0])
+        pid = str(groups[gi].ids[groups[gi].row_unit == u][0])
         if pid not in points:
             points.add(pid)
             out.append((gi, u, w))
         if len(out) == count:
             break
     return out
+
+
+def _tested_rows(solution: Solution) -> np.ndarray:
+    """Mask of the stacked rows that data snooping tests."""
+    return np.concatenate([np.full(g.n_rows, g.kind == "observation" and g.snooped) for g in solution.groups])
 
 
 def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
@@ -100,26 +127,51 @@ def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
     solver = Solver(parameters, groups, solver_options, scaled(callback, 0.0, 0.7))
     solution = solver.solve()
     stats = Statistics(solution)
+    full = 1
+    update: RemovalUpdate | None = None    # removals since the last full solution, by low-rank update
     rejections: list[Rejection] = []
     rounds = 0
-    while snooping.enabled and len(rejections) < snooping.max_rejections:
-        worst = _worst_units(stats, snooping.critical_value,
-                             min(snooping.per_round, snooping.max_rejections - len(rejections)))
+    while snooping.enabled:
+        active = solution.active if update is None else update.active
+        worst = []
+        if len(rejections) < snooping.max_rejections:
+            worst = _worst_units(solution.groups, active, stats.w_tests() if update is None else update.w_tests(),
+                                 snooping.critical_value, min(snooping.per_round, snooping.max_rejections - len(rejections)))
         if not worst:
-            break
+            if update is None or update.removed.size == 0:
+                break
+            # no w above the critical value with the updated statistics: confirm with a full solution
+            solver.parameters.set_values(update.values)
+            solution, update = solver.solve(update.active), None
+            stats = Statistics(solution)
+            full += 1
+            continue
         rounds += 1
-        active = [a.copy() for a in solution.active]
+        rows = []
         for gi, unit, w in worst:
             group = solution.groups[gi]
-            rows = group.row_unit == unit
-            active[gi][rows] = False
-            rejections.append(Rejection(group.name, str(group.ids[rows][0]),
-                                        tuple(str(c) for c in group.components[rows]), w, rounds))
-            log.info("data snooping round %d: rejected %s %s (|w| = %.2f)", rounds, group.name,
-                     group.ids[rows][0], w)
+            sel = group.row_unit == unit
+            rows.append(solution.system.row_slices[gi].start + np.flatnonzero(sel))
+            rejections.append(Rejection(group.name, str(group.ids[sel][0]),
+                                        tuple(str(c) for c in group.components[sel]), w, rounds))
+            log.info("data snooping round %d: rejected %s %s (|w| = %.2f)", rounds, group.name, group.ids[sel][0], w)
+        rows = np.concatenate(rows)
         callback(0.7 + 0.3 * min(len(rejections) / max(snooping.max_rejections, 1), 1.0), 1.0,
                  f"data snooping: {len(rejections)} rejected")
+        if snooping.method == "update":
+            if update is None:
+                update = RemovalUpdate(solver, solution, stats.leverages, _tested_rows(solution))
+            if update.remove(rows, snooping.max_update_rows):
+                continue
+            solver.parameters.set_values(update.values)   # refactorise from the latest values
+            active, update = update.active, None
+        else:
+            active = [a.copy() for a in solution.active]
+            for a, sl in zip(active, solution.system.row_slices):
+                inside = rows[(rows >= sl.start) & (rows < sl.stop)]
+                a[inside - sl.start] = False
         solution = solver.solve(active)
         stats = Statistics(solution)
+        full += 1
     callback(1.0, 1.0, "adjustment done")
-    return Adjustment(solution, stats, rejections, rounds)
+    return Adjustment(solution, stats, rejections, rounds, full)

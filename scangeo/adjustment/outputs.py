@@ -60,7 +60,8 @@ def report_dict(result: VariantResult) -> dict:
         "converged": sol.converged, "iterations": [
             {"number": it.number, "cost": _num(it.cost), "max_scaled_step": _num(it.max_scaled_step),
              "damping": it.damping, "seconds": round(it.seconds, 4)} for it in sol.iterations],
-        "snooping_rounds": adj.snooping_rounds, "solver_backend": sol.factor.backend,
+        "snooping_rounds": adj.snooping_rounds, "full_solutions": adj.full_solutions,
+        "solver_backend": sol.factor.backend,
         "backends_available": available_backends(), "seconds": round(result.seconds, 3),
         "models": [{"id": m.id, "strips": list(m.strips), "t_start": m.t_start, "t_end": m.t_end,
                     "position_degree": m.position_degree, "attitude_degree": m.attitude_degree,

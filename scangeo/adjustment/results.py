@@ -149,7 +149,8 @@ def run_variant(project_root, variant: str | Variant, variants_file=None,
     block = build_block(project, v, points, ground)
     adj = adjust(block.parameters, block.groups,
                  SolverOptions(max_iterations=v.max_iterations, backend=v.backend),
-                 SnoopingOptions(enabled=v.snooping, critical_value=v.critical_value, per_round=max(1, v.rejections_per_round)),
+                 SnoopingOptions(enabled=v.snooping, critical_value=v.critical_value,
+                                 per_round=max(1, v.rejections_per_round), method=v.snooping_method),
                  callback)
     result = VariantResult(block, adj, CheckResiduals(*(np.zeros(0),) * 5), 0.0, list(block.notes))
     result.checks = evaluate_checks(block, result.geometry)

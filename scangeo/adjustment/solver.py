@@ -140,24 +140,30 @@ class Solver:
         self._regularised: dict[int, int] = {}   # column -> times tightened
 
     # -- assembly -------------------------------------------------------------------------------
-    def system(self, values, active: list[np.ndarray]) -> System:
+    def linearisation(self, values, active: list[np.ndarray]) -> tuple[np.ndarray, sp.csr_matrix, list[slice]]:
+        """Stacked whitened residuals and Jacobian (rows not active set to zero) and each group's rows."""
         res, jac, slices, start = [], [], [], 0
         for group, act in zip(self.groups, active):
             lin = group.linearise(values)
             J = self.layout.matrix(lin.parts, group.n_rows)
             r = np.where(act, lin.residuals, 0.0)
-            if not act.all():
-                J = sp.diags(act.astype(float)) @ J
+            if not act.all():  # zero the rejected rows' entries (in place: no sparse product)
+                J.data *= np.repeat(act, np.diff(J.indptr))
             res.append(r), jac.append(J)
             slices.append(slice(start, start + group.n_rows))
             start += group.n_rows
         J = sp.vstack(jac, format="csr") if jac else sp.csr_matrix((0, self.layout.n))
         r = np.concatenate(res) if res else np.zeros(0)
-        N = (J.T @ J).tocsc()
+        return r, J, slices
+
+    def system(self, values, active: list[np.ndarray]) -> System:
+        r, J, slices = self.linearisation(values, active)
+        N = (J.T.tocsr() @ J).tocsc()
         d = np.sqrt(np.maximum(N.diagonal(), 0.0))
         scale = np.where(d > 0, d, 1.0)
-        Dinv = sp.diags(1.0 / scale)
-        return System(r, J, scale, (Dinv @ N @ Dinv).tocsc(), (J.T @ r) / scale, slices)
+        # D^-1 N D^-1 on N's own pattern
+        N.data /= scale[N.indices] * np.repeat(scale, np.diff(N.indptr))
+        return System(r, J, scale, N, (J.T @ r) / scale, slices)
 
     def _regularise(self, values, columns: np.ndarray, reason: str, tighten: float = 1.0) -> PseudoObservations:
         keys, comps, vals, sig, names = [], [], [], [], []
@@ -188,6 +194,8 @@ class Solver:
                 bad = np.flatnonzero(~(pivots > self.options.pivot_tolerance))
                 if bad.size == 0 and factor is not None:
                     return system, factor
+                if bad.size == 0:  # the Cholesky failed, the LDL^T pivots are all just above the tolerance
+                    bad = np.array([int(np.argmin(pivots))])
                 empty = bad
                 reason = "singular or nearly singular normal equations (scaled pivot below %g)" % self.options.pivot_tolerance
             tighten = 1.0

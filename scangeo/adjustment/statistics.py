@@ -93,7 +93,14 @@ class Statistics:
 
     def _scaled_jacobian(self) -> sp.csr_matrix:
         s = self.solution.system
-        return (s.jacobian @ sp.diags(1.0 / s.scale)).tocsr()
+        J = (s.jacobian @ sp.diags(1.0 / s.scale)).tocsr()
+        J.eliminate_zeros()  # rejected rows: their couplings may be outside the factor's pattern
+        return J
+
+    @property
+    def leverages(self) -> np.ndarray:
+        """``h_i = j_i N^-1 j_i^T`` of every row of the stacked system (redundancy number ``1 - h_i``)."""
+        return self._leverage
 
     @cached_property
     def _leverage(self) -> np.ndarray:

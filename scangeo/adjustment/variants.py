@@ -55,6 +55,7 @@ class Variant:
     snooping: bool = True
     critical_value: float = 3.29
     rejections_per_round: int = 1
+    snooping_method: str = "update"
     max_iterations: int = 20
     backend: str = "auto"
 
@@ -100,6 +101,7 @@ def _variant(t: Table, name: str, defaults: dict) -> Variant:
     kw["gps_sigma_m"] = tuple(t.vector("gps_sigma_m", 3, list(Variant.gps_sigma_m)))
     kw["imu_sigma_deg"] = tuple(t.vector("imu_sigma_deg", 3, list(Variant.imu_sigma_deg)))
     kw["backend"] = t.choice("backend", ("auto", "cholmod", "superlu"), "auto")
+    kw["snooping_method"] = t.choice("snooping_method", ("update", "resolve"), "update")
     kw["dtm_height_points"] = tuple(str(p) for p in t.get("dtm_height_points", list, ["*"]))
     calibrate = t.get("calibrate", list, [])
     for c in calibrate:

@@ -95,19 +95,20 @@ def test_shift_only_block_recovers_shifts_and_checks_reach_the_noise(shifted):
     assert _pooled_rms(dg.checks) > 1.5 * adjusted
 
 
-def test_injected_blunders_are_flagged(shifted, tmp_path):
-    root = tmp_path / "blunders"
-    shutil.copytree(shifted, root)
+def with_blunders(source, root, seed=11, n=6):
+    """A copy of a project with blunders of 10-30 px in ``n`` measurements of distinct control and
+    tie points measured in 2+ strips; returns the copy, the blunder points and all point ids."""
+    shutil.copytree(source, root)
     rows = list(csv.reader(open(root / "points.csv")))
     head, body = rows[0], rows[1:]
     count = {}
     for r in body:
         count[r[0]] = count.get(r[0], 0) + 1
-    rng = np.random.default_rng(11)
+    rng = np.random.default_rng(seed)
     candidates = [i for i, r in enumerate(body) if count[r[0]] >= 2 and r[0][0] in "ET"]
     blunder_points, picked = set(), []
     for i in rng.permutation(candidates):
-        if body[i][0] not in blunder_points and len(picked) < 6:
+        if body[i][0] not in blunder_points and len(picked) < n:
             blunder_points.add(body[i][0])
             picked.append(i)
     for i in picked:
@@ -116,6 +117,11 @@ def test_injected_blunders_are_flagged(shifted, tmp_path):
         body[i][3] = f"{float(body[i][3]) + size * np.sin(a):.4f}"
     with open(root / "points.csv", "w", newline="") as f:
         csv.writer(f).writerows([head] + body)
+    return root, blunder_points, count
+
+
+def test_injected_blunders_are_flagged(shifted, tmp_path):
+    root, blunder_points, count = with_blunders(shifted, tmp_path / "blunders")
     result = run_variant(root, Variant("SHIFT", "SE", attitude_degree=-1))
     flagged_points = {r.id for r in result.adjustment.rejections}
     # a tie point seen in two strips shows a blunder but cannot say which of its two rays holds it:
@@ -123,6 +129,22 @@ def test_injected_blunders_are_flagged(shifted, tmp_path):
     assert len(flagged_points & blunder_points) >= 0.95 * len(blunder_points)
     good = len(set(count) - blunder_points)
     assert len(flagged_points - blunder_points) <= 0.01 * good
+
+
+def test_snooping_by_update_agrees_with_full_resolutions(shifted, tmp_path):
+    # the low-rank update after each removal against a full solution and selected inversion after
+    # each removal: the same observations rejected, the same final adjustment
+    root, _, _ = with_blunders(shifted, tmp_path / "blunders", seed=12, n=5)
+    results = {m: run_variant(root, Variant("SHIFT", "SE", attitude_degree=-1, dtm_heights=True, snooping_method=m))
+               for m in ("update", "resolve")}
+    upd, ref = results["update"].adjustment, results["resolve"].adjustment
+    assert len(ref.rejections) >= 5
+    assert [r.id for r in upd.rejections] == [r.id for r in ref.rejections]
+    np.testing.assert_allclose([r.w for r in upd.rejections], [r.w for r in ref.rejections], rtol=0.01)
+    assert upd.statistics.sigma0 == pytest.approx(ref.statistics.sigma0, rel=1e-6)
+    for m in results["update"].block.models:
+        np.testing.assert_allclose(upd.parameters[m.key].values, ref.parameters[m.key].values, atol=1e-4)
+    assert upd.full_solutions < ref.full_solutions
 
 
 def test_rank_deficient_setup_ends_with_a_regularisation_note(small, tmp_path):

@@ -4,9 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scangeo.adjustment import Parameters, SnoopingOptions, SolverOptions, Unknown, adjust
+from scangeo.adjustment import Parameters, SnoopingOptions, Solver, SolverOptions, Statistics, Unknown, adjust
 from scangeo.adjustment import factor as factor_module
 from scangeo.adjustment.factor import available_backends
+from scangeo.adjustment.removal import RemovalUpdate
 
 from .problems import Distances, HeightDifferences, levelling_network
 from .test_engine import NO_SNOOPING, levelling_parameters
@@ -108,3 +109,85 @@ def test_scipy_fallback_when_cholmod_is_absent(monkeypatch):
     assert np.max(np.abs(got - np.array(list(truth.values())))) < 0.02
     with pytest.raises(factor_module.AdjustmentError, match="scikit-sparse"):
         factor_module.Factorizer("cholmod")
+
+
+def _full_solution(solver, active):
+    solution = solver.solve([a.copy() for a in active])
+    return solution, Statistics(solution)
+
+
+def test_removal_update_is_exact_on_a_linear_problem():
+    # removing observations by the low-rank update gives the solution and the w-tests of a full
+    # re-solution, one removal and two (cumulative) removals after the factorisation
+    rng = np.random.default_rng(4)
+    truth, group = levelling_network(rng, n_points=20, n_lines=70, blunders=[(5, 0.03), (33, -0.03)])
+    solver = Solver(levelling_parameters(truth), [group], SolverOptions())
+    solution = solver.solve()
+    stats = Statistics(solution)
+    update = RemovalUpdate(solver, solution, stats.leverages, np.ones(group.n_rows, bool))
+    for rows in ([5], [33]):
+        assert update.remove(np.array(rows))
+        reference, ref_stats = _full_solution(Solver(levelling_parameters(truth), [group], SolverOptions()),
+                                              update.active)
+        for name in truth:
+            assert update.values[Unknown(name)][0] == pytest.approx(reference.parameters[Unknown(name)].values[0],
+                                                                   abs=1e-10)
+        w, w_ref = update.w_tests()[0], ref_stats.w_tests()[0]
+        act = update.active[0]
+        assert not act[rows].any() and np.isnan(w[~act]).all()
+        np.testing.assert_allclose(w[act], w_ref[act], rtol=1e-8, atol=1e-8)
+
+
+def test_removal_update_follows_a_nonlinear_problem():
+    # trilateration: the chord iteration converges to the full solution within its tolerance
+    stations = np.array([[0, 0], [400, 0], [0, 300], [500, 450], [-200, 250], [250, -300]], float)
+    p = np.array([120.0, 90.0])
+    d = np.hypot(*(p - stations).T) + np.array([0.003, -0.002, 0.001, 0.5, -0.002, 0.001])
+    params = Parameters()
+    params.add(Unknown("P"), [100.0, 100.0])
+    group = Distances(stations, d, 0.003)
+    solver = Solver(params, [group], SolverOptions())
+    solution = solver.solve()
+    stats = Statistics(solution)
+    update = RemovalUpdate(solver, solution, stats.leverages, np.ones(group.n_rows, bool))
+    assert update.remove(np.array([3]))
+    reference, ref_stats = _full_solution(Solver(params, [group], SolverOptions()), update.active)
+    sigma = ref_stats.sigmas(Unknown("P"), posterior=False)
+    assert np.all(np.abs(update.values[Unknown("P")] - reference.parameters[Unknown("P")].values) < 0.05 * sigma)
+    act = update.active[0]
+    np.testing.assert_allclose(update.w_tests()[0][act], ref_stats.w_tests()[0][act], atol=0.05)
+    assert np.abs(update.values[Unknown("P")] - p).max() < 0.01   # the blunder is gone
+
+
+@pytest.mark.parametrize("method", ["update", "resolve"])
+def test_removal_that_leaves_an_unknown_undetermined_is_regularised(method):
+    # PX is tied to the network only by the two lines of one observation unit; one holds a blunder.
+    # Removing the unit leaves PX undetermined: the update declines, the full solution regularises PX
+    rng = np.random.default_rng(5)
+    truth, net = levelling_network(rng, n_points=10, n_lines=30)
+    truth["PX"] = 123.0
+    frm = list(net.frm) + ["P3", "P7"]
+    to = list(net.to) + ["PX", "PX"]
+    dh = np.concatenate([net.dh, [truth["PX"] - truth["P3"] + 0.05, truth["PX"] - truth["P7"]]])
+    group = HeightDifferences(frm, to, dh, np.concatenate([net.sigma, [0.002, 0.002]]))
+    group.row_unit = np.concatenate([np.arange(net.n_rows), [net.n_rows, net.n_rows]])
+    params = levelling_parameters(truth)
+    params[Unknown("PX")].regularisation_sigma[:] = 5.0
+    result = adjust(params, [group], SolverOptions(), SnoopingOptions(method=method))
+    assert [r.id for r in result.rejections] == ["P3-PX"]
+    assert [(n.key, n.sigma) for n in result.solution.regularisation] == [(Unknown("PX"), 5.0)]
+    assert result.full_solutions == 2
+
+
+def test_update_and_resolve_snoop_alike_on_a_levelling_network():
+    flagged = {}
+    for method in ("update", "resolve"):
+        rng = np.random.default_rng(9)
+        truth, group = levelling_network(rng, n_points=30, n_lines=150, blunders=[(i, 0.03) for i in (2, 50, 77, 120)])
+        result = adjust(levelling_parameters(truth), [group], SolverOptions(), SnoopingOptions(method=method))
+        flagged[method] = result
+    upd, ref = flagged["update"], flagged["resolve"]
+    assert [r.id for r in upd.rejections] == [r.id for r in ref.rejections] and len(ref.rejections) == 4
+    np.testing.assert_allclose([r.w for r in upd.rejections], [r.w for r in ref.rejections], rtol=1e-8)
+    assert upd.statistics.sigma0 == pytest.approx(ref.statistics.sigma0, rel=1e-10)
+    assert upd.full_solutions == 2 and ref.full_solutions == 5

@@ -5,14 +5,16 @@ Cases: vienna2000 (SE, P4, S2), block24 (SE), and the scaling of SE with the num
 process's maximum resident set). Blocks are simulated without images into a cache folder first.
 
 Run:  python tests/benchmarks/adjust.py [--cache DIR] [--only vienna|block24|scaling]
-Baseline for the solver: the same adjustment with the scipy fallback (``backend = "superlu"``),
-run side by side for vienna2000 SE.
+Baselines, run side by side: for the solver, the same adjustment with the scipy fallback
+(``backend = "superlu"``) on vienna2000 SE; for data snooping, a full solution and selected
+inversion after every removal (``snooping_method = "resolve"``) on vienna2000 SE and block24 SE.
 Targets (issue 4): any vienna2000 variant < 10 s; block24 SE < 60 s and < 4 GB.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -41,6 +43,10 @@ position_degree = 2
 [variants.SE_superlu]
 strategy = "SE"
 backend = "superlu"
+
+[variants.SE_resolve]
+strategy = "SE"
+snooping_method = "resolve"
 """
 
 CASE = """
@@ -50,7 +56,7 @@ t0 = time.perf_counter()
 r = run_variant(sys.argv[1], sys.argv[2])
 sol, st = r.adjustment.solution, r.adjustment.statistics
 print(json.dumps({"seconds": time.perf_counter() - t0, "iterations": len(sol.iterations),
-    "solves": r.adjustment.snooping_rounds + 1, "per_iteration": [round(i.seconds, 3) for i in sol.iterations],
+    "solves": r.adjustment.full_solutions, "rounds": r.adjustment.snooping_rounds, "per_iteration": [round(i.seconds, 3) for i in sol.iterations],
     "unknowns": st.accounting.unknowns, "observations": st.accounting.observations, "backend": sol.factor.backend,
     "sigma0": st.sigma0, "rejected": len(r.adjustment.rejections),
     "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
@@ -95,12 +101,17 @@ def run_case(root: Path, variant: str) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def show(label: str, r: dict, base: dict | None = None) -> None:
-    ratio = f"  x{base['seconds'] / r['seconds']:.1f} vs superlu" if base else ""
+def show(label: str, r: dict, **bases: dict) -> None:
+    ratio = "".join(f"  x{b['seconds'] / r['seconds']:.1f} vs {name}" for name, b in bases.items())
     it = sum(r["per_iteration"]) / max(len(r["per_iteration"]), 1)
-    print(f"{label:28s} {r['unknowns']:7d} unknowns {r['observations']:8d} obs  {r['seconds']:6.1f} s total  "
-          f"{it:5.2f} s/iteration ({r['iterations']} it, {r['solves']} solves, {r['rejected']} rejected)  "
-          f"peak {r['peak_mib']:6.0f} MiB  [{r['backend']}]{ratio}", flush=True)
+    print(f"{label:32s} {r['unknowns']:7d} unknowns {r['observations']:8d} obs  {r['seconds']:6.1f} s total  "
+          f"{it:5.2f} s/iteration ({r['iterations']} it, {r['solves']} full solutions, {r['rounds']} snooping rounds, "
+          f"{r['rejected']} rejected, sigma0 {r['sigma0']:.6f})  peak {r['peak_mib']:6.0f} MiB  [{r['backend']}]{ratio}",
+          flush=True)
+
+
+def load() -> str:
+    return "load average " + " ".join(f"{x:.1f}" for x in os.getloadavg())
 
 
 def main() -> None:
@@ -112,12 +123,22 @@ def main() -> None:
     cache.mkdir(parents=True, exist_ok=True)
     if args.only in (None, "vienna"):
         root = prepared(cache, "vienna2000")
+        print(load(), flush=True)
         base = run_case(root, "SE_superlu")
         show("vienna2000 SE (superlu)", base)
-        for v in ("SE", "P4", "S2"):
-            show(f"vienna2000 {v}", run_case(root, v), base if v == "SE" else None)
+        resolve = run_case(root, "SE_resolve")
+        show("vienna2000 SE (resolve)", resolve)
+        show("vienna2000 SE", run_case(root, "SE"), superlu=base, resolve=resolve)
+        for v in ("P4", "S2"):
+            show(f"vienna2000 {v}", run_case(root, v))
+        print(load(), flush=True)
     if args.only in (None, "block24"):
-        show("block24 SE", run_case(prepared(cache, "block24"), "SE"))
+        root = prepared(cache, "block24")
+        print(load(), flush=True)
+        base = run_case(root, "SE_resolve")
+        show("block24 SE (resolve)", base)
+        show("block24 SE", run_case(root, "SE"), resolve=base)
+        print(load(), flush=True)
     if args.only in (None, "scaling"):
         block = prepared(cache, "block24")
         for n in (1, 3, 12, 24):
