@@ -11,7 +11,7 @@ def add_parser(subparsers, common) -> None:
         description="Simulate the vienna2000 block (DESIGN section 7) into OUT, compare the default strategies, "
                     "rectify the strips with the best one and write the report (docs/reports.md).",
     )
-    p.add_argument("out", nargs="?", default="scangeo-demo", help="folder to create (default ./scangeo-demo)")
+    p.add_argument("out", nargs="?", default="demo", help="folder to create (default ./demo)")
     p.add_argument("--preset", default="vienna2000", help="simulation preset or TOML file (default vienna2000)")
     p.add_argument("--seed", type=int, default=None, help="random seed (default: the preset's)")
     p.add_argument("--no-rectify", dest="rectify", action="store_false", help="skip the rectification")

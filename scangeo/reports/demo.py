@@ -34,7 +34,7 @@ class DemoResult:
     seconds: dict[str, float] = field(default_factory=dict)
 
 
-def run_demo(out="scangeo-demo", preset: str = "vienna2000", *, seed: int | None = None, rectify: bool = True,
+def run_demo(out="demo", preset: str = "vienna2000", *, seed: int | None = None, rectify: bool = True,
              overwrite: bool = False, overrides: dict | None = None,
              callback: ProgressCallback = no_progress) -> DemoResult:
     """Simulate ``preset`` into ``out``, compare the default variants, rectify with the best, report.

@@ -118,3 +118,20 @@ def test_compare_command(problem_small, tmp_path, capsys):
     assert np.isfinite(c.variant("S2").sigma0)
     assert main(["report", str(root), "--no-progress"]) == 0
     assert (root / "results" / "report.html").exists() and (root / "results" / "residuals.gpkg").exists()
+
+
+def test_a_project_without_truth(problem_small, tmp_path):
+    from scangeo.reports.report import write_report
+    from scangeo.reports.tables import write_comparison
+
+    root = tmp_path / "p"
+    shutil.copytree(problem_small, root)
+    shutil.rmtree(root / "truth")
+    c = compare_project(root, names=["SE", "S2"], problem_strip="02", breaks_lines=(200.0, 400.0))
+    assert not c.truth and all("true" not in e for v in c.variants for e in v.strips.values())
+    write_comparison(c)
+    assert "True error" not in (root / "results" / "comparison.md").read_text()
+    files = write_report(root, geopackage=False)
+    assert files.geopackage is None and not (root / "results" / "residuals.gpkg").exists()
+    text = files.html.read_text()
+    assert 'id="fig-height-02"' in text and 'id="true-error-table"' not in text
