@@ -33,7 +33,8 @@ class GeoTiffProfile:
     compress : ``deflate`` (default, readable everywhere), ``zstd``, ``lzw`` or ``none``.
     level : compression level (None: GDAL's default).
     predictor : horizontal differencing for integers, floating-point predictor for floats.
-    overviews : build internal overviews (COG layout).
+    overviews : build internal overviews (off by default: on a 10,000-line Daedalus strip they
+        cost about 4 s of the COG copy's 5.6 s; the mosaic and viewers benefit most).
     cog : write with GDAL's COG driver (cloud-optimised layout); else a plain tiled GeoTIFF.
     threads : compression threads (``ALL_CPUS`` or a number).
     """
@@ -42,7 +43,7 @@ class GeoTiffProfile:
     compress: str = "deflate"
     level: int | None = None
     predictor: bool = True
-    overviews: bool = True
+    overviews: bool = False
     cog: bool = True
     threads: str = "ALL_CPUS"
 

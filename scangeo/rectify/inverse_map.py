@@ -351,33 +351,42 @@ class _Baseline:
         return cls(u, vs[kept], hs, fill(line[:, kept]), fill(pixel[:, kept]))
 
     def __call__(self, u, v, h) -> tuple[np.ndarray, np.ndarray]:
-        u = np.asarray(u, float)
-        v = np.asarray(v, float)
-        h = np.asarray(h, float)
-        shape = np.broadcast(u, v, h).shape
-        u, v, h = (np.broadcast_to(a, shape) for a in (u, v, h))
-        if self.hs.size == 2:
-            t = (h - self.hs[0]) / (self.hs[1] - self.hs[0])
-            wh = [1.0 - t, t]
-        else:
-            wh = [np.ones(shape)]
-        # a polynomial across track through the profiles (Lagrange), held constant beyond the outer ones
-        v = np.clip(v, self.vs[0], self.vs[-1])
-        fu = np.clip(u - self.u[0], 0, self.u.size - 1.000001)
-        j = np.floor(fu).astype(np.intp)
+        u, v, h = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float), np.asarray(h, float))
+        shape = u.shape
+        gl = np.empty(u.size)
+        gp = np.empty(u.size)
+        _baseline_kernel(np.ascontiguousarray(u).ravel(), np.ascontiguousarray(v).ravel(),
+                         np.ascontiguousarray(h).ravel(), float(self.u[0]), self.vs, self.hs,
+                         np.ascontiguousarray(self.lines), np.ascontiguousarray(self.pixels), gl, gp)
+        return gl.reshape(shape), gp.reshape(shape)
+
+
+@numba.njit(cache=True)
+def _baseline_kernel(u, v, h, u_first, vs, hs, lines, pixels, gl, gp):
+    """g(u, v, h): linear in u and h, Lagrange in v (clamped to the outer profiles)."""
+    nu, nv, nh = lines.shape
+    for n in range(u.size):
+        fu = min(max(u[n] - u_first, 0.0), nu - 1.000001)
+        j = int(fu)
         a = fu - j
-        gl = np.zeros(shape)
-        gp = np.zeros(shape)
-        for i, vi in enumerate(self.vs):
-            w = np.ones(shape)
-            for m, vm in enumerate(self.vs):
+        vv = min(max(v[n], vs[0]), vs[nv - 1])
+        if nh == 2:
+            t = (h[n] - hs[0]) / (hs[1] - hs[0])
+        else:
+            t = 0.0
+        sl = 0.0
+        sp = 0.0
+        for i in range(nv):
+            w = 1.0
+            for m in range(nv):
                 if m != i:
-                    w = w * (v - vm) / (vi - vm)
-            for k, whk in enumerate(wh):
-                for arr, out in ((self.lines, gl), (self.pixels, gp)):
-                    col = arr[:, i, k]
-                    out += w * whk * (col[j] * (1 - a) + col[j + 1] * a)
-        return gl, gp
+                    w *= (vv - vs[m]) / (vs[i] - vs[m])
+            for k in range(nh):
+                wk = w * ((1.0 - t) if k == 0 else t) if nh == 2 else w
+                sl += wk * (lines[j, i, k] * (1 - a) + lines[j + 1, i, k] * a)
+                sp += wk * (pixels[j, i, k] * (1 - a) + pixels[j + 1, i, k] * a)
+        gl[n] = sl
+        gp[n] = sp
 
 
 def _fill(values: np.ndarray, good: np.ndarray) -> np.ndarray:

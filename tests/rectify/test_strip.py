@@ -101,7 +101,7 @@ def test_outputs_layers_glt_metadata_and_cog_layout(tmp_path):
     strip = strip_of(hills, roll_amp=0.002)
     render(strip, TEX, tmp_path / "img.tif", bands=4, dtype="uint16")
     layers = ("scan_angle", "view_zenith", "time", "ground_pixel", "image_line", "image_pixel")
-    opts = RectifyOptions(resolution=2.0, layers=layers, glt=True, geotiff=GeoTiffProfile(blocksize=128))
+    opts = RectifyOptions(resolution=2.0, layers=layers, glt=True, geotiff=GeoTiffProfile(blocksize=128, overviews=True))
     r = rectify_strip(strip, tmp_path / "img.tif", tmp_path / "o.tif", opts,
                       tags={"variant": "P4", "sigma0": "0.93"})
     with rasterio.open(tmp_path / "o.tif") as d:
