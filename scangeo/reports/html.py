@@ -13,7 +13,7 @@ h3 { font-size: 1.05em; }
 table { border-collapse: collapse; font-size: 0.85em; margin: 0.8em 0; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.5em; text-align: right; white-space: nowrap; }
 th { background: #f2f2f2; } td:first-child, th:first-child { text-align: left; }
-td.text { text-align: left; white-space: normal; min-width: 12em; }
+td.text { text-align: left; white-space: normal; } td.wide { min-width: 22em; }
 figure { margin: 1em 0; } figure img { max-width: 100%; border: 1px solid #eee; }
 figcaption { font-size: 0.85em; color: #555; }
 .scroll { overflow-x: auto; }
@@ -25,14 +25,15 @@ def esc(text) -> str:
     return html.escape(str(text), quote=True)
 
 
-def table(head: list[str], rows: list[list[str]], table_id: str | None = None, text_columns=()) -> str:
-    """An HTML table; columns in ``text_columns`` are left-aligned."""
+def table(head: list[str], rows: list[list[str]], table_id: str | None = None, text_columns=(),
+          wide_columns=()) -> str:
+    """An HTML table; columns in ``text_columns`` are left-aligned, those in ``wide_columns`` wrap wide."""
     attr = f' id="{esc(table_id)}"' if table_id else ""
     out = [f'<div class="scroll"><table{attr}>',
            "<thead><tr>" + "".join(f"<th>{esc(h)}</th>" for h in head) + "</tr></thead><tbody>"]
     for r in rows:
-        cells = "".join(f'<td class="text">{esc(c)}</td>' if i in text_columns else f"<td>{esc(c)}</td>"
-                        for i, c in enumerate(r))
+        cells = "".join(f'<td class="text{" wide" if i in wide_columns else ""}">{esc(c)}</td>'
+                        if i in text_columns else f"<td>{esc(c)}</td>" for i, c in enumerate(r))
         out.append(f"<tr>{cells}</tr>")
     out.append("</tbody></table></div>")
     return "\n".join(out)

@@ -158,7 +158,8 @@ def _accounting_section(project: Project, c: Comparison) -> html.Section:
     sec.parts.append(html.paragraph(
         "unknowns = parameters - conditions (the C0 continuity of split models, eliminated by their "
         "parametrisation); redundancy = observations + pseudo-observations - unknowns."))
-    sec.parts.append(html.table(*markdown_tables(c)["accounting"], table_id="accounting-table", text_columns=(0, 1)))
+    sec.parts.append(html.table(*markdown_tables(c)["accounting"], table_id="accounting-table", text_columns=(0, 1),
+                                wide_columns=(1,)))
     rows = []
     for v in c.variants:
         for m in _variant_report(project, v.name).get("models", []):
