@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from scangeo.adjustment.block import CONTROL_COMPONENTS
+from scangeo.adjustment.ground import DtmHeights
 from scangeo.adjustment.results import VariantResult
 from scangeo.errors import ProjectFileError, ScangeoError
 from scangeo.progress import ProgressCallback, no_progress, scaled
@@ -151,8 +152,6 @@ class Comparison:
 
 def summarise(result: VariantResult, truth: Truth | None = None) -> VariantSummary:
     """The figures of one adjusted variant (and its true error when ``truth`` is given)."""
-    from scangeo.adjustment.ground import DtmHeights
-
     block, adj = result.block, result.adjustment
     measured = {str(p) for p in block.points.point}
     control: dict[str, int] = {}
