@@ -90,21 +90,12 @@ class PushbroomPlane:
     def _pixel_of_tan(self, tx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Pixel of ``tan(across)`` and ``dpixel / dtan(across)``."""
         sen = self.sensor
-        if sen.is_pinhole:
-            f, pitch, y0 = sen.focal_length, sen.pitch, sen.line_offset
-            xu = tx * f
-            xd = xu.copy()
-            for _ in range(30):  # Newton on x_d (1 + k1 r^2 + k2 r^4) = x_u
-                r2 = xd * xd + y0**2
-                dg = 1 + sen.k1 * (r2 + 2 * xd * xd) + sen.k2 * (r2 * r2 + 4 * xd * xd * r2)
-                step = (xd * (1 + sen.k1 * r2 + sen.k2 * r2 * r2) - xu) / dg
-                xd = xd - step
-                if np.all(np.abs(step) < 1e-15):
-                    break
-            r2 = xd * xd + y0**2
-            dxu_dxd = 1 + sen.k1 * (r2 + 2 * xd * xd) + sen.k2 * (r2 * r2 + 4 * xd * xd * r2)
-            return xd / pitch + sen.principal_point, f / (pitch * dxu_dxd)
         pixel = sen.pixel_of(np.column_stack([np.zeros_like(tx), tx, np.ones_like(tx)]))
+        if sen.is_pinhole:  # x_u = x_d (1 + k1 r^2 + k2 r^4) = f tan(across), pixel = x_d / pitch + pp
+            xd = (pixel - sen.principal_point) * sen.pitch
+            r2 = xd * xd + sen.line_offset**2
+            dxu_dxd = 1 + sen.k1 * (r2 + 2 * xd * xd) + sen.k2 * (r2 * r2 + 4 * xd * xd * r2)
+            return pixel, sen.focal_length / (sen.pitch * dxu_dxd)
         j, _ = self._segment(pixel)
         return pixel, 1.0 / (self._tan_across[j + 1] - self._tan_across[j])
 

@@ -53,10 +53,10 @@ CASE = """
 import json, resource, sys, time
 from scangeo.adjustment.results import run_variant
 t0 = time.perf_counter()
-r = run_variant(sys.argv[1], sys.argv[2])
+r = run_variant(sys.argv[1], sys.argv[2], sys.argv[3] if len(sys.argv) > 3 else None)
 sol, st = r.adjustment.solution, r.adjustment.statistics
 print(json.dumps({"seconds": time.perf_counter() - t0, "iterations": len(sol.iterations),
-    "solves": r.adjustment.full_solutions, "rounds": r.adjustment.snooping_rounds, "per_iteration": [round(i.seconds, 3) for i in sol.iterations],
+    "solves": getattr(r.adjustment, "full_solutions", r.adjustment.snooping_rounds + 1), "rounds": r.adjustment.snooping_rounds, "per_iteration": [round(i.seconds, 3) for i in sol.iterations],
     "unknowns": st.accounting.unknowns, "observations": st.accounting.observations, "backend": sol.factor.backend,
     "sigma0": st.sigma0, "rejected": len(r.adjustment.rejections),
     "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
@@ -94,8 +94,16 @@ def first_strips(block: Path, n: int) -> Path:
     return root
 
 
-def run_case(root: Path, variant: str) -> dict:
-    out = subprocess.run([sys.executable, "-c", CASE, str(root), variant], capture_output=True, text=True)
+def run_case(root: Path, variant: str, source: str | None = None) -> dict:
+    """One adjustment in its own process; ``source``: run an older scangeo tree instead (PYTHONPATH),
+    with a variants file of the variant alone (older trees may not know newer keys)."""
+    args = [sys.executable, "-c", CASE, str(root.resolve()), variant]
+    if source:
+        alone = root.parent / f"{root.name}_{variant}_alone.toml"
+        alone.write_text(f'[variants.{variant}]\nstrategy = "{variant}"\n')
+        args.append(str(alone))
+    env = dict(os.environ, PYTHONPATH=source) if source else None
+    out = subprocess.run(args, capture_output=True, text=True, env=env, cwd=source)
     if out.returncode:
         raise RuntimeError(out.stderr[-2000:])
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -118,6 +126,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cache", default="/tmp/scangeo-bench-adjust", help="folder for the simulated blocks")
     parser.add_argument("--only", choices=["vienna", "block24", "scaling"], default=None)
+    parser.add_argument("--before", default=None, metavar="SRC",
+                        help="also run block24 SE with an older source tree, e.g. made by "
+                             "`git archive COMMIT scangeo | tar -x -C SRC`")
     args = parser.parse_args()
     cache = Path(args.cache)
     cache.mkdir(parents=True, exist_ok=True)
@@ -137,7 +148,10 @@ def main() -> None:
         print(load(), flush=True)
         base = run_case(root, "SE_resolve")
         show("block24 SE (resolve)", base)
-        show("block24 SE", run_case(root, "SE"), resolve=base)
+        before = run_case(root, "SE", args.before) if args.before else None
+        if before:
+            show("block24 SE (before)", before)
+        show("block24 SE", run_case(root, "SE"), resolve=base, **({"before": before} if before else {}))
         print(load(), flush=True)
     if args.only in (None, "scaling"):
         block = prepared(cache, "block24")
