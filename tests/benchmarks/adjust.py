@@ -59,6 +59,7 @@ print(json.dumps({"seconds": time.perf_counter() - t0, "iterations": len(sol.ite
     "solves": getattr(r.adjustment, "full_solutions", r.adjustment.snooping_rounds + 1), "rounds": r.adjustment.snooping_rounds, "per_iteration": [round(i.seconds, 3) for i in sol.iterations],
     "unknowns": st.accounting.unknowns, "observations": st.accounting.observations, "backend": sol.factor.backend,
     "sigma0": st.sigma0, "rejected": len(r.adjustment.rejections),
+    "cpu_s": sum(resource.getrusage(resource.RUSAGE_SELF)[:2]),
     "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
 """
 
@@ -112,7 +113,8 @@ def run_case(root: Path, variant: str, source: str | None = None) -> dict:
 def show(label: str, r: dict, **bases: dict) -> None:
     ratio = "".join(f"  x{b['seconds'] / r['seconds']:.1f} vs {name}" for name, b in bases.items())
     it = sum(r["per_iteration"]) / max(len(r["per_iteration"]), 1)
-    print(f"{label:32s} {r['unknowns']:7d} unknowns {r['observations']:8d} obs  {r['seconds']:6.1f} s total  "
+    print(f"{label:32s} {r['unknowns']:7d} unknowns {r['observations']:8d} obs  {r['seconds']:6.1f} s total "
+          f"({r['cpu_s']:6.1f} s cpu)  "
           f"{it:5.2f} s/iteration ({r['iterations']} it, {r['solves']} full solutions, {r['rounds']} snooping rounds, "
           f"{r['rejected']} rejected, sigma0 {r['sigma0']:.6f})  peak {r['peak_mib']:6.0f} MiB  [{r['backend']}]{ratio}",
           flush=True)
@@ -126,6 +128,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cache", default="/tmp/scangeo-bench-adjust", help="folder for the simulated blocks")
     parser.add_argument("--only", choices=["vienna", "block24", "scaling"], default=None)
+    parser.add_argument("--repeat", type=int, default=1, help="runs of each block24 SE case, interleaved")
     parser.add_argument("--before", default=None, metavar="SRC",
                         help="also run block24 SE with an older source tree, e.g. made by "
                              "`git archive COMMIT scangeo | tar -x -C SRC`")
@@ -146,13 +149,14 @@ def main() -> None:
     if args.only in (None, "block24"):
         root = prepared(cache, "block24")
         print(load(), flush=True)
-        base = run_case(root, "SE_resolve")
-        show("block24 SE (resolve)", base)
-        before = run_case(root, "SE", args.before) if args.before else None
-        if before:
-            show("block24 SE (before)", before)
-        show("block24 SE", run_case(root, "SE"), resolve=base, **({"before": before} if before else {}))
-        print(load(), flush=True)
+        for _ in range(args.repeat):
+            base = run_case(root, "SE_resolve")
+            show("block24 SE (resolve)", base)
+            before = run_case(root, "SE", args.before) if args.before else None
+            if before:
+                show("block24 SE (before)", before)
+            show("block24 SE", run_case(root, "SE"), resolve=base, **({"before": before} if before else {}))
+            print(load(), flush=True)
     if args.only in (None, "scaling"):
         block = prepared(cache, "block24")
         for n in (1, 3, 12, 24):
