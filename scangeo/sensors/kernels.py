@@ -366,7 +366,9 @@ def _find_crossings(P, cA, cC, k_warm, window, out):
 
 @nb.njit(**_opts)
 def _solve_in(k, P, tan_a, tan_c, ctimes, cA, cC, t0, dt, coef, lever, R_BS, toff, tol_t, R, p, dR, dp):
-    """Safeguarded Newton for the time in coarse interval k (either sign change); NaN if none."""
+    """Safeguarded Newton for the time in coarse interval k (either sign change); NaN if none.
+
+    Returns the time and the epoch at which R, p, dR, dp were last evaluated (within tol_t of it)."""
     M = ctimes.shape[0]
     a = ctimes[k]
     b = ctimes[k + 1]
@@ -382,7 +384,7 @@ def _solve_in(k, P, tan_a, tan_c, ctimes, cA, cC, t0, dt, coef, lever, R_BS, tof
         fa, _ = _condition(a, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
         fb, _ = _condition(b, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
         if (fa >= 0) == (fb >= 0):
-            return np.nan
+            return np.nan, np.nan
     sa = fa >= 0
     t = a - fa * (b - a) / (fb - fa)
     for it in range(60):
@@ -396,9 +398,9 @@ def _solve_in(k, P, tan_a, tan_c, ctimes, cA, cC, t0, dt, coef, lever, R_BS, tof
         if not (lo < tn < hi):
             tn = 0.5 * (a + b)
         if abs(tn - t) < tol_t:
-            return tn
+            return tn, t  # the pose buffers hold the pose at t
         t = tn
-    return np.nan
+    return np.nan, np.nan
 
 
 @nb.njit(parallel=True, **_opts)
@@ -442,17 +444,19 @@ def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, ta
                 pixel = np.nan
                 t = np.nan
                 for outer in range(8):  # pushbroom: iterate the along-track angle of the pixel
-                    t = _solve_in(k, P, tan_a, tan_c, ctimes, cA, cC, t0, dt, coef, lever, R_BS, toff, tol_t, R, p, dR, dp)
+                    t, t_ev = _solve_in(k, P, tan_a, tan_c, ctimes, cA, cC, t0, dt, coef, lever, R_BS, toff,
+                                        tol_t, R, p, dR, dp)
                     if np.isnan(t):
                         status = NO_CONVERGENCE
                         break
-                    spline_pose(t, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+                    # the pose at t from the last evaluation, to first order (|t - t_ev| < tol_t)
+                    h = t - t_ev
                     vy = 0.0
                     vz = 0.0
                     for i in range(3):
-                        d = P[i] - p[i]
-                        vy += R[i, 1] * d
-                        vz += R[i, 2] * d
+                        d = P[i] - (p[i] + h * dp[i])
+                        vy += (R[i, 1] + h * dR[i, 1]) * d
+                        vz += (R[i, 2] + h * dR[i, 2]) * d
                     if vz <= 0:
                         status = BEHIND
                         break
