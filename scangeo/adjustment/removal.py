@@ -106,8 +106,8 @@ class RemovalUpdate:
 
     def _solve(self) -> bool:
         solver, opts = self.solver, self.solver.options
-        mask = np.concatenate(self.active)
-        values, r, J, cost = self.values, self._residuals * mask, self._jacobian, self.cost
+        r = self._residuals * np.concatenate(self.active)
+        values, J, cost = self.values, self._jacobian, float(r @ r)
         for _ in range(MAX_STEPS):
             gradient = (J.T @ r) / self.scale
             step = self._apply_inverse(-gradient)
@@ -122,6 +122,7 @@ class RemovalUpdate:
                 log.info("chord step failed (%s): refactorising", exc)
                 return False
             cost_new = float(r_new @ r_new)
+            log.debug("chord step: cost %.6g -> %.6g, predicted decrease %.3g", cost, cost_new, float(step @ -gradient))
             if not cost_new <= cost * (1 + 1e-12):
                 log.info("chord step raised the cost (%.6g -> %.6g): refactorising", cost, cost_new)
                 return False
