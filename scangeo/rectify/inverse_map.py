@@ -141,7 +141,7 @@ class _Nodes:
 
     def get(self, iu, iv, k):
         keys = self.key(iu, iv, k)
-        new = np.unique(keys[~np.isin(keys, self.keys)])
+        new = np.unique(keys[~self._known(keys)])
         if new.size:
             kk = new % 2**21
             iv_n = (new // 2**21) % 2**21 - 2**20
@@ -150,13 +150,20 @@ class _Nodes:
             line, pixel = self.solve(x, y, self.H0 + kk * self.dH)
             gl, gp = self.baseline(iu_n.astype(float), iv_n.astype(float), self.H0 + kk * self.dH)
             line, pixel = line - gl, pixel - gp
-            keys_all = np.concatenate([self.keys, new])
-            order = np.argsort(keys_all, kind="stable")
-            self.keys = keys_all[order]
-            self.line = np.concatenate([self.line, line])[order]
-            self.pixel = np.concatenate([self.pixel, pixel])[order]
+            # ``new`` is sorted and disjoint from the sorted ``keys``: merge by insertion (linear)
+            at = np.searchsorted(self.keys, new)
+            self.keys = np.insert(self.keys, at, new)
+            self.line = np.insert(self.line, at, line)
+            self.pixel = np.insert(self.pixel, at, pixel)
         idx = np.searchsorted(self.keys, keys)
         return self.line[idx], self.pixel[idx]
+
+    def _known(self, keys: np.ndarray) -> np.ndarray:
+        """Which keys are solved already (binary search in the sorted keys)."""
+        if self.keys.size == 0:
+            return np.zeros(keys.shape, bool)
+        idx = np.minimum(np.searchsorted(self.keys, keys), self.keys.size - 1)
+        return self.keys[idx] == keys
 
 
 class _Solver:
