@@ -3,22 +3,59 @@
 :class:`CoreStripGeometry` implements :class:`scangeo.rectify.geometry.StripGeometry`: it turns
 map coordinates with orthometric heights into project-frame points (``MapFrame.map_to_project``),
 asks ``scangeo.sensors.StripGeometry.ground_to_image`` for (line, pixel), and the reverse through
-DTM ray casting. Points the core reports as not seen (outside the swath, before or after the
+DTM ray casting. The map -> project conversion of the many points of an inverse map goes through a
+local polynomial (``scangeo.localmap``, fitted once over the DTM's extent and height range, error
+under 0.2 mm) instead of pyproj; points outside its box, or a DTM too large for one polynomial,
+take the exact conversion. Points the core reports as not seen (outside the swath, before or after the
 strip, no convergence) come back as NaN; over-scanned points keep their first time.
 """
 from __future__ import annotations
 
 import copy
 
+import numba
 import numpy as np
 
 from scangeo.dtm import DTM
+from scangeo.errors import ScangeoError
 from scangeo.frames import MapFrame
+from scangeo.localmap import LocalPolynomialMap, poly_eval_point
 from scangeo.sensors import StripGeometry as CoreGeometry
 from scangeo.sensors.kernels import MULTIPLE, OK
 
 #: points per call into the core (bounds the temporary arrays of the conversions)
 CHUNK = 262_144
+#: height margin of the local map's box beyond the DTM's range, metres (levels, check points)
+HEIGHT_MARGIN = 100.0
+
+
+@numba.njit(cache=True)
+def _poly_eval(coef, exps, centre, scale, q, out):
+    work = np.empty(3 * (exps.max() + 1))
+    res = np.empty(3)
+    for n in range(q.shape[0]):
+        poly_eval_point(coef, exps, centre, scale, q[n, 0], q[n, 1], q[n, 2], res, work)
+        out[n, 0], out[n, 1], out[n, 2] = res[0], res[1], res[2]
+
+
+def _apply(local: LocalPolynomialMap, q: np.ndarray) -> np.ndarray:
+    out = np.empty(q.shape)
+    _poly_eval(local.coef, local.exps, local.centre, local.scale, np.ascontiguousarray(q), out)
+    return out
+
+
+def _local_map_to_project(map_frame: MapFrame, dtm: DTM) -> LocalPolynomialMap | None:
+    """A polynomial (x, y, H) -> p_P over the DTM's extent, or None if none is accurate enough."""
+    xmin, ymin, xmax, ymax = dtm.grid.bounds()
+    box = [[xmin, xmax], [ymin, ymax], [dtm.h_min - HEIGHT_MARGIN, dtm.h_max + HEIGHT_MARGIN]]
+
+    def exact(q: np.ndarray) -> np.ndarray:
+        return map_frame.map_to_project(q[:, 0], q[:, 1], q[:, 2])
+
+    try:
+        return LocalPolynomialMap.fit(exact, box)
+    except ScangeoError:
+        return None
 
 
 def _with_fixed_overscan_window(geometry: CoreGeometry, dtm: DTM) -> CoreGeometry:
@@ -56,6 +93,21 @@ class CoreStripGeometry:
         self.lines = int(geometry.n_lines)
         self.pixels = int(geometry.sensor.pixels)
         self.crs = self.map_frame.crs.to_wkt()
+        self._to_project = _local_map_to_project(self.map_frame, dtm)
+
+    def map_to_project(self, x: np.ndarray, y: np.ndarray, H: np.ndarray) -> np.ndarray:
+        """p_P (n, 3) of map points (x, y map units, H orthometric metres)."""
+        if self._to_project is None:
+            return self.map_frame.map_to_project(x, y, H)
+        q = np.column_stack([x, y, H])
+        inside = self._to_project.contains(q)
+        if inside.all():
+            return _apply(self._to_project, q)
+        p_P = np.empty(q.shape)
+        p_P[inside] = _apply(self._to_project, q[inside])
+        out = ~inside
+        p_P[out] = self.map_frame.map_to_project(x[out], y[out], H[out])
+        return p_P
 
     def ground_to_image(self, x, y, H) -> tuple[np.ndarray, np.ndarray]:
         x, y, H = (np.asarray(v, dtype=float).ravel() for v in np.broadcast_arrays(x, y, H))
@@ -66,7 +118,7 @@ class CoreStripGeometry:
             ok = np.isfinite(x[s:e]) & np.isfinite(y[s:e]) & np.isfinite(H[s:e])
             if not ok.any():
                 continue
-            p_P = self.map_frame.map_to_project(x[s:e][ok], y[s:e][ok], H[s:e][ok])
+            p_P = self.map_to_project(x[s:e][ok], y[s:e][ok], H[s:e][ok])
             l, p, status = self.core.ground_to_image(p_P)
             seen = (status & ~MULTIPLE) == OK
             idx = np.flatnonzero(ok)
