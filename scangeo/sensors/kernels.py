@@ -378,12 +378,24 @@ def _solve_in(k, P, tan_a, tan_c, ctimes, cA, cC, t0, dt, coef, lever, R_BS, tof
     else:
         fa, _ = _condition(a, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
         fb, _ = _condition(b, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
-    if (fa >= 0) == (fb >= 0):  # a changed along-track angle moved the crossing: widen
-        a = ctimes[max(0, k - 1)]
-        b = ctimes[min(M - 1, k + 2)]
-        fa, _ = _condition(a, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
-        fb, _ = _condition(b, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
-        if (fa >= 0) == (fb >= 0):
+    if (fa >= 0) == (fb >= 0):
+        # the pixel's own along-track angle moved the crossing away from the centre pixel's:
+        # search the neighbouring intervals, nearest first, for the crossing of this condition
+        found = False
+        for w in range(1, 257):
+            for kk in (k - w, k + w):
+                if kk < 0 or kk > M - 2:
+                    continue
+                a = ctimes[kk]
+                b = ctimes[kk + 1]
+                fa, _ = _condition(a, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+                fb, _ = _condition(b, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+                if (fa >= 0) != (fb >= 0):
+                    found = True
+                    break
+            if found or (k - w < 0 and k + w > M - 2):
+                break
+        if not found:
             return np.nan, np.nan
     sa = fa >= 0
     t = a - fa * (b - a) / (fb - fa)
@@ -443,7 +455,9 @@ def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, ta
                 status = OK
                 pixel = np.nan
                 t = np.nan
-                for outer in range(8):  # pushbroom: iterate the along-track angle of the pixel
+                x_prev = 0.0
+                h_prev = 0.0
+                for outer in range(30):  # pushbroom: iterate the along-track angle of the pixel
                     t, t_ev = _solve_in(k, P, tan_a, tan_c, ctimes, cA, cC, t0, dt, coef, lever, R_BS, toff,
                                         tol_t, R, p, dR, dp)
                     if np.isnan(t):
@@ -463,10 +477,17 @@ def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, ta
                     pixel = sensor_pixel(kind, sp, table, vy, vz)
                     if kind == 0:
                         break
-                    new_tan = sensor_along_tan(kind, sp, table, pixel)
-                    if abs(new_tan - tan_a) < 1e-13:
+                    # fixed point tan_a = along(pixel(tan_a)), by secant steps on its residual
+                    h_res = sensor_along_tan(kind, sp, table, pixel) - tan_a
+                    if abs(h_res) < 1e-13:
                         break
-                    tan_a = new_tan
+                    if outer == 0 or h_res == h_prev:
+                        x_new = tan_a + h_res
+                    else:
+                        x_new = tan_a - h_res * (tan_a - x_prev) / (h_res - h_prev)
+                    x_prev = tan_a
+                    h_prev = h_res
+                    tan_a = x_new
                 if status != OK:
                     out_status[q] = status | flag
                     continue

@@ -139,8 +139,17 @@ class StripGeometry:
     def _coarse(self):
         rate = self.timing.mean_rate
         half_scan = abs(float(self.sensor.time_offset(np.array([0.0]))[0]))
-        t_first = float(self.timing.time_of_line(np.array([-0.5]))[0]) - half_scan - 2.0 / rate
-        t_last = float(self.timing.time_of_line(np.array([self.n_lines - 0.5]))[0]) + half_scan + 2.0 / rate
+        # a pushbroom's pixels look along track at different angles: the centre pixel's scan line
+        # (used for bracketing) passes a point seen by another pixel earlier or later
+        pix = np.arange(self.sensor.pixels, dtype=float)
+        along = np.tan(self.sensor.along_angle(pix))
+        spread = float(np.abs(along - along[len(along) // 2]).max())
+        t_mid = 0.5 * (self.spline.t0 + self.spline.t_end)
+        v = self.spline.evaluate(np.array([t_mid]), 1)[0, :3]
+        speed = max(float(np.hypot(v[0], v[1])), 1.0)
+        margin = 2.0 / rate + spread * 10000.0 / speed  # up to 10 km below the sensor
+        t_first = float(self.timing.time_of_line(np.array([-0.5]))[0]) - half_scan - margin
+        t_last = float(self.timing.time_of_line(np.array([self.n_lines - 0.5]))[0]) + half_scan + margin
         n = max(3, int(np.ceil((t_last - t_first) * rate)) + 1)
         times = np.linspace(t_first, t_last, n)
         p, R, dp, dR = self.pose(times, derivatives=True)

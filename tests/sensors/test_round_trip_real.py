@@ -74,11 +74,15 @@ def test_whiskbroom_round_trip_every_pixel(srtm, real_dynamics_spline):
     assert dl.max() < 1e-4 and dp.max() < 1e-4
 
 
-def test_pushbroom_round_trip_every_pixel(srtm, real_dynamics_spline):
+@pytest.mark.parametrize("smile_deg", [0.05, 0.2])
+def test_pushbroom_round_trip_every_pixel(srtm, real_dynamics_spline, smile_deg):
+    """A smile of 0.2 deg moves the edge pixels' scan line by ~12 m (five lines) on the ground: the
+    bracketing on the centre pixel's scan line must search beyond its neighbouring line epochs, and
+    the pixel's own along-track angle is found by secant steps (roll rates couple it to the time)."""
     n = 1024
     j = np.arange(n)
     across = np.arctan((j - 511.5) * 7e-6 / 0.035)
-    along = np.radians(0.2) + np.radians(0.05) * ((j - 511.5) / 511.5) ** 2  # a smile
+    along = np.radians(0.2) + np.radians(smile_deg) * ((j - 511.5) / 511.5) ** 2
     strip = StripGeometry(Pushbroom(pixels=n, along=along, across=across), real_dynamics_spline,
                           LineTiming(2.0, 25.0), N_LINES)
     dl, dp = _round_trip(strip, srtm)
