@@ -37,7 +37,11 @@ def test_table_holds_each_variants_own_figures(compared_small):
     n_b = sum(1 for line in open(root / "ground.csv") if line.startswith("B"))
     assert n_b > 0 and p4.control["XYZ"] == se.control["XYZ"] + n_b
     assert sum(p4.strips[s]["check"]["n"] for s in c.strips) < sum(se.strips[s]["check"]["n"] for s in c.strips)
-    assert c.variant("P2").dtm_heights > 0 and se.dtm_heights == 0
+    # every adjusted variant carries the same DTM heights and rejects nothing (the same observations)
+    assert se.dtm_heights > 0 and c.variant("DG").dtm_heights == 0
+    assert all(c.variant(n).dtm_heights == se.dtm_heights and c.variant(n).rejected == 0
+               for n in ("BE", "P2", "P4", "S2", "S4"))
+    assert c.variant("P2").accounting["observations"] == se.accounting["observations"]
 
 
 def test_percentages_of_the_reference(compared_small):

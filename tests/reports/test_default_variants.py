@@ -37,8 +37,9 @@ def test_rendered_variants_read_back_with_the_project_facts(tmp_path):
     for name in ("P4", "S4"):
         assert v[name].role_of("B003", "check") == "control"
         assert v[name].role_of("K003", "check") == "check"
-    # DTM heights at tie points in P and S only
-    assert [n for n in v if v[n].dtm_height_at("T001")] == ["P2", "P4", "S2", "S4"]
+    # the same observations in every adjusted variant: DTM heights at tie points, no automatic rejection
+    assert [n for n in v if v[n].dtm_height_at("T001")] == ["BE", "SE", "P2", "P4", "S2", "S4"]
+    assert [n for n in v if v[n].snooping] == []
 
 
 def test_problem_strip_and_breaks_come_from_the_truth(problem_small, tmp_path):
