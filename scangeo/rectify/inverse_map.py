@@ -536,7 +536,10 @@ def _refine(pb: _Pending, uc, vc, hc, nodes: _Nodes, solve, lattice, height, H0,
     dup_u = np.concatenate([np.zeros((K, 1), bool), fu[:, 1:] == fu[:, :-1]], axis=1)
     dup_v = np.concatenate([np.zeros((K, 1), bool), fv[:, 1:] == fv[:, :-1]], axis=1)
     dup = (dup_u[:, :, None] | dup_v[:, None, :]).reshape(K, -1)
-    dup = np.concatenate([dup, ~dense_ok], axis=1)
+    # dense points that are grid points already (the grid's middle column holds some of them)
+    dense_f = np.minimum(ku[None, :], pb.Bu[:, None] - 1) / pb.Bu[:, None]
+    on_grid = (np.abs(dense_f[:, :, None] - fu[:, None, :]) < 1e-9).any(axis=2) & (fv == 0.5).any(axis=1)[:, None]
+    dup = np.concatenate([dup, ~dense_ok | on_grid], axis=1)
     # blocks with an unseen corner fail anyway: no checks for them
     usable = np.isfinite(qh) & ~(on_u_edge & on_v_edge) & ~dup & ~nodes_bad[:, None]
     el, ep = np.full(qu.shape, np.nan), np.full(qu.shape, np.nan)
