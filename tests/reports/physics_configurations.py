@@ -89,7 +89,7 @@ def main() -> None:
     ap.add_argument("out", type=Path)
     ap.add_argument("--full", action="store_true")
     ap.add_argument("setups", nargs="*", default=["old", "dtm", "nosnoop", "bprob", "default"])
-    a = ap.parse_args()
+    a = ap.parse_intermixed_args()
     root = a.out / ("full" if a.full else "half")
     if not (root / "project.toml").exists():
         over = {"output": {"images": False, "truth_ortho": False}}
