@@ -36,7 +36,7 @@ def _spline_component(coef, j, c, b0, b1, b2, b3, d0, d1, d2, d3):
     return b0 * c0 + b1 * c1 + b2 * c2 + b3 * c3, d0 * c0 + d1 * c1 + d2 * c2 + d3 * c3
 
 
-@nb.njit(**_opts)
+@nb.njit(inline="always", **_opts)
 def spline_pose(t, t0, dt, coef, lever, R_BS, time_offset, R, p, dR, dp):
     """R_PS (3,3), p_S (3,) and their time derivatives at sensor time t; writes into the outputs.
 
@@ -252,7 +252,7 @@ def rays_kernel(lines, pixels, t0, dt, coef, lever, R_BS, toff, kind, sp, table,
                 out_d[q, i] = R[i, 0] * look[0] + R[i, 1] * look[1] + R[i, 2] * look[2]
 
 
-@nb.njit(**_opts)
+@nb.njit(inline="always", **_opts)
 def _condition(t, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp):
     """f(t) = (R_PS[:,0] - tan_a R_PS[:,2]) . (P - p_S) and df/dt."""
     spline_pose(t, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
