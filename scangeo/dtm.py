@@ -78,6 +78,11 @@ class DTM:
         """Orthometric height (m) at map points; NaN outside or at nodata."""
         return self.grid.sample(x, y)
 
+    def height_on_lattice(self, xs, ys) -> np.ndarray:
+        """Heights (len(ys), len(xs)) at the map points ``(xs[j], ys[i])`` (compiled; see
+        ``RasterGrid.sample_lattice``); NaN outside or at nodata."""
+        return self.grid.sample_lattice(xs, ys)
+
     def slope_at_map(self, x, y) -> tuple[np.ndarray, np.ndarray]:
         """(dH/dx, dH/dy) (m per map unit) at map points."""
         return self.grid.sample(x, y, gradient=True)[1]

@@ -29,19 +29,32 @@ CHUNK = 262_144
 HEIGHT_MARGIN = 100.0
 
 
-@numba.njit(cache=True)
-def _poly_eval(coef, exps, centre, scale, q, out):
-    work = np.empty(3 * (exps.max() + 1))
-    res = np.empty(3)
-    for n in range(q.shape[0]):
-        poly_eval_point(coef, exps, centre, scale, q[n, 0], q[n, 1], q[n, 2], res, work)
-        out[n, 0], out[n, 1], out[n, 2] = res[0], res[1], res[2]
+@numba.njit(parallel=True, cache=True)
+def _poly_eval(coef, exps, centre, scale, box, x, y, H, out, inside):
+    """The local polynomial at map points (x, y, H) inside its box; ``inside`` says which."""
+    n = x.shape[0]
+    chunks = min(n, 64)
+    size = (n + chunks - 1) // max(chunks, 1)
+    for c in numba.prange(chunks):
+        work = np.empty(3 * (exps.max() + 1))
+        res = np.empty(3)
+        for k in range(c * size, min(n, (c + 1) * size)):
+            ok = (box[0, 0] <= x[k] <= box[0, 1]) and (box[1, 0] <= y[k] <= box[1, 1]) and (
+                box[2, 0] <= H[k] <= box[2, 1])
+            inside[k] = ok
+            if not ok:
+                continue
+            poly_eval_point(coef, exps, centre, scale, x[k], y[k], H[k], res, work)
+            out[k, 0], out[k, 1], out[k, 2] = res[0], res[1], res[2]
 
 
-def _apply(local: LocalPolynomialMap, q: np.ndarray) -> np.ndarray:
-    out = np.empty(q.shape)
-    _poly_eval(local.coef, local.exps, local.centre, local.scale, np.ascontiguousarray(q), out)
-    return out
+def _apply(local: LocalPolynomialMap, x: np.ndarray, y: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    x, y, H = (np.ascontiguousarray(v, dtype=float).ravel() for v in (x, y, H))
+    out = np.empty((x.size, 3))
+    inside = np.empty(x.size, dtype=np.bool_)
+    _poly_eval(local.coef, local.exps, local.centre, local.scale, np.ascontiguousarray(local.box, dtype=float),
+               x, y, H, out, inside)
+    return out, inside
 
 
 def _local_map_to_project(map_frame: MapFrame, dtm: DTM) -> LocalPolynomialMap | None:
@@ -94,19 +107,18 @@ class CoreStripGeometry:
         self.pixels = int(geometry.sensor.pixels)
         self.crs = self.map_frame.crs.to_wkt()
         self._to_project = _local_map_to_project(self.map_frame, dtm)
+        #: the strip never over-scans: a ground point has one solution (``ground_to_image_near``)
+        self.monotonic = self.core.overscan_window(np.zeros((1, 3))) == 0
 
     def map_to_project(self, x: np.ndarray, y: np.ndarray, H: np.ndarray) -> np.ndarray:
         """p_P (n, 3) of map points (x, y map units, H orthometric metres)."""
         if self._to_project is None:
             return self.map_frame.map_to_project(x, y, H)
-        q = np.column_stack([x, y, H])
-        inside = self._to_project.contains(q)
-        if inside.all():
-            return _apply(self._to_project, q)
-        p_P = np.empty(q.shape)
-        p_P[inside] = _apply(self._to_project, q[inside])
-        out = ~inside
-        p_P[out] = self.map_frame.map_to_project(x[out], y[out], H[out])
+        p_P, inside = _apply(self._to_project, x, y, H)
+        if not inside.all():
+            out = ~inside
+            x, y, H = (np.asarray(v, dtype=float).ravel() for v in (x, y, H))
+            p_P[out] = self.map_frame.map_to_project(x[out], y[out], H[out])
         return p_P
 
     def ground_to_image(self, x, y, H) -> tuple[np.ndarray, np.ndarray]:
@@ -125,6 +137,32 @@ class CoreStripGeometry:
             line[s + idx] = np.where(seen, l, np.nan)
             pixel[s + idx] = np.where(seen, p, np.nan)
         return line, pixel
+
+    def ground_to_image_near(self, x, y, H, line0, pixel0, tol_line: float = 1e-2, max_step_lines: float = 64.0,
+                             max_iter: int = 8):
+        """(line, pixel, status, evaluations) by Newton from the guesses (line0, pixel0), see
+        ``scangeo.sensors.StripGeometry.ground_to_image_near``; line and pixel NaN where the status
+        is not 0 (4: not converged, solve those with ``ground_to_image``)."""
+        x, y, H = (np.asarray(v, dtype=float).ravel() for v in np.broadcast_arrays(x, y, H))
+        return self.project_to_image_near(self.map_to_project(x, y, H), line0, pixel0, tol_line, max_step_lines,
+                                          max_iter)
+
+    def project_to_image_near(self, p_P, line0, pixel0, tol_line: float = 1e-2, max_step_lines: float = 64.0,
+                              max_iter: int = 8):
+        """``ground_to_image_near`` for project-frame points (n, 3)."""
+        if not self.monotonic:
+            raise ScangeoError("ground_to_image_near: the strip over-scans; use ground_to_image")
+        line, pixel, status, steps = self.core.ground_to_image_near(
+            p_P, np.asarray(line0, dtype=float).ravel(), np.asarray(pixel0, dtype=float).ravel(), tol_line,
+            max_step_lines, max_iter)
+        seen = status == OK
+        line[~seen] = np.nan
+        pixel[~seen] = np.nan
+        return line, pixel, status, steps
+
+    def height_on_lattice(self, xs, ys) -> np.ndarray:
+        """DTM heights (len(ys), len(xs)) on the lattice of map points (xs[j], ys[i])."""
+        return self.dtm.height_on_lattice(xs, ys)
 
     def image_to_ground(self, line, pixel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         line, pixel = (np.asarray(v, dtype=float).ravel() for v in np.broadcast_arrays(line, pixel))

@@ -56,12 +56,25 @@ class InverseMapOptions:
     initial_block : size of the first blocks, cells (a power of two).
     exact_cells : blocks of at most this many lattice cells that still fail are solved per cell.
     validation_samples : cells per tile compared with exact solutions after the fact.
+    method : ``refine`` (default; :mod:`scangeo.rectify.refined_map`: interpolated starts, then
+        Newton at every cell: exact everywhere, and faster) or ``lattice`` (interpolation under
+        error control, this module), used also for geometries that cannot refine.
+    coarse_step : ``refine``: lattice spacing of the exact starts, cells.
+    tol_line : ``refine``: Newton's last step below this many lines ends it (the error left is
+        of the order of its square: about 4e-6 lines for 0.01 on a turbulent strip).
+    max_step_lines, max_iter : ``refine``: a longer step or more evaluations hand the cell to the
+        bracketed ground -> image.
     """
 
     max_error_px: float = 0.05
     initial_block: int = 32
     exact_cells: int = 4
     validation_samples: int = 256
+    method: str = "refine"
+    coarse_step: int = 4
+    tol_line: float = 1e-2
+    max_step_lines: float = 64.0
+    max_iter: int = 8
 
     def __post_init__(self) -> None:
         if not self.max_error_px > 0:
@@ -71,6 +84,14 @@ class InverseMapOptions:
             raise ScangeoError(f"inverse map: initial_block must be a power of two >= 2, got {v}")
         if self.exact_cells < 1:
             raise ScangeoError(f"inverse map: exact_cells must be at least 1, got {self.exact_cells}")
+        if self.method not in ("refine", "lattice"):
+            raise ScangeoError(f"inverse map: method must be 'refine' or 'lattice', got {self.method!r}")
+        if self.coarse_step < 1:
+            raise ScangeoError(f"inverse map: coarse_step must be at least 1, got {self.coarse_step}")
+        if not (0 < self.tol_line <= min(0.1, self.max_error_px)):
+            raise ScangeoError(f"inverse map: tol_line must be in (0, min(0.1, max_error_px)], got {self.tol_line}")
+        if not (self.max_step_lines > 0 and self.max_iter >= 1):
+            raise ScangeoError("inverse map: max_step_lines must be positive and max_iter at least 1")
 
 
 @dataclass
@@ -82,10 +103,14 @@ class InverseMapStats:
     blocks: dict[tuple[int, int], int] = field(default_factory=dict)
     validated: int = 0
     max_error_px: float = 0.0
+    refined_cells: int = 0
+    newton_evaluations: int = 0
 
     def merge(self, other: "InverseMapStats") -> None:
         self.exact_points += other.exact_points
         self.exact_cells += other.exact_cells
+        self.refined_cells += other.refined_cells
+        self.newton_evaluations += other.newton_evaluations
         for k, v in other.blocks.items():
             self.blocks[k] = self.blocks.get(k, 0) + v
         self.validated += other.validated

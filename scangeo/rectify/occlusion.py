@@ -55,14 +55,49 @@ def image_jacobian(line: np.ndarray, pixel: np.ndarray) -> tuple[np.ndarray, ...
     )
 
 
+@numba.njit(inline="always", cache=True)
+def _abs_or_inf(d):
+    return abs(d) if np.isfinite(d) else np.inf
+
+
+@numba.njit(parallel=True, cache=True)
+def _step_sum(a, out):
+    """Per cell: the smaller one-sided step along rows plus that along columns (``smaller_step``),
+    a missing or non-finite step counting 0."""
+    R, C = a.shape
+    for i in numba.prange(R):
+        for j in range(C):
+            v = a[i, j]
+            best_r = np.inf
+            if i > 0:
+                best_r = min(best_r, _abs_or_inf(a[i - 1, j] - v))
+            if i < R - 1:
+                best_r = min(best_r, _abs_or_inf(a[i + 1, j] - v))
+            best_c = np.inf
+            if j > 0:
+                best_c = min(best_c, _abs_or_inf(a[i, j - 1] - v))
+            if j < C - 1:
+                best_c = min(best_c, _abs_or_inf(a[i, j + 1] - v))
+            total = 0.0
+            if np.isfinite(best_r):
+                total += best_r
+            if np.isfinite(best_c):
+                total += best_c
+            out[i, j] = total
+
+
+def _steps(a: np.ndarray) -> np.ndarray:
+    out = np.empty(np.shape(a))
+    _step_sum(np.ascontiguousarray(a, dtype=np.float64), out)
+    return out
+
+
 def footprint_half_extents(line: np.ndarray, pixel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Half extents (lines, pixels) of the box around a cell's footprint in the image.
 
     From the smaller one-sided steps, so a cell on a cliff edge does not reach across the cliff.
     """
-    half_l = 0.5 * (np.nan_to_num(smaller_step(line, 0)) + np.nan_to_num(smaller_step(line, 1)))
-    half_p = 0.5 * (np.nan_to_num(smaller_step(pixel, 0)) + np.nan_to_num(smaller_step(pixel, 1)))
-    return half_l, half_p
+    return 0.5 * _steps(line), 0.5 * _steps(pixel)
 
 
 def range_tolerance(rng: np.ndarray) -> np.ndarray:
@@ -70,9 +105,7 @@ def range_tolerance(rng: np.ndarray) -> np.ndarray:
 
     From the smaller one-sided steps: a cell beside a cliff is compared with its own surface.
     """
-    dr = np.nan_to_num(smaller_step(rng, 0), nan=0.0, posinf=0.0)
-    dc = np.nan_to_num(smaller_step(rng, 1), nan=0.0, posinf=0.0)
-    return (2.0 * (dr + dc) + RANGE_TOLERANCE_M).astype(np.float32)
+    return (2.0 * _steps(rng) + RANGE_TOLERANCE_M).astype(np.float32)
 
 
 @numba.njit(cache=True)
@@ -145,20 +178,33 @@ def folded(line: np.ndarray, pixel: np.ndarray, orientation: float) -> np.ndarra
     tested; a cell on the edge of a cliff keeps its normal triangles on the cliff-top side and is
     not folded. Triangles with a missing corner do not count; a cell with none is not folded.
     """
-    line = np.asarray(line, float)
-    pixel = np.asarray(pixel, float)
-    reversed_all = np.ones(line.shape, bool)
-    counted = np.zeros(line.shape, bool)
-    for sr in (1, -1):
-        for sc in (1, -1):
-            dl_r, dp_r = _shifted_difference(line, sr, 0), _shifted_difference(pixel, sr, 0)
-            dl_c, dp_c = _shifted_difference(line, sc, 1), _shifted_difference(pixel, sc, 1)
-            det = (dl_r * dp_c - dl_c * dp_r) * (sr * sc)
-            ok = np.isfinite(det)
-            with np.errstate(invalid="ignore"):
-                reversed_all &= ~ok | (det * orientation < 0)
-            counted |= ok
-    return reversed_all & counted
+    out = np.empty(np.shape(line), dtype=np.bool_)
+    _folded(np.ascontiguousarray(line, dtype=np.float64), np.ascontiguousarray(pixel, dtype=np.float64),
+            float(orientation), out)
+    return out
+
+
+@numba.njit(parallel=True, cache=True)
+def _folded(line, pixel, orientation, out):
+    R, C = line.shape
+    for i in numba.prange(R):
+        for j in range(C):
+            reversed_all = True
+            counted = False
+            for sr in (1, -1):
+                for sc in (1, -1):
+                    if not (0 <= i + sr < R and 0 <= j + sc < C):
+                        continue
+                    dl_r = line[i + sr, j] - line[i, j]
+                    dp_r = pixel[i + sr, j] - pixel[i, j]
+                    dl_c = line[i, j + sc] - line[i, j]
+                    dp_c = pixel[i, j + sc] - pixel[i, j]
+                    det = (dl_r * dp_c - dl_c * dp_r) * (sr * sc)
+                    if np.isfinite(det):
+                        counted = True
+                        if not det * orientation < 0:
+                            reversed_all = False
+            out[i, j] = reversed_all and counted
 
 
 def _shifted_difference(a: np.ndarray, step: int, axis: int) -> np.ndarray:

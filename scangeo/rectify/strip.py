@@ -34,6 +34,7 @@ from scangeo.rectify.geolocation import GltWriter
 from scangeo.rectify.geotiff import BandInfo, bands_of, describe, finalise, remove_partials, working_profile
 from scangeo.rectify.inverse_map import InverseMapStats, TileGrid, build_inverse_map
 from scangeo.rectify.options import LAYERS, RectifyOptions
+from scangeo.rectify.refined_map import build_refined_map
 from scangeo.rectify.output_grid import OutputGrid, nice_resolution
 from scangeo.rectify.resample import RESAMPLING, in_image, line_window, remap_bands, source_nodata_mask
 
@@ -42,6 +43,9 @@ log = logging.getLogger(__name__)
 #: largest tile of the inverse map, cells: its along-track baseline (scangeo.rectify.inverse_map)
 #: models the attitude's effect across a tile's width, which stays simple over 640 m
 INVERSE_TILE = 256
+#: largest tile of the refined inverse map (scangeo.rectify.refined_map), cells: no model across
+#: the tile, so only the memory budget (the pass's tile) bounds it
+REFINE_TILE = 1024
 #: GDAL block cache during rectification, bytes (at most an eighth of the memory budget)
 GDAL_CACHE = 32 * 2**20
 
@@ -170,12 +174,19 @@ def _pass1_tile(geometry, grid, w, options, track, orientation, zbuf, work, stat
     cols = np.arange(w.col_off, w.col_off + w.width)
     x, y = grid.x_of_col(cols), grid.y_of_row(rows)
     X, Y = np.meshgrid(x, y)
-    H = np.asarray(geometry.height(X, Y), dtype=float)
-    along = (track[0][-1] - track[0][0], track[1][-1] - track[1][0])
-    line, pixel, st = build_inverse_map(
-        geometry.ground_to_image, TileGrid(x[0], y[0], grid.resolution), H,
-        (geometry.lines, geometry.pixels), options.inverse_map, seed=seed, along=along, height=geometry.height,
-    )
+    if hasattr(geometry, "height_on_lattice"):
+        H = np.asarray(geometry.height_on_lattice(x, y), dtype=float)
+    else:
+        H = np.asarray(geometry.height(X, Y), dtype=float)
+    tile_grid = TileGrid(x[0], y[0], grid.resolution)
+    if _refines(geometry, options):
+        line, pixel, st = build_refined_map(geometry, tile_grid, H, options.inverse_map, seed=seed)
+    else:
+        along = (track[0][-1] - track[0][0], track[1][-1] - track[1][0])
+        line, pixel, st = build_inverse_map(
+            geometry.ground_to_image, tile_grid, H, (geometry.lines, geometry.pixels), options.inverse_map,
+            seed=seed, along=along, height=geometry.height,
+        )
     stats.merge(st)
     near = np.isfinite(line) & np.isfinite(pixel)
     with np.errstate(invalid="ignore"):
@@ -203,6 +214,12 @@ def _pass1_tile(geometry, grid, w, options, track, orientation, zbuf, work, stat
         with np.errstate(invalid="ignore", divide="ignore"):
             det = np.abs(dl_dr * dp_dc - dl_dc * dp_dr)
             work["ground_pixel"][rs, cs] = np.where(det > 0, grid.resolution / np.sqrt(det), np.nan)
+
+
+def _refines(geometry: StripGeometry, options: RectifyOptions) -> bool:
+    """Whether the inverse map is refined per cell (the geometry can, and it is asked for)."""
+    return options.inverse_map.method == "refine" and hasattr(geometry, "ground_to_image_near") and hasattr(
+        geometry, "height_on_lattice")
 
 
 def rectify_strip(
@@ -265,10 +282,16 @@ def rectify_strip(
             # the projection centre at every line, one beyond each end (cells reach half a line out)
             track = geometry.sensor_position(np.arange(-1, geometry.lines + 1, dtype=float))
             orientation = _orientation(geometry, grid)
-            inverse_tiles = list(grid.tiles(min(tile, INVERSE_TILE)))
+            inverse_tile = REFINE_TILE if _refines(geometry, options) else INVERSE_TILE
+            inverse_tiles = list(grid.tiles(min(tile, inverse_tile)))
             for i, w in enumerate(inverse_tiles):
                 _pass1_tile(geometry, grid, w, options, track, orientation, zbuf, work, result.stats, seed=i)
                 progress(len(windows) * (i + 1) / len(inverse_tiles), total, f"inverse map {output.stem}")
+            if result.stats.max_error_px > options.max_error_px:
+                log.warning(
+                    "%s: the inverse map's validation sample found %.3f px, above the tolerance of %.3f px "
+                    "(inverse_map_method %s; 'refine' solves every cell exactly)", output.name,
+                    result.stats.max_error_px, options.max_error_px, options.inverse_map_method)
             working = work_dir / "working.tif"
             layer_file = work_dir / "layers.tif" if layers else None
             glt = GltWriter(work_dir / "glt", grid) if options.glt else None

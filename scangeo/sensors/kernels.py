@@ -235,10 +235,7 @@ def rays_kernel(lines, pixels, t0, dt, coef, lever, R_BS, toff, kind, sp, table,
     n_chunks = min(n, 512)
     chunk = (n + n_chunks - 1) // n_chunks
     for c in nb.prange(n_chunks):
-        R = np.empty((3, 3))
-        dR = np.empty((3, 3))
-        p = np.empty(3)
-        dp = np.empty(3)
+        R, dR, p, dp = _pose_buffers()
         look = np.empty(3)
         for q in range(c * chunk, min(n, (c + 1) * chunk)):
             pix = pixels[q]
@@ -415,6 +412,24 @@ def _solve_in(k, P, tan_a, tan_c, ctimes, cA, cC, t0, dt, coef, lever, R_BS, tof
     return np.nan, np.nan
 
 
+@nb.njit(inline="always", **_opts)
+def _pose_buffers():
+    """Work arrays of ``spline_pose``: R, dR (3, 3), p, dp (3,)."""
+    return np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3)
+
+
+@nb.njit(inline="always", **_opts)
+def _view_yz(P, R, p, dR, dp, h):
+    """Sensor-frame y, z of the point P seen from the pose (R, p) moved by h seconds to first order."""
+    vy = 0.0
+    vz = 0.0
+    for i in range(3):
+        d = P[i] - (p[i] + h * dp[i])
+        vy += (R[i, 1] + h * dR[i, 1]) * d
+        vz += (R[i, 2] + h * dR[i, 2]) * d
+    return vy, vz
+
+
 @nb.njit(parallel=True, **_opts)
 def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, table,
                            lt0, lrate, ltable, n_lines, ctimes, cA, cC, window, tol_t, n_chunks,
@@ -431,10 +446,7 @@ def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, ta
     chunk = (n + n_chunks - 1) // n_chunks
     npix = sp[sp.shape[0] - 1] if kind != 1 else sp[0]
     for c in nb.prange(n_chunks):
-        R = np.empty((3, 3))
-        dR = np.empty((3, 3))
-        p = np.empty(3)
-        dp = np.empty(3)
+        R, dR, p, dp = _pose_buffers()
         crossings = np.empty(MAX_CROSSINGS, dtype=np.int64)
         k_warm = cA.shape[0] // 2
         for q in range(c * chunk, min(n, (c + 1) * chunk)):
@@ -464,13 +476,7 @@ def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, ta
                         status = NO_CONVERGENCE
                         break
                     # the pose at t from the last evaluation, to first order (|t - t_ev| < tol_t)
-                    h = t - t_ev
-                    vy = 0.0
-                    vz = 0.0
-                    for i in range(3):
-                        d = P[i] - (p[i] + h * dp[i])
-                        vy += (R[i, 1] + h * dR[i, 1]) * d
-                        vz += (R[i, 2] + h * dR[i, 2]) * d
+                    vy, vz = _view_yz(P, R, p, dR, dp, t - t_ev)
                     if vz <= 0:
                         status = BEHIND
                         break
@@ -503,3 +509,109 @@ def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, ta
                 out_pixel[q] = pixel
                 out_status[q] = flag
                 break
+
+
+@nb.njit(parallel=True, **_opts)
+def refine_kernel(points, guess_line, guess_pixel, t0, dt, coef, lever, R_BS, toff, kind, sp, table,
+                  lt0, lrate, ltable, n_lines, tol_t, max_step_t, max_iter, n_chunks,
+                  out_line, out_pixel, out_status, out_steps):
+    """Ground -> image by Newton on time from a guess of (line, pixel) per point, no bracketing.
+
+    For strips whose scan plane sweeps the ground monotonically (no over-scanning) the scan-plane
+    condition has one root per point, so Newton started near it converges to the same solution
+    as the bracketed ``ground_to_image_kernel``, quadratically and without its search. A point
+    whose iteration takes a step longer than ``max_step_t`` seconds, or has not converged after
+    ``max_iter`` evaluations, gets NO_CONVERGENCE: the caller solves it with the bracketed
+    kernel. ``out_steps`` holds each point's evaluations. For pushbroom look-angle tables (whose
+    along-track angle varies with the pixel) the condition at time t uses the angle of the pixel
+    the point falls on at t, and its derivative includes that angle's change, so the iteration
+    stays quadratic.
+    """
+    n = points.shape[0]
+    chunk = (n + n_chunks - 1) // n_chunks
+    npix = sp[sp.shape[0] - 1] if kind != 1 else sp[0]
+    for c in nb.prange(n_chunks):
+        R, dR, p, dp = _pose_buffers()
+        for q in range(c * chunk, min(n, (c + 1) * chunk)):
+            P = points[q]
+            out_line[q] = np.nan
+            out_pixel[q] = np.nan
+            out_status[q] = NO_CONVERGENCE
+            out_steps[q] = 0
+            gl = guess_line[q]
+            gp = guess_pixel[q]
+            if not (np.isfinite(P[0]) and np.isfinite(P[1]) and np.isfinite(P[2]) and np.isfinite(gl)
+                    and np.isfinite(gp)):
+                continue
+            gp = min(max(gp, -0.5), npix - 0.5)
+            t = line_to_time(gl, lt0, lrate, ltable)
+            if kind == 0:
+                t += (gp - sp[0]) * sp[4]
+            done = False
+            h = 0.0
+            eps = 1e-6
+            for it in range(max_iter):
+                spline_pose(t, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
+                out_steps[q] = it + 1
+                vx = 0.0
+                vy = 0.0
+                vz = 0.0
+                dvx = 0.0
+                dvy = 0.0
+                dvz = 0.0
+                for i in range(3):
+                    d = P[i] - p[i]
+                    vx += R[i, 0] * d
+                    vy += R[i, 1] * d
+                    vz += R[i, 2] * d
+                    dvx += dR[i, 0] * d - R[i, 0] * dp[i]
+                    dvy += dR[i, 1] * d - R[i, 1] * dp[i]
+                    dvz += dR[i, 2] * d - R[i, 2] * dp[i]
+                if not vz > 0:
+                    break
+                # the scan-plane condition of the pixel the point falls on at time t:
+                # f = vx - tan_a(pixel(vy / vz)) vz, with the derivative of tan_a through the pixel
+                tan_a = 0.0
+                dtan = 0.0
+                if kind != 0:
+                    tx = vy / vz
+                    tan_a = sensor_along_tan(kind, sp, table, sensor_pixel(kind, sp, table, tx, 1.0))
+                    if kind == 1:
+                        up = sensor_along_tan(kind, sp, table, sensor_pixel(kind, sp, table, tx + eps, 1.0))
+                        dn = sensor_along_tan(kind, sp, table, sensor_pixel(kind, sp, table, tx - eps, 1.0))
+                        dtan = (up - dn) / (2 * eps) * (dvy * vz - vy * dvz) / (vz * vz)
+                f = vx - tan_a * vz
+                df = dvx - tan_a * dvz - dtan * vz
+                if df == 0.0 or not np.isfinite(f):
+                    break
+                h = -f / df
+                if abs(h) > max_step_t:
+                    break
+                if abs(h) < tol_t:
+                    done = True
+                    break
+                t += h
+            if not done:
+                continue
+            # the pose at t + h to first order (|h| < tol_t), as in ground_to_image_kernel
+            vy, vz = _view_yz(P, R, p, dR, dp, h)
+            t += h
+            if vz <= 0:
+                out_status[q] = BEHIND
+                continue
+            pixel = sensor_pixel(kind, sp, table, vy, vz)
+            t_line = t - (pixel - sp[0]) * sp[4] if kind == 0 else t
+            line = time_to_line(t_line, lt0, lrate, ltable)
+            if pixel < -0.5 or pixel > npix - 0.5:
+                out_status[q] = OUTSIDE_SWATH
+                out_line[q] = line
+                out_pixel[q] = pixel
+                continue
+            if line < -0.5 or line > n_lines - 0.5:
+                out_status[q] = NOT_SEEN
+                out_line[q] = line
+                out_pixel[q] = pixel
+                continue
+            out_line[q] = line
+            out_pixel[q] = pixel
+            out_status[q] = OK

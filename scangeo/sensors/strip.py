@@ -213,6 +213,34 @@ class StripGeometry:
         )
         return line, pixel, status
 
+    def ground_to_image_near(self, p_P: np.ndarray, line0: np.ndarray, pixel0: np.ndarray,
+                             tol_line: float = 1e-4, max_step_lines: float = 64.0, max_iter: int = 8):
+        """(line, pixel, status, evaluations) of project-frame points (n, 3) by Newton on time from
+        guesses ``line0, pixel0`` (e.g. interpolated from exact solutions nearby), no bracketing.
+
+        Only for strips without over-scanning (``overscan_window == 0``), where a point has one
+        solution; there the result equals ``ground_to_image``'s. Points whose iteration does not
+        converge within ``max_iter`` condition evaluations, or steps farther than
+        ``max_step_lines``, get status NO_CONVERGENCE (solve them with ``ground_to_image``).
+        Points outside the swath or beyond the strip's ends keep their (line, pixel) with the
+        status saying so.
+        """
+        p_P = np.ascontiguousarray(np.atleast_2d(np.asarray(p_P, dtype=float)))
+        n = len(p_P)
+        kind, sp, table = self.sensor.kernel_params()
+        line = np.empty(n)
+        pixel = np.empty(n)
+        status = np.empty(n, dtype=np.int64)
+        steps = np.empty(n, dtype=np.int64)
+        rate = self.timing.mean_rate
+        K.refine_kernel(
+            p_P, np.ascontiguousarray(line0, dtype=float).ravel(), np.ascontiguousarray(pixel0, dtype=float).ravel(),
+            *self._mount_args(), kind, sp, np.ascontiguousarray(table, dtype=float), *self._timing_args(),
+            float(self.n_lines), tol_line / rate, max_step_lines / rate, int(max_iter), max(1, min(n, 256)),
+            line, pixel, status, steps,
+        )
+        return line, pixel, status, steps
+
     def footprint_box(self, dtm: DTM, margin: float = 200.0) -> np.ndarray:
         """(3, 2) project-frame box holding the strip's rays down to the DTM's lowest point."""
         lines = np.linspace(0, self.n_lines - 1, 9)
