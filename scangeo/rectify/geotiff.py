@@ -31,7 +31,9 @@ class GeoTiffProfile:
     ----------
     blocksize : internal tile size, pixels.
     compress : ``deflate`` (default, readable everywhere), ``zstd``, ``lzw`` or ``none``.
-    level : compression level (None: GDAL's default).
+    level : compression level (None: 1 for deflate and zstd, the fastest: on a 10,000-line,
+        11-band uint16 Daedalus strip deflate 1 wrote 115 MB in 0.93 s against GDAL's default 6,
+        116 MB in 1.20 s; zstd 1 117 MB in 0.48 s; docs/performance.md).
     predictor : horizontal differencing for integers, floating-point predictor for floats.
     overviews : build internal overviews (off by default: on a 10,000-line Daedalus strip they
         cost about 4 s of the COG copy's 5.6 s; the mosaic and viewers benefit most).
@@ -57,8 +59,9 @@ class GeoTiffProfile:
         """GDAL creation options for the final file."""
         opts: dict = {"BIGTIFF": "IF_SAFER", "NUM_THREADS": self.threads, "COMPRESS": self.compress.upper()}
         if self.compress != "none":
-            if self.level is not None:
-                opts["LEVEL" if self.cog else _level_key(self.compress)] = str(self.level)
+            level = self.level if self.level is not None else (1 if self.compress in ("deflate", "zstd") else None)
+            if level is not None:
+                opts["LEVEL" if self.cog else _level_key(self.compress)] = str(level)
             if self.predictor:
                 floating = np.issubdtype(np.dtype(dtype), np.floating)
                 if self.cog:

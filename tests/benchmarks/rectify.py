@@ -114,8 +114,13 @@ def main() -> None:
     image_path = root / "images" / "01.tif"
     geometry = CoreStripGeometry(project.geometry("01"), project.dtm)
     options = RectifyOptions(resolution=2.5, resampling=args.resampling)
-    # warm-up (numba compilation of the kernels), not timed
-    geometry.ground_to_image(np.array([0.0]), np.array([0.0]), np.array([0.0]))
+    # warm-up (numba compilation or cache loading of the kernels, GDAL drivers), not timed: the
+    # first 200 m of the strip's grid
+    from scangeo.rectify.strip import strip_grid
+
+    full = strip_grid(geometry, options)
+    xmin, ymin, xmax, ymax = full.bounds
+    rectify_strip(geometry, image_path, tmp / "warm-up.tif", options.replace(bounds=(xmin, ymax - 200.0, xmax, ymax)))
     geometry.image_to_ground(np.array([0.0]), np.array([0.0]))
 
     out = tmp / "ortho.tif"
