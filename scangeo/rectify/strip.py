@@ -67,6 +67,7 @@ class StripResult:
     hidden_cells: int = 0
     tile_size: int = 0
     seconds: float = 0.0
+    inverse_map_method: str = ""
 
     def summary(self) -> dict:
         return {
@@ -77,6 +78,7 @@ class StripResult:
             "tile_size": self.tile_size,
             "inverse_map_exact_points": self.stats.exact_points,
             "inverse_map_max_error_px": self.stats.max_error_px,
+            "inverse_map_method": self.inverse_map_method,
             "seconds": round(self.seconds, 3),
         }
 
@@ -282,7 +284,8 @@ def rectify_strip(
             # the projection centre at every line, one beyond each end (cells reach half a line out)
             track = geometry.sensor_position(np.arange(-1, geometry.lines + 1, dtype=float))
             orientation = _orientation(geometry, grid)
-            inverse_tile = REFINE_TILE if _refines(geometry, options) else INVERSE_TILE
+            result.inverse_map_method = "refine" if _refines(geometry, options) else "lattice"
+            inverse_tile = REFINE_TILE if result.inverse_map_method == "refine" else INVERSE_TILE
             inverse_tiles = list(grid.tiles(min(tile, inverse_tile)))
             for i, w in enumerate(inverse_tiles):
                 _pass1_tile(geometry, grid, w, options, track, orientation, zbuf, work, result.stats, seed=i)
@@ -340,6 +343,7 @@ def _tags(tags, options: RectifyOptions, result: StripResult) -> dict[str, objec
         "resampling": options.resampling,
         "inverse_map_max_error_px": f"{result.stats.max_error_px:.5f}",
         "inverse_map_tolerance_px": options.max_error_px,
+        "inverse_map_method": result.inverse_map_method,
         "occlusion": str(options.occlusion).lower(),
     }
     out.update(tags or {})
