@@ -17,6 +17,7 @@ import json
 import logging
 import multiprocessing
 import time
+import warnings
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -136,10 +137,13 @@ def run_strip_task(task: StripTask, progress: ProgressCallback = no_progress) ->
         write_igm(geometry, output.with_suffix(".igm"))
     bands = _band_info(project, cfg.image)
     if bands is not None:
-        with rasterio.open(cfg.image) as src:
-            if len(bands) != src.count:
-                log.warning("%s has %d bands, [sensor] bands names %d: using the image's", cfg.image, src.count, len(bands))
-                bands = None
+        with warnings.catch_warnings():  # a raw scanner image has no georeferencing
+            warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+            with rasterio.open(cfg.image) as src:
+                count = src.count
+        if len(bands) != count:
+            log.warning("%s has %d bands, [sensor] bands names %d: using the image's", cfg.image, count, len(bands))
+            bands = None
     tags = {
         "variant": task.variant,
         "strip": task.strip,
