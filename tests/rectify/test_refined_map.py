@@ -33,14 +33,18 @@ def hilly_dtm(geoid: Geoid | None = None) -> DTM:
     return DTM(grid, mf, "hills")
 
 
-def turbulent_spline(pitch_amp_deg=0.6, period=5.0, duration=60.0) -> OrientationSpline:
-    """North at 60 m/s, 2,300 m above the origin, with roll, pitch and heading oscillations."""
+def turbulent_spline(pitch_amp_deg=0.6, period=5.0, duration=60.0, heading_deg=0.0) -> OrientationSpline:
+    """At 60 m/s on ``heading_deg`` (0: north) through the origin's neighbourhood, 2,300 m above it,
+    with roll, pitch and heading oscillations."""
     t = np.linspace(0.0, duration, int(duration * 50) + 1)
     w = 2 * np.pi / period
+    along, across = -1800.0 + 60.0 * t, 15 * np.sin(0.3 * t)
+    h = np.radians(heading_deg)
     v = np.column_stack([
-        15 * np.sin(0.3 * t), -1800.0 + 60.0 * t, 2700.0 + 8 * np.sin(0.5 * t),
+        along * np.sin(h) + across * np.cos(h), along * np.cos(h) - across * np.sin(h),
+        2700.0 + 8 * np.sin(0.5 * t),
         np.radians(2.0) * np.sin(w * t + 0.3), np.radians(pitch_amp_deg) * np.sin(1.3 * w * t),
-        np.radians(0.8) * np.sin(0.7 * w * t + 1.0),
+        h + np.radians(0.8) * np.sin(0.7 * w * t + 1.0),
     ])
     return OrientationSpline.fit(t, v, 0.1)
 
@@ -85,6 +89,18 @@ def test_every_cell_equals_the_bracketed_solution(name):
     assert stats.exact_points < 0.1 * H.size and stats.exact_cells < 0.02 * H.size
     assert 1.0 <= stats.newton_evaluations / stats.refined_cells < 3.0
     assert stats.validated == 256 and stats.max_error_px < 1e-4
+
+
+def test_a_flight_oblique_to_the_grid_is_refined_alike():
+    # heading 40 deg: the cells' lines and pixels change along both grid axes
+    g = geometry(Whiskbroom(), spline=turbulent_spline(heading_deg=40.0))
+    grid, X, Y, H = tile(g, rows=300, cols=600)
+    line, pixel, stats = build_refined_map(g, grid, H, InverseMapOptions())
+    el, ep = (a.reshape(X.shape) for a in g.ground_to_image(X, Y, H))
+    seen = np.isfinite(el)
+    assert seen.sum() > 0.2 * H.size and np.array_equal(seen, np.isfinite(line))
+    assert np.abs(line[seen] - el[seen]).max() < 1e-4 and np.abs(pixel[seen] - ep[seen]).max() < 1e-4
+    assert stats.newton_evaluations / stats.refined_cells < 3.0
 
 
 def test_project_points_are_affine_in_height_to_a_millimetre():
