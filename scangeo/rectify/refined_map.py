@@ -88,24 +88,27 @@ def build_refined_map(
     gl = np.empty((R, C))
     gp = np.empty((R, C))
     _upsample(ln, pn, S, gl, gp)
-    rows, cols = np.nonzero(has_h)
-    x, y = grid.xy(rows, cols)
+    idx = np.flatnonzero(has_h)
+    rows, cols = np.divmod(idx, C)
+    Hc = H.ravel()[idx]
+    l0, p0 = gl.ravel()[idx], gp.ravel()[idx]
     newton = dict(tol_line=options.tol_line, max_step_lines=options.max_step_lines, max_iter=options.max_iter)
     if hasattr(geometry, "project_to_image_near"):
-        p_P = _project_points(geometry, X, Y, S, rows, cols, H[rows, cols])
-        l, p, status, evaluations = geometry.project_to_image_near(p_P, gl[rows, cols], gp[rows, cols], **newton)
+        p_P = _project_points(geometry, X, Y, S, rows, cols, Hc)
+        l, p, status, evaluations = geometry.project_to_image_near(p_P, l0, p0, **newton)
     else:
-        l, p, status, evaluations = geometry.ground_to_image_near(x, y, H[rows, cols], gl[rows, cols],
-                                                                  gp[rows, cols], **newton)
-    stats.refined_cells += rows.size
+        x, y = grid.xy(rows, cols)
+        l, p, status, evaluations = geometry.ground_to_image_near(x, y, Hc, l0, p0, **newton)
+    stats.refined_cells += idx.size
     stats.newton_evaluations += int(evaluations.sum())
     ok = status == 0
-    line[rows[ok], cols[ok]] = l[ok]
-    pixel[rows[ok], cols[ok]] = p[ok]
+    line.ravel()[idx] = np.where(ok, l, np.nan)
+    pixel.ravel()[idx] = np.where(ok, p, np.nan)
     again = status == 4  # no convergence: the bracketed search
     if again.any():
         r2, c2 = rows[again], cols[again]
-        line[r2, c2], pixel[r2, c2] = geometry.ground_to_image(x[again], y[again], H[r2, c2])
+        x2, y2 = grid.xy(r2, c2)
+        line[r2, c2], pixel[r2, c2] = geometry.ground_to_image(x2, y2, H[r2, c2])
         stats.exact_points += r2.size
         stats.exact_cells += r2.size
     _validate(geometry.ground_to_image, grid, line, pixel, H, image_shape, options.validation_samples, seed, stats)

@@ -21,6 +21,7 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numba
 import numpy as np
 import rasterio
 from rasterio.windows import Window
@@ -175,11 +176,10 @@ def _pass1_tile(geometry, grid, w, options, track, orientation, zbuf, work, stat
     rows = np.arange(w.row_off, w.row_off + w.height)
     cols = np.arange(w.col_off, w.col_off + w.width)
     x, y = grid.x_of_col(cols), grid.y_of_row(rows)
-    X, Y = np.meshgrid(x, y)
     if hasattr(geometry, "height_on_lattice"):
         H = np.asarray(geometry.height_on_lattice(x, y), dtype=float)
     else:
-        H = np.asarray(geometry.height(X, Y), dtype=float)
+        H = np.asarray(geometry.height(*np.meshgrid(x, y)), dtype=float)
     tile_grid = TileGrid(x[0], y[0], grid.resolution)
     if _refines(geometry, options):
         line, pixel, st = build_refined_map(geometry, tile_grid, H, options.inverse_map, seed=seed)
@@ -195,9 +195,9 @@ def _pass1_tile(geometry, grid, w, options, track, orientation, zbuf, work, stat
         near &= (line > -2) & (line < geometry.lines + 1) & (pixel > -2) & (pixel < geometry.pixels + 1)
     line[~near] = np.nan
     pixel[~near] = np.nan
-    tr = np.arange(-1, geometry.lines + 1, dtype=float)
-    sx, sy, sH = (np.interp(line, tr, t) for t in track)
-    rng = np.sqrt((X - sx) ** 2 + (Y - sy) ** 2 + (H - sH) ** 2)
+    rng = np.empty(line.shape)
+    sH = np.empty(line.shape)
+    _ranges(line, x, y, H, *(np.ascontiguousarray(t, dtype=float) for t in track), rng, sH)
     rs, cs = _tile_slices(w)
     if options.occlusion:
         rng_eff = np.where(occlusion.folded(line, pixel, orientation), np.inf, rng)
@@ -216,6 +216,30 @@ def _pass1_tile(geometry, grid, w, options, track, orientation, zbuf, work, stat
         with np.errstate(invalid="ignore", divide="ignore"):
             det = np.abs(dl_dr * dp_dc - dl_dc * dp_dr)
             work["ground_pixel"][rs, cs] = np.where(det > 0, grid.resolution / np.sqrt(det), np.nan)
+
+
+@numba.njit(parallel=True, cache=True)
+def _ranges(line, x, y, H, tx, ty, tH, rng, sH):
+    """Range from each cell (x[j], y[i], H) to the projection centre at its line, and the centre's
+    height; the track is sampled at lines -1, 0, ..., lines (linear between, constant beyond, as
+    ``np.interp``); NaN where the line is."""
+    R, C = line.shape
+    n = tx.shape[0]
+    for i in numba.prange(R):
+        for j in range(C):
+            f = line[i, j] + 1.0
+            if not np.isfinite(f) or not np.isfinite(H[i, j]):
+                rng[i, j] = np.nan
+                sH[i, j] = np.nan
+                continue
+            f = min(max(f, 0.0), n - 1.0)
+            k = min(int(f), n - 2)
+            a = f - k
+            px = tx[k] + a * (tx[k + 1] - tx[k])
+            py = ty[k] + a * (ty[k + 1] - ty[k])
+            ph = tH[k] + a * (tH[k + 1] - tH[k])
+            rng[i, j] = math.sqrt((x[j] - px) ** 2 + (y[i] - py) ** 2 + (H[i, j] - ph) ** 2)
+            sH[i, j] = ph
 
 
 def _refines(geometry: StripGeometry, options: RectifyOptions) -> bool:
