@@ -74,3 +74,15 @@ class Unknown(Key):
     """A generic named block, for problems outside the photogrammetric model (tests, laser strips)."""
 
     name: str
+
+
+@dataclass(frozen=True, slots=True)
+class Plane(Key):
+    """A planar patch of laser strips (tilts u, v of its normal and offset d; see ``scangeo.lidar.groups``)."""
+
+    patch: str
+
+
+@dataclass(frozen=True, slots=True)
+class RangeOffset(Key):
+    """Laser range offset (metres): true range = measured + offset."""
