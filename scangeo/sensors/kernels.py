@@ -27,16 +27,15 @@ NODATA = 6
 UPWARD = 7
 MULTIPLE = 16  # flag bit: several solutions (over-scanning); the first in time is returned
 
-_opts = dict(cache=True)
 
 
-@nb.njit(inline="always", **_opts)
+@nb.njit(inline="always", cache=True)
 def _spline_component(coef, j, c, b0, b1, b2, b3, d0, d1, d2, d3):
     c0, c1, c2, c3 = coef[j, c], coef[j + 1, c], coef[j + 2, c], coef[j + 3, c]
     return b0 * c0 + b1 * c1 + b2 * c2 + b3 * c3, d0 * c0 + d1 * c1 + d2 * c2 + d3 * c3
 
 
-@nb.njit(inline="always", **_opts)
+@nb.njit(inline="always", cache=True)
 def spline_pose(t, t0, dt, coef, lever, R_BS, time_offset, R, p, dR, dp):
     """R_PS (3,3), p_S (3,) and their time derivatives at sensor time t; writes into the outputs.
 
@@ -108,7 +107,7 @@ def spline_pose(t, t0, dt, coef, lever, R_BS, time_offset, R, p, dR, dp):
         dR[2, k] = -(e20 * b0k + e21 * b1k + e22 * b2k)
 
 
-@nb.njit(**_opts)
+@nb.njit(cache=True)
 def sensor_pixel(kind, sp, table, vy, vz):
     """Fractional pixel of a sensor-frame direction (vy, vz) (its across-track angle)."""
     if kind == 0:
@@ -147,7 +146,7 @@ def sensor_pixel(kind, sp, table, vy, vz):
     return lo + (tx - table[lo, 1]) / (table[hi, 1] - table[lo, 1])
 
 
-@nb.njit(**_opts)
+@nb.njit(cache=True)
 def sensor_along_tan(kind, sp, table, pixel):
     """tan of the along-track look angle of a pixel (0 for a whiskbroom)."""
     if kind == 0:
@@ -164,7 +163,7 @@ def sensor_along_tan(kind, sp, table, pixel):
     return table[j, 0] + f * (table[j + 1, 0] - table[j, 0])
 
 
-@nb.njit(**_opts)
+@nb.njit(cache=True)
 def sensor_look(kind, sp, table, pixel, out):
     """Unit look direction of a (fractional) pixel in the sensor frame."""
     if kind == 0:
@@ -195,7 +194,7 @@ def sensor_look(kind, sp, table, pixel, out):
     out[2] = 1.0 / norm
 
 
-@nb.njit(**_opts)
+@nb.njit(cache=True)
 def time_to_line(t, lt0, lrate, ltable):
     n = ltable.shape[0]
     if n == 0:
@@ -214,7 +213,7 @@ def time_to_line(t, lt0, lrate, ltable):
     return lo + (t - ltable[lo]) / (ltable[hi] - ltable[lo])
 
 
-@nb.njit(**_opts)
+@nb.njit(cache=True)
 def line_to_time(line, lt0, lrate, ltable):
     n = ltable.shape[0]
     if n == 0:
@@ -227,7 +226,7 @@ def line_to_time(line, lt0, lrate, ltable):
     return ltable[j] + (line - j) * (ltable[j + 1] - ltable[j])
 
 
-@nb.njit(parallel=True, **_opts)
+@nb.njit(parallel=True, cache=True)
 def rays_kernel(lines, pixels, t0, dt, coef, lever, R_BS, toff, kind, sp, table, lt0, lrate, ltable,
                 out_o, out_d):
     """Ray origins p_S and unit directions R_PS look_S (project frame) of (line, pixel) pairs."""
@@ -249,7 +248,7 @@ def rays_kernel(lines, pixels, t0, dt, coef, lever, R_BS, toff, kind, sp, table,
                 out_d[q, i] = R[i, 0] * look[0] + R[i, 1] * look[1] + R[i, 2] * look[2]
 
 
-@nb.njit(inline="always", **_opts)
+@nb.njit(inline="always", cache=True)
 def _condition(t, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp):
     """f(t) = (R_PS[:,0] - tan_a R_PS[:,2]) . (P - p_S) and df/dt."""
     spline_pose(t, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
@@ -264,7 +263,7 @@ def _condition(t, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp):
     return f, df
 
 
-@nb.njit(inline="always", **_opts)
+@nb.njit(inline="always", cache=True)
 def _coarse_g(k, P, cA, cC):
     """The scan-plane condition at coarse epoch k: ``A_k . P - C_k`` with
     ``A_k = R_PS[:,0] - tan_c R_PS[:,2]`` and ``C_k = A_k . p_S`` precomputed (tan_c: centre pixel)."""
@@ -274,14 +273,14 @@ def _coarse_g(k, P, cA, cC):
 MAX_CROSSINGS = 8
 
 
-@nb.njit(**_opts)
+@nb.njit(cache=True)
 def _sign_change(k, P, cA, cC):
     ga = _coarse_g(k, P, cA, cC)
     gb = _coarse_g(k + 1, P, cA, cC)
     return (ga >= 0 and gb < 0) or (ga < 0 and gb >= 0)
 
 
-@nb.njit(**_opts)
+@nb.njit(cache=True)
 def _grazes(k, P, cA, cC):
     """True if the parabola through samples k-1, k, k+1 crosses zero twice between them while the
     samples themselves keep one sign."""
@@ -300,7 +299,7 @@ def _grazes(k, P, cA, cC):
     return (g_v >= 0) != (g0 >= 0)
 
 
-@nb.njit(**_opts)
+@nb.njit(cache=True)
 def _find_crossings(P, cA, cC, k_warm, window, out):
     """Coarse intervals where the scan-plane condition changes sign, in time order (at most
     MAX_CROSSINGS); returns their count and the number of sightings including double crossings
@@ -361,7 +360,7 @@ def _find_crossings(P, cA, cC, k_warm, window, out):
     return count, count + grazing
 
 
-@nb.njit(**_opts)
+@nb.njit(cache=True)
 def _solve_in(k, P, tan_a, tan_c, ctimes, cA, cC, t0, dt, coef, lever, R_BS, toff, tol_t, R, p, dR, dp):
     """Safeguarded Newton for the time in coarse interval k (either sign change); NaN if none.
 
@@ -412,13 +411,13 @@ def _solve_in(k, P, tan_a, tan_c, ctimes, cA, cC, t0, dt, coef, lever, R_BS, tof
     return np.nan, np.nan
 
 
-@nb.njit(inline="always", **_opts)
+@nb.njit(inline="always", cache=True)
 def _pose_buffers():
     """Work arrays of ``spline_pose``: R, dR (3, 3), p, dp (3,)."""
     return np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3)
 
 
-@nb.njit(inline="always", **_opts)
+@nb.njit(inline="always", cache=True)
 def _view_yz(P, R, p, dR, dp, h):
     """Sensor-frame y, z of the point P seen from the pose (R, p) moved by h seconds to first order."""
     vy = 0.0
@@ -430,7 +429,7 @@ def _view_yz(P, R, p, dR, dp, h):
     return vy, vz
 
 
-@nb.njit(parallel=True, **_opts)
+@nb.njit(parallel=True, cache=True)
 def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, table,
                            lt0, lrate, ltable, n_lines, ctimes, cA, cC, window, tol_t, n_chunks,
                            out_line, out_pixel, out_status):
@@ -511,7 +510,7 @@ def ground_to_image_kernel(points, t0, dt, coef, lever, R_BS, toff, kind, sp, ta
                 break
 
 
-@nb.njit(parallel=True, **_opts)
+@nb.njit(parallel=True, cache=True)
 def refine_kernel(points, guess_line, guess_pixel, t0, dt, coef, lever, R_BS, toff, kind, sp, table,
                   lt0, lrate, ltable, n_lines, tol_t, max_step_t, max_iter, n_chunks,
                   out_line, out_pixel, out_status, out_steps):

@@ -16,10 +16,9 @@ import numpy as np
 from scangeo.localmap import poly_eval_point
 from scangeo.sensors.kernels import BEHIND, LEAVES_DTM, NO_CONVERGENCE, NODATA, OK, UPWARD
 
-_opts = dict(cache=True)
 
 
-@nb.njit(**_opts)
+@nb.njit(cache=True)
 def dtm_sample(values, inv, x, y):
     """Bilinear DTM height at a map point: (value, code) with code 0 ok, 1 outside, 2 nodata."""
     col = inv[0] * x + inv[1] * y + inv[2] - 0.5
@@ -43,7 +42,7 @@ def dtm_sample(values, inv, x, y):
     return v, 0
 
 
-@nb.njit(inline="always", **_opts)
+@nb.njit(inline="always", cache=True)
 def _quad(P3, s):
     """(x, y, H) at parameter s in [0, 1] of the quadratic through the rows of P3 (s = 0, 0.5, 1)."""
     w0 = 2 * (s - 0.5) * (s - 1.0)
@@ -53,7 +52,7 @@ def _quad(P3, s):
             w0 * P3[0, 2] + w1 * P3[1, 2] + w2 * P3[2, 2])
 
 
-@nb.njit(inline="always", **_opts)
+@nb.njit(inline="always", cache=True)
 def _block_max(bmax, inv, block, x, y):
     """Highest terrain within one block of the map point (x, y) (+inf outside, near nodata)."""
     col = inv[0] * x + inv[1] * y + inv[2] - 0.5
@@ -67,14 +66,14 @@ def _block_max(bmax, inv, block, x, y):
     return bmax[br, bc]
 
 
-@nb.njit(**_opts)
+@nb.njit(cache=True)
 def _exact_f(o, d, lam, coef, exps, centre, scale, values, inv, buf, work):
     poly_eval_point(coef, exps, centre, scale, o[0] + lam * d[0], o[1] + lam * d[1], o[2] + lam * d[2], buf, work)
     v, code = dtm_sample(values, inv, buf[0], buf[1])
     return buf[2] - v, code
 
 
-@nb.njit(parallel=True, **_opts)
+@nb.njit(parallel=True, cache=True)
 def ray_cast_kernel(origins, dirs, coef, exps, centre, scale, values, inv, h_min, h_max, step,
                     bmax, block, block_extent, out_p, out_status):
     n = origins.shape[0]
@@ -89,7 +88,7 @@ def ray_cast_kernel(origins, dirs, coef, exps, centre, scale, values, inv, h_min
                       bmax, block, block_extent, out_p, out_status, buf, work, P3)
 
 
-@nb.njit(**_opts)
+@nb.njit(cache=True)
 def _cast_one(q, o, d, coef, exps, centre, scale, values, inv, h_min, h_max, step, bmax, block, block_extent,
               out_p, out_status, buf, work, P3):
     for k in range(3):
