@@ -46,7 +46,7 @@ class DTM:
         self._local_maps: dict[tuple, LocalPolynomialMap] = {}
 
     @classmethod
-    def open(cls, path, map_frame: MapFrame, band: int = 1) -> "DTM":
+    def open(cls, path, map_frame: MapFrame, band: int = 1) -> DTM:
         """Read a DTM raster (any GDAL format); warp it into the map CRS if it is in another CRS."""
         import rasterio
         from rasterio.warp import Resampling, calculate_default_transform, reproject

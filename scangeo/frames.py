@@ -96,7 +96,7 @@ class ProjectFrame:
         object.__setattr__(self, "R_ecef_P", R_ecef_enu(self.lat0, self.lon0))
 
     @classmethod
-    def from_origin(cls, lat_deg: float, lon_deg: float, h: float = 0.0) -> "ProjectFrame":
+    def from_origin(cls, lat_deg: float, lon_deg: float, h: float = 0.0) -> ProjectFrame:
         """A frame at an origin given in degrees (latitude, longitude) and metres (ellipsoidal)."""
         return cls(np.radians(lat_deg), np.radians(lon_deg), float(h))
 
@@ -138,7 +138,7 @@ class Geoid:
             self._to_grid = pyproj.Transformer.from_crs(GEOGRAPHIC_CRS, grid_crs, always_xy=True)
 
     @classmethod
-    def from_raster(cls, path: str | Path) -> "Geoid":
+    def from_raster(cls, path: str | Path) -> Geoid:
         import rasterio
 
         try:
@@ -180,7 +180,7 @@ class MapFrame:
         self._exact_inverse = crs.geodetic_crs is not None and crs.geodetic_crs.datum == GEOGRAPHIC_CRS.datum
 
     @classmethod
-    def centred_on(cls, crs, x: float, y: float, H: float = 0.0, geoid: Geoid | None = None) -> "MapFrame":
+    def centred_on(cls, crs, x: float, y: float, H: float = 0.0, geoid: Geoid | None = None) -> MapFrame:
         """A map frame whose project origin lies at the map point (x, y, H)."""
         tmp = cls(crs, ProjectFrame(0.0, 0.0, 0.0), geoid)
         lat, lon = tmp.map_to_geodetic_2d(np.array([x]), np.array([y]))

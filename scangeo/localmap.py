@@ -8,9 +8,9 @@ whose largest error on a second, offset grid is below the tolerance; ``max_error
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import product
-from typing import Callable
 
 import numba as nb
 import numpy as np
@@ -68,7 +68,7 @@ class LocalPolynomialMap:
 
     @classmethod
     def fit(cls, exact: Callable[[np.ndarray], np.ndarray], box, tolerance: float = 2e-4,
-            max_degree: int = 7) -> "LocalPolynomialMap":
+            max_degree: int = 7) -> LocalPolynomialMap:
         """Fit ``exact`` ((n, 3) -> (n, 3)) over ``box``; raise if no degree reaches ``tolerance``."""
         box = np.asarray(box, dtype=float)
         centre = box.mean(axis=1)

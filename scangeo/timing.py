@@ -35,7 +35,7 @@ class LineTiming:
             raise ProjectFileError("a line time table needs at least 2 strictly increasing times")
 
     @classmethod
-    def from_table_file(cls, path) -> "LineTiming":
+    def from_table_file(cls, path) -> LineTiming:
         """Read ``line,time`` (or a single ``time`` column) CSV with a header line."""
         path = Path(path)
         try:

@@ -8,8 +8,18 @@ Typical use::
     result.statistics.sigma0, result.statistics.sigmas(Ground("P1"))
 """
 from scangeo.adjustment.engine import Adjustment, Rejection, SnoopingOptions, adjust
-from scangeo.adjustment.keys import (Boresight, Correction, Ground, Key, Knots, LeverArm, ScanIndex,
-                                     ScanScale, TimeOffset, Unknown)
+from scangeo.adjustment.keys import (
+                                     Boresight,
+                                     Correction,
+                                     Ground,
+                                     Key,
+                                     Knots,
+                                     LeverArm,
+                                     ScanIndex,
+                                     ScanScale,
+                                     TimeOffset,
+                                     Unknown,
+)
 from scangeo.adjustment.observations import Linearisation, ObservationGroup, PseudoObservations
 from scangeo.adjustment.parameters import JacobianPart, Layout, ParameterBlock, Parameters
 from scangeo.adjustment.solver import RegularisationNote, Solution, Solver, SolverOptions

@@ -1,8 +1,8 @@
 """Finite-difference check of an observation group's analytic Jacobian (shared by the tests)."""
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 

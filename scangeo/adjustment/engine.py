@@ -21,8 +21,8 @@ How the adjustment is solved again after a removal (``SnoopingOptions.method``):
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 

@@ -29,7 +29,8 @@ log = logging.getLogger(__name__)
 _SHIFT = 1e-13
 
 try:  # optional: CHOLMOD through scikit-sparse
-    from sksparse.cholmod import CholmodNotPositiveDefiniteError, analyze as _cholmod_analyze
+    from sksparse.cholmod import CholmodNotPositiveDefiniteError
+    from sksparse.cholmod import analyze as _cholmod_analyze
 except ImportError:  # pragma: no cover - depends on the machine
     _cholmod_analyze = None
 

@@ -12,8 +12,8 @@ Rows are grouped into *observation units* (``row_unit``): the rows that data sno
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Mapping, Sequence
 
 import numpy as np
 

@@ -17,7 +17,6 @@ import os
 import shutil
 from pathlib import Path
 
-
 from scangeo.adjustment.factor import available_backends
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex, ScanScale, TimeOffset

@@ -9,8 +9,8 @@ equations) and converts group Jacobians, expressed per block, into one sparse ma
 """
 from __future__ import annotations
 
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -114,7 +114,7 @@ class Parameters:
         for key, v in values.items():
             self[key].values[:] = v
 
-    def copy(self) -> "Parameters":
+    def copy(self) -> Parameters:
         return Parameters(
             ParameterBlock(b.key, b.values.copy(), b.free.copy(),
                            None if b.prior_values is None else b.prior_values.copy(),
@@ -152,7 +152,7 @@ class Layout:
     labels: list[tuple[Key, str]] = field(default_factory=list)
 
     @classmethod
-    def of(cls, parameters: Parameters) -> "Layout":
+    def of(cls, parameters: Parameters) -> Layout:
         start, size, free = {}, {}, []
         offset = 0
         for b in parameters:

@@ -82,7 +82,7 @@ class ImagePoints:
         return len(self.point)
 
     @classmethod
-    def read(cls, path, default_sigma_px: float = 0.3) -> "ImagePoints":
+    def read(cls, path, default_sigma_px: float = 0.3) -> ImagePoints:
         path = Path(path)
         header, body, numbers = read_rows(path, ["point", "strip", "line", "pixel"], ["sigma_px"])
         point = np.array([r[header.index("point")] for r in body], dtype=object)
@@ -134,7 +134,7 @@ class GroundPoints:
         return len(self.point)
 
     @classmethod
-    def read(cls, path) -> "GroundPoints":
+    def read(cls, path) -> GroundPoints:
         path = Path(path)
         header, body, numbers = read_rows(path, ["point", "x", "y", "z", "sigma_xy", "sigma_z", "role"], [])
         role = np.array([r[header.index("role")].lower() for r in body], dtype=object)

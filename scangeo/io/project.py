@@ -30,7 +30,7 @@ class SensorConfig:
     wavelengths_nm: tuple[float, ...] = ()
 
     @classmethod
-    def from_table(cls, t: Table, root: Path) -> "SensorConfig":
+    def from_table(cls, t: Table, root: Path) -> SensorConfig:
         kind = t.choice("kind", ("whiskbroom", "pushbroom"))
         pixels = t.get("pixels", int)
         line_rate = t.get("line_rate_hz", float)
@@ -89,7 +89,7 @@ class StripConfig:
     lines: int | None
 
     @classmethod
-    def from_table(cls, t: Table, root: Path) -> "StripConfig":
+    def from_table(cls, t: Table, root: Path) -> StripConfig:
         sid = t.get("id", (str, int))
         image = t.get("image", str, None)
         first = t.get("first_line_time", float, None)
@@ -119,7 +119,7 @@ class Project:
     extra: dict = field(default_factory=dict)
 
     @classmethod
-    def load(cls, path) -> "Project":
+    def load(cls, path) -> Project:
         """Read ``PATH/project.toml`` (or the file itself)."""
         path = Path(path)
         file = path / "project.toml" if path.is_dir() else path

@@ -97,12 +97,12 @@ class SystematicErrors:
     sync_offset: float = 0.0                                   # navigation time error, s
     deflection: tuple[float, float] = (0.0, 0.0)               # xi (north), eta (east), rad
 
-    def only(self, names: tuple[str, ...]) -> "SystematicErrors":
+    def only(self, names: tuple[str, ...]) -> SystematicErrors:
         """A copy keeping only the named fields (the others zero)."""
         zero = SystematicErrors()
         return replace(zero, **{name: getattr(self, name) for name in names})
 
-    def scaled(self, factor: float) -> "SystematicErrors":
+    def scaled(self, factor: float) -> SystematicErrors:
         """Every term multiplied by ``factor``."""
         values = {}
         for f in fields(self):

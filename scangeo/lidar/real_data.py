@@ -26,7 +26,7 @@ import pyproj
 from scipy.optimize import least_squares
 
 from scangeo.errors import InputFileError
-from scangeo.frames import R_ecef_ned, ecef_to_geodetic, geodetic_to_ecef
+from scangeo.frames import R_ecef_ned, geodetic_to_ecef
 from scangeo.rotation import rph_to_matrix, unwrap_heading
 
 log = logging.getLogger(__name__)

@@ -247,7 +247,8 @@ def _run_pool(tasks: list[StripTask], workers: int, on_done) -> list[dict]:
 
 def _run_dask(tasks: list[StripTask], address: str, on_done) -> list[dict]:
     try:
-        from dask.distributed import Client, as_completed as dask_completed
+        from dask.distributed import Client
+        from dask.distributed import as_completed as dask_completed
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise ScangeoError("--scheduler needs dask[distributed] (pip install 'scangeo[cluster]')") from exc
     out = []

@@ -9,8 +9,8 @@ convention: the transform maps the top-left corner of cell (0, 0)).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Iterator
 
 import numpy as np
 from affine import Affine
@@ -48,7 +48,7 @@ class OutputGrid:
     @classmethod
     def from_bounds(
         cls, crs: str, bounds: tuple[float, float, float, float], resolution: float
-    ) -> "OutputGrid":
+    ) -> OutputGrid:
         """The smallest aligned grid covering ``bounds = (xmin, ymin, xmax, ymax)`` (map units).
 
         Edges are snapped outwards to integer multiples of ``resolution``.
@@ -108,7 +108,7 @@ class OutputGrid:
             for col in range(0, self.width, size):
                 yield Window(col, row, min(size, self.width - col), min(size, self.height - row))
 
-    def offset_in(self, other: "OutputGrid") -> tuple[int, int]:
+    def offset_in(self, other: OutputGrid) -> tuple[int, int]:
         """(row, col) of this grid's top-left cell in ``other`` (both aligned, same resolution)."""
         if not math.isclose(self.resolution, other.resolution, rel_tol=1e-12):
             raise ScangeoError(
@@ -121,7 +121,7 @@ class OutputGrid:
         return int(round(row)), int(round(col))
 
     @classmethod
-    def union(cls, grids: list["OutputGrid"]) -> "OutputGrid":
+    def union(cls, grids: list[OutputGrid]) -> OutputGrid:
         """The aligned grid covering all ``grids`` (same CRS and resolution)."""
         if not grids:
             raise ScangeoError("output grid union of no grids")

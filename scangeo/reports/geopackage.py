@@ -44,8 +44,8 @@ def _fields(v: ResidualVectors) -> tuple[list[str], list[np.ndarray]]:
 
 def write_geopackage(path, vectors: list[ResidualVectors], crs: str, exaggeration: float = 100.0) -> Path:
     """Write the residual vectors of every variant to a GeoPackage (layers as in the module doc)."""
-    from pyogrio.raw import write as ogr_write
     import pyproj
+    from pyogrio.raw import write as ogr_write
 
     path = Path(path)
     tmp = path.with_name(f".{path.stem}.tmp.gpkg")

@@ -30,8 +30,7 @@ from scangeo.io.project import Project
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.reports import figures, html
 from scangeo.reports.comparison import Comparison
-from scangeo.reports.corrections import (breaks_of, correction_series, gpsimu_series, problem_strips,
-                                         true_gps_error)
+from scangeo.reports.corrections import breaks_of, correction_series, gpsimu_series, problem_strips, true_gps_error
 from scangeo.reports.geopackage import write_geopackage
 from scangeo.reports.residual_vectors import ResidualVectors, check_vectors
 from scangeo.reports.tables import markdown_tables, read_comparison
@@ -232,7 +231,7 @@ def write_report(project_root, out=None, *, geopackage: bool = True,
                if gpkg else []),
              "NAME/: every variant's adjusted trajectories, splines, residuals.csv and report.json"]
     sections.append(html.Section("Files", "files", [html.bullet_list(files)]))
-    stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    stamp = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     intro = [html.paragraph(f"Project {root.resolve()} ({project.crs}, {len(comparison.strips)} strips); "
                             f"variants from {comparison.variants_file}; scangeo {__version__}, {stamp}.")]
     text = html.document(f"scangeo residual report: {root.name}", intro, sections)

@@ -53,7 +53,7 @@ class ResidualVectors:
     def __len__(self) -> int:
         return len(self.point)
 
-    def of_strip(self, strip_id: str) -> "ResidualVectors":
+    def of_strip(self, strip_id: str) -> ResidualVectors:
         sel = self.strip == strip_id
         return ResidualVectors(self.variant, *(getattr(self, k)[sel] for k in _ARRAYS))
 

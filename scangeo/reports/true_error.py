@@ -56,7 +56,7 @@ class Truth:
     _samples: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=dict)
 
     @classmethod
-    def load(cls, project: Project, lines: int = 60, pixels: int = 13) -> "Truth | None":
+    def load(cls, project: Project, lines: int = 60, pixels: int = 13) -> Truth | None:
         """The truth of ``project`` (None when it has no ``truth/`` folder of a simulation)."""
         folder = project.root / "truth"
         info_file = folder / "errors.json"

@@ -108,7 +108,7 @@ class Whiskbroom:
                       self.index_error, self.dt_pixel, self.pixels], dtype=float)
         return KIND_WHISKBROOM, p, np.zeros((0, 2))
 
-    def with_calibration(self, **values: float) -> "Whiskbroom":
+    def with_calibration(self, **values: float) -> Whiskbroom:
         import dataclasses
 
         return dataclasses.replace(self, **values)

@@ -17,7 +17,6 @@ from scangeo.localmap import poly_eval_point
 from scangeo.sensors.kernels import BEHIND, LEAVES_DTM, NO_CONVERGENCE, NODATA, OK, UPWARD
 
 
-
 @nb.njit(cache=True)
 def dtm_sample(values, inv, x, y):
     """Bilinear DTM height at a map point: (value, code) with code 0 ok, 1 outside, 2 nodata."""

@@ -35,7 +35,7 @@ class SpectralDynamics:
     phase: np.ndarray
 
     @classmethod
-    def from_config(cls, config: TurbulenceConfig, rng: np.random.Generator) -> "SpectralDynamics":
+    def from_config(cls, config: TurbulenceConfig, rng: np.random.Generator) -> SpectralDynamics:
         sigmas = np.array([np.radians(config.roll_deg), np.radians(config.pitch_deg), np.radians(config.heading_deg),
                            config.lateral_m, config.along_m, config.vertical_m])
         m = max(int(config.components), 1)
@@ -69,7 +69,7 @@ class ReplayDynamics:
     others: SpectralDynamics
 
     @classmethod
-    def from_file(cls, path: str, config: TurbulenceConfig, rng: np.random.Generator) -> "ReplayDynamics":
+    def from_file(cls, path: str, config: TurbulenceConfig, rng: np.random.Generator) -> ReplayDynamics:
         time, z, roll, pitch, heading = read_dynamics_source(path)
         rate = 1.0 / np.median(np.diff(time))
         window = max(int(round(config.period_s[1] * rate)), 3)

@@ -20,7 +20,6 @@ from scangeo.simulate.terrain import Extent
 from scangeo.trajectory import GpsImuStream, OrientationSpline
 
 
-
 @dataclass(frozen=True)
 class StripPlan:
     """One planned strip.

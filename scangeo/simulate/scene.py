@@ -14,13 +14,12 @@ Digital numbers: ``dn = reflectance * 10000`` for bands 1-10, ``dn = (T - 200 K)
 """
 from __future__ import annotations
 
-import numpy as np
-
 import math
 
 import numba as nb
+import numpy as np
 
-from scangeo.simulate.fields import fbm, fbm_at, hash01, noise_at, value_noise
+from scangeo.simulate.fields import fbm, fbm_at, hash01, noise_at
 
 #: Daedalus AADS 1268 channels: band name, lower and upper wavelength (micrometres).
 BANDS = (

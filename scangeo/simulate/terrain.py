@@ -35,7 +35,7 @@ class Extent:
                            self.ymax + resolution_m / 2)
         return transform, (rows, cols)
 
-    def grown(self, margin_m: float) -> "Extent":
+    def grown(self, margin_m: float) -> Extent:
         return Extent(self.xmin - margin_m, self.ymin - margin_m, self.xmax + margin_m, self.ymax + margin_m)
 
 

@@ -110,13 +110,13 @@ class OrientationSpline:
         times = self.t0 + np.arange(self.n_coef - 2) * self.spacing
         return self.basis_matrix(times)
 
-    def with_coef(self, coef: np.ndarray) -> "OrientationSpline":
+    def with_coef(self, coef: np.ndarray) -> OrientationSpline:
         return OrientationSpline(self.t0, self.spacing, np.asarray(coef, dtype=float))
 
     # --- fitting ------------------------------------------------------------------------------
     @classmethod
     def fit(cls, time: np.ndarray, values: np.ndarray, spacing: float, t_range=None,
-            weights: np.ndarray | None = None) -> "OrientationSpline":
+            weights: np.ndarray | None = None) -> OrientationSpline:
         """Least-squares fit to samples (time (n,), values (n, c)).
 
         A very small third-difference regulariser keeps segments without samples determined.
@@ -139,7 +139,7 @@ class OrientationSpline:
         return cls(t0, float(spacing), coef)
 
     @classmethod
-    def from_trajectory(cls, trajectory, spacing: float, t_range=None) -> "OrientationSpline":
+    def from_trajectory(cls, trajectory, spacing: float, t_range=None) -> OrientationSpline:
         """Fit to a ProjectTrajectory (positions and project-NED angles)."""
         values = np.column_stack([trajectory.p_P, trajectory.angles_P])
         return cls.fit(trajectory.time, values, spacing, t_range=t_range)

@@ -78,14 +78,14 @@ class GpsImuStream:
         """Median sampling rate (Hz)."""
         return float(1.0 / np.median(np.diff(self.time)))
 
-    def select(self, mask: np.ndarray) -> "GpsImuStream":
+    def select(self, mask: np.ndarray) -> GpsImuStream:
         """The samples where ``mask`` is true."""
         return GpsImuStream(
             *(np.asarray(getattr(self, k))[mask] for k in ("time", "lat", "lon", "h", "roll", "pitch", "heading")),
             source=self.source,
         )
 
-    def between(self, t0: float, t1: float) -> "GpsImuStream":
+    def between(self, t0: float, t1: float) -> GpsImuStream:
         """The samples with t0 <= time <= t1."""
         return self.select((self.time >= t0) & (self.time <= t1))
 
@@ -93,14 +93,14 @@ class GpsImuStream:
         """Body-to-navigation rotations (n, 3, 3)."""
         return rph_to_matrix(self.roll, self.pitch, self.heading)
 
-    def to_project(self, frame: ProjectFrame) -> "ProjectTrajectory":
+    def to_project(self, frame: ProjectFrame) -> ProjectTrajectory:
         """This stream in the project frame (positions of the navigation reference point)."""
         p_P = frame.geodetic_to_project(self.lat, self.lon, self.h)
         R_PB = frame.R_PL(self.lat, self.lon) @ self.R_LB()
         return ProjectTrajectory.from_rotations(np.asarray(self.time, float), p_P, R_PB, self.source)
 
     @classmethod
-    def from_project(cls, trajectory: "ProjectTrajectory", frame: ProjectFrame) -> "GpsImuStream":
+    def from_project(cls, trajectory: ProjectTrajectory, frame: ProjectFrame) -> GpsImuStream:
         """The geodetic/NED stream of a project-frame trajectory (the inverse of ``to_project``)."""
         lat, lon, h = frame.project_to_geodetic(trajectory.p_P)
         R_LB = np.swapaxes(frame.R_PL(lat, lon), -1, -2) @ trajectory.R_PB()
@@ -108,14 +108,14 @@ class GpsImuStream:
         return cls(trajectory.time, lat, lon, h, roll, pitch, np.unwrap(heading), trajectory.source)
 
     @classmethod
-    def from_csv(cls, path, crs=None) -> "GpsImuStream":
+    def from_csv(cls, path, crs=None) -> GpsImuStream:
         """Read a trajectory CSV (see docs/formats.md); ``crs`` is needed for x,y,z columns."""
         from scangeo.trajectory.readers import read_trajectory_csv
 
         return read_trajectory_csv(path, crs=crs)
 
     @classmethod
-    def from_sbet(cls, path) -> "GpsImuStream":
+    def from_sbet(cls, path) -> GpsImuStream:
         """Read an Applanix SBET binary file."""
         from scangeo.trajectory.readers import read_sbet
 
@@ -140,7 +140,7 @@ class ProjectTrajectory:
     source: str = "<trajectory>"
 
     @classmethod
-    def from_rotations(cls, time, p_P, R_PB, source="<trajectory>") -> "ProjectTrajectory":
+    def from_rotations(cls, time, p_P, R_PB, source="<trajectory>") -> ProjectTrajectory:
         roll, pitch, heading = matrix_to_rph(R_ENU_NED @ R_PB)
         angles = np.stack([roll, pitch, np.unwrap(heading)], axis=-1)
         return cls(np.asarray(time, float), np.asarray(p_P, float), angles, source)

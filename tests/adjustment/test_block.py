@@ -10,7 +10,7 @@ import pytest
 
 from scangeo.adjustment.outputs import write_results
 from scangeo.adjustment.results import evaluate_checks, run_variant
-from scangeo.adjustment.variants import Variant, StripModels, read_variants
+from scangeo.adjustment.variants import StripModels, Variant, read_variants
 from scangeo.cli import main
 from scangeo.errors import ProjectFileError
 from scangeo.sensors.strip import Mounting, StripGeometry

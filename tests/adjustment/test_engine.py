@@ -5,8 +5,7 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from scangeo.adjustment import (Parameters, SnoopingOptions, Solver, SolverOptions, Statistics, Unknown,
-                                adjust)
+from scangeo.adjustment import Parameters, SnoopingOptions, Solver, SolverOptions, Unknown, adjust
 from scangeo.adjustment.checks import check_jacobian
 from scangeo.adjustment.factor import available_backends
 

@@ -12,7 +12,13 @@ from scangeo.cli import main
 from scangeo.errors import ProjectFileError
 from scangeo.io import Project
 from scangeo.locate import (
-    NO_HEIGHT, OUTSIDE_IMAGE, OUTSIDE_TRAJECTORY, image_to_map, locate_ground_file, locate_image_file, map_to_image,
+    NO_HEIGHT,
+    OUTSIDE_IMAGE,
+    OUTSIDE_TRAJECTORY,
+    image_to_map,
+    locate_ground_file,
+    locate_image_file,
+    map_to_image,
 )
 
 

@@ -25,12 +25,12 @@ import pytest
 import rasterio
 from rasterio.windows import from_bounds
 
-from tests.conftest import shared_file
 from scangeo.rectify.batch import grid_of, rectify_project
 from scangeo.rectify.core_geometry import CoreStripGeometry
 from scangeo.rectify.gdal_route import corner_geolocation, warp_with_geolocation
 from scangeo.rectify.options import RectifyOptions
 from scangeo.rectify.orientation import core_geometry, orientation_source
+from tests.conftest import shared_file
 
 
 def simulate_truth_project(root, terrain):

@@ -11,7 +11,12 @@ import pytest
 from scangeo.errors import TrajectoryError
 from scangeo.frames import ProjectFrame
 from scangeo.trajectory import (
-    GpsImuStream, ProjectTrajectory, read_sbet, read_trajectory, read_trajectory_csv, write_trajectory_csv,
+    GpsImuStream,
+    ProjectTrajectory,
+    read_sbet,
+    read_trajectory,
+    read_trajectory_csv,
+    write_trajectory_csv,
 )
 
 from ..conftest import shared_file
