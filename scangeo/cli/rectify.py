@@ -33,8 +33,6 @@ def add_parser(subparsers, common) -> None:
                    help="do not make ground hidden by terrain nodata")
     p.add_argument("--max-error", type=float, default=None, dest="max_error_px",
                    help="tolerated inverse-map error on the validation sample, pixels (default 0.05)")
-    p.add_argument("--inverse-map", choices=("refine", "lattice"), default=None, dest="inverse_map_method",
-                   help="refine: exact at every cell (default); lattice: interpolation under error control")
     p.add_argument("--memory", type=float, default=None, dest="memory_budget_mb", help="memory budget per strip, MiB")
     p.add_argument("--config", default=None, help="TOML file with a [rectify] table of settings")
     p.add_argument("--workers", type=int, default=1, help="strips rectified at once (local processes)")
@@ -60,7 +58,7 @@ def options_of(args: argparse.Namespace):
             raise ProjectFileError(f"{args.config}: unknown table [{unknown[0]}] (expected [rectify])")
         table = dict(data.get("rectify", {}))
     for key in ("resolution", "bounds", "resampling", "layers", "igm", "glt", "mosaic", "occlusion",
-                "max_error_px", "inverse_map_method", "memory_budget_mb"):
+                "max_error_px", "memory_budget_mb"):
         value = getattr(args, key)
         if value is not None:
             table[key] = value

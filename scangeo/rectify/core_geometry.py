@@ -1,6 +1,6 @@
 """The rectifier's view of a strip, on the geometry core (sensor model, spline, DTM, map frame).
 
-:class:`CoreStripGeometry` implements :class:`scangeo.rectify.geometry.StripGeometry`: it turns
+:class:`CoreStripGeometry` implements :class:`scangeo.rectify.refined_map.RefinableStrip`: it turns
 map coordinates with orthometric heights into project-frame points (``MapFrame.map_to_project``),
 asks ``scangeo.sensors.StripGeometry.ground_to_image`` for (line, pixel), and the reverse through
 DTM ray casting. The map -> project conversion of the many points of an inverse map goes through a

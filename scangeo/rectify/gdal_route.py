@@ -14,13 +14,13 @@ import numpy as np
 from rasterio.crs import CRS
 from rasterio.warp import Resampling, reproject
 
-from scangeo.rectify.geometry import StripGeometry
+from scangeo.rectify.geometry import MapStripGeometry
 from scangeo.rectify.output_grid import OutputGrid
 
 _RESAMPLING = {"nearest": Resampling.nearest, "bilinear": Resampling.bilinear, "cubic": Resampling.cubic}
 
 
-def corner_geolocation(geometry: StripGeometry, chunk_lines: int = 512) -> tuple[np.ndarray, np.ndarray]:
+def corner_geolocation(geometry: MapStripGeometry, chunk_lines: int = 512) -> tuple[np.ndarray, np.ndarray]:
     """Map x, y (lines, pixels) of the pixels' top-left corners on the DTM (image -> ground)."""
     x = np.empty((geometry.lines, geometry.pixels))
     y = np.empty_like(x)

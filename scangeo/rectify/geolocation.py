@@ -25,7 +25,7 @@ from rasterio.errors import NotGeoreferencedWarning
 from rasterio.windows import Window
 
 from scangeo.progress import ProgressCallback, no_progress
-from scangeo.rectify.geometry import StripGeometry
+from scangeo.rectify.geometry import MapStripGeometry
 from scangeo.rectify.geotiff import remove_partials
 from scangeo.rectify.output_grid import OutputGrid
 
@@ -64,7 +64,7 @@ class GltWriter:
 
 
 def write_igm(
-    geometry: StripGeometry, output: str | Path, chunk_lines: int = 256, progress: ProgressCallback = no_progress
+    geometry: MapStripGeometry, output: str | Path, chunk_lines: int = 256, progress: ProgressCallback = no_progress
 ) -> Path:
     """Write the IGM of a strip (image -> ground for every pixel centre) to ``output``."""
     output = Path(output)

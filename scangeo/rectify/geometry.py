@@ -1,7 +1,7 @@
 """What rectification needs to know about a strip: the narrow interface to the geometry core.
 
 The rectifier never touches trajectories, splines or sensor models directly. It asks a
-:class:`StripGeometry` (map coordinates in, image coordinates out, and the reverse) and so works
+:class:`MapStripGeometry` (map coordinates in, image coordinates out, and the reverse) and so works
 the same for direct georeferencing, for an adjusted orientation, and for the analytic geometries
 of the tests. :mod:`scangeo.rectify.core_geometry` implements it on the geometry core.
 
@@ -18,7 +18,7 @@ from scangeo.errors import ScangeoError
 
 
 @runtime_checkable
-class StripGeometry(Protocol):
+class MapStripGeometry(Protocol):
     """The geometry of one strip, as rectification uses it."""
 
     #: number of image lines and pixels per line
@@ -56,7 +56,7 @@ class StripGeometry(Protocol):
         ...
 
 
-def footprint_bounds(geometry: StripGeometry, samples: int = 64) -> tuple[float, float, float, float]:
+def footprint_bounds(geometry: MapStripGeometry, samples: int = 64) -> tuple[float, float, float, float]:
     """(xmin, ymin, xmax, ymax) of the strip's footprint on the DTM, map units.
 
     The border of the image (first and last pixel of every ``lines / samples``-th line, and the
@@ -77,7 +77,7 @@ def footprint_bounds(geometry: StripGeometry, samples: int = 64) -> tuple[float,
     return float(x[ok].min()), float(y[ok].min()), float(x[ok].max()), float(y[ok].max())
 
 
-def nadir_ground_pixel(geometry: StripGeometry) -> float:
+def nadir_ground_pixel(geometry: MapStripGeometry) -> float:
     """Mean of the across- and along-track ground pixel size at nadir of the middle line, metres."""
     line0 = (geometry.lines - 1) / 2.0
     nadir = float(np.argmin(np.abs(geometry.scan_angle(np.arange(geometry.pixels, dtype=float)))))

@@ -36,9 +36,8 @@ class RectifyOptions:
         digits).
     bounds : (xmin, ymin, xmax, ymax) of the output, map units; None: the strip footprint.
     resampling : ``nearest``, ``bilinear`` or ``cubic``.
-    max_error_px : tolerated inverse-map interpolation error, image pixels.
-    inverse_map_method : ``refine`` (Newton at every cell from interpolated starts: exact
-        everywhere) or ``lattice`` (interpolation under error control); docs/rectify.md.
+    max_error_px : tolerance of the inverse map's validation sample, image pixels (a larger
+        difference from the exact solution is logged as a warning).
     memory_budget_mb : memory a strip may use for its working arrays, MiB (sets the tile size).
     tile_size : output tile size, cells (None: from the memory budget).
     nodata : output nodata value (None: the source's, else 0 for integers, NaN for floats).
@@ -53,7 +52,6 @@ class RectifyOptions:
     bounds: tuple[float, float, float, float] | None = None
     resampling: str = "bilinear"
     max_error_px: float = 0.05
-    inverse_map_method: str = "refine"
     memory_budget_mb: float = 1024.0
     tile_size: int | None = None
     nodata: float | None = None
@@ -71,9 +69,6 @@ class RectifyOptions:
         unknown = [name for name in self.layers if name not in LAYERS]
         if unknown:
             raise ScangeoError(f"rectify: unknown layer {unknown[0]!r} (expected one of {', '.join(LAYERS)})")
-        if self.inverse_map_method not in ("refine", "lattice"):
-            raise ScangeoError(
-                f"rectify: inverse_map_method must be 'refine' or 'lattice', got {self.inverse_map_method!r}")
         if self.memory_budget_mb < 16:
             raise ScangeoError(f"rectify: memory_budget_mb {self.memory_budget_mb} is below 16 MiB")
         if self.tile_size is not None and (self.tile_size < 16 or self.tile_size % 16):
@@ -84,7 +79,7 @@ class RectifyOptions:
 
     @property
     def inverse_map(self) -> InverseMapOptions:
-        return InverseMapOptions(max_error_px=self.max_error_px, method=self.inverse_map_method)
+        return InverseMapOptions(max_error_px=self.max_error_px)
 
     @property
     def strip_layers(self) -> tuple[str, ...]:

@@ -1,15 +1,16 @@
 """The inverse map of a tile refined per cell: interpolated from a coarse lattice of exact
 solutions, then one or two Newton steps of the sensor model at every cell.
 
-:mod:`scangeo.rectify.inverse_map` interpolates (line, pixel) under error control; its checks of
-the interpolation against exact solutions cost more than the interpolation saves (about 0.2
-exact solutions per cell on a turbulent 10,000-line strip, plus the bookkeeping of the adaptive
-lattice). Here the interpolation is only the start: ground -> image is solved at every cell by
-Newton on time from the interpolated (line, pixel), which converges in one or two evaluations of
-the orientation spline instead of the bracketed search's three to five (no search at all). The
-result is the exact solution at every cell (Newton's last step under ``tol_line``, 0.01 lines by
-default, leaves an error of about 4e-6 lines, against the tolerance's 0.05 px), so the interpolation error is zero by construction: each cell's last Newton
-step is its own error check. What remains to control is convergence:
+Interpolating (line, pixel) under error control (the lattice method of earlier versions) cost more
+in checks than the interpolation saved (about 0.2 exact solutions per cell on a turbulent
+10,000-line strip, plus the bookkeeping of an adaptive lattice) and still missed its tolerance on
+steep turbulent strips. Here the interpolation is only the start: ground -> image is solved at
+every cell by Newton on time from the interpolated (line, pixel), which converges in one or two
+evaluations of the orientation spline instead of the bracketed search's three to five (no search
+at all). The result is the exact solution at every cell (Newton's last step under ``tol_line``,
+0.01 lines by default, leaves an error of about 4e-6 lines, against the tolerance's 0.05 px), so
+the interpolation error is zero by construction: each cell's last Newton step is its own error
+check. What remains to control is convergence:
 
 1. exact solutions (the geometry's bracketed ground -> image) on a coarse lattice of every
    ``coarse_step``-th cell, at the DTM's height there; nodes outside the swath are filled from the
@@ -17,38 +18,67 @@ step is its own error check. What remains to control is convergence:
 2. every cell with a DTM height starts from the bilinear interpolation of the lattice and runs
    Newton; a cell that has not converged after ``max_iter`` evaluations, or whose step leaves
    ``max_step_lines``, is solved by the bracketed ground -> image;
-3. a random sample of seen cells is compared with the bracketed solutions (the validation of the
-   lattice method, reported in the same statistics).
+3. a random sample of seen cells is compared with the bracketed solutions (reported in
+   :class:`scangeo.rectify.inverse_map.InverseMapStats`).
 
 Strips that over-scan (pitch rates that make the scan line run backwards, so a ground point can
 be seen twice) need the bracketed search's "first sighting" rule: every cell is solved by it.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
 import numba
 import numpy as np
 
-from scangeo.rectify.inverse_map import InverseMapOptions, InverseMapStats, TileGrid, _validate
+from scangeo.rectify.geometry import MapStripGeometry
+from scangeo.rectify.inverse_map import InverseMapOptions, InverseMapStats, TileGrid, solve_cells, validate
+from scangeo.sensors.kernels import NO_CONVERGENCE
+
+
+@runtime_checkable
+class RefinableStrip(MapStripGeometry, Protocol):
+    """A strip geometry whose inverse map can be refined per cell (what the geometry core offers
+    through :class:`scangeo.rectify.core_geometry.CoreStripGeometry`)."""
+
+    #: False when the strip over-scans (a ground point may be seen twice): no Newton then
+    monotonic: bool
+
+    def map_to_project(self, x: np.ndarray, y: np.ndarray, H: np.ndarray) -> np.ndarray:
+        """Project-frame points (n, 3) of map points (x, y map units, H orthometric metres)."""
+        ...
+
+    def project_to_image_near(
+        self, p_P: np.ndarray, line0: np.ndarray, pixel0: np.ndarray, tol_line: float = 1e-2,
+        max_step_lines: float = 64.0, max_iter: int = 8,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(line, pixel, status, evaluations) of project-frame points by Newton from the guesses
+        (line0, pixel0); status 0 seen, 4 not converged, others unseen (line, pixel NaN)."""
+        ...
+
+    def height_on_lattice(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+        """DTM heights (len(ys), len(xs)) at the map points (xs[j], ys[i]); NaN where none."""
+        ...
 
 
 def build_refined_map(
-    geometry,
+    geometry: RefinableStrip,
     grid: TileGrid,
     H: np.ndarray,
-    options: InverseMapOptions = InverseMapOptions(),
+    options: InverseMapOptions | None = None,
     seed: int = 0,
 ) -> tuple[np.ndarray, np.ndarray, InverseMapStats]:
     """(line, pixel) of every cell of a tile, solved per cell from interpolated starts.
 
     Parameters
     ----------
-    geometry : a rectification strip geometry with ``ground_to_image`` (bracketed, map
-        coordinates) and ``ground_to_image_near(x, y, H, line0, pixel0) -> (line, pixel, status,
-        evaluations)`` (Newton from guesses; status 0 seen, 4 not converged, others unseen), and
-        ``monotonic`` (False when the strip over-scans).
+    geometry : the strip (its bracketed ``ground_to_image`` for the lattice, the fallbacks and the
+        validation; ``project_to_image_near`` for Newton at every cell).
     grid : the tile's cell centres in map units.
     H : (rows, cols) DTM heights at the cell centres; NaN where the DTM has none.
-    options : ``coarse_step`` of the lattice, ``validation_samples``.
+    options : ``coarse_step`` of the lattice, Newton's settings, ``validation_samples``
+        (default: ``InverseMapOptions()``).
     seed : seed of the validation sample.
 
     Returns
@@ -56,76 +86,93 @@ def build_refined_map(
     line, pixel : (rows, cols) float64, NaN where the cell is unseen or has no height.
     stats : exact (bracketed) solutions, refined cells, Newton evaluations, validation.
     """
+    options = options or InverseMapOptions()
     H = np.asarray(H, dtype=float)
-    R, C = H.shape
     stats = InverseMapStats()
-    line = np.full((R, C), np.nan)
-    pixel = np.full((R, C), np.nan)
+    line = np.full(H.shape, np.nan)
+    pixel = np.full(H.shape, np.nan)
     has_h = np.isfinite(H)
     if not has_h.any():
         return line, pixel, stats
-    image_shape = (geometry.lines, geometry.pixels)
-    if not getattr(geometry, "monotonic", False):
-        return _bracketed(geometry, grid, H, has_h, line, pixel, stats)
-    S = int(options.coarse_step)
-    nr, nc = (R - 1 + S - 1) // S + 1, (C - 1 + S - 1) // S + 1
-    xs = grid.x0 + np.arange(nc) * S * grid.res
-    ys = grid.y0 - np.arange(nr) * S * grid.res
-    Hn = geometry.height_on_lattice(xs, ys)
-    Hn = _fill(Hn, np.isfinite(Hn))
-    if not np.isfinite(Hn).any():
-        Hn = np.full((nr, nc), float(np.nanmean(H)))
-    X, Y = np.meshgrid(xs, ys)
-    ln, pn = geometry.ground_to_image(X.ravel(), Y.ravel(), Hn.ravel())
-    stats.exact_points += ln.size
-    ln, pn = ln.reshape(nr, nc), pn.reshape(nr, nc)
-    seen = np.isfinite(ln) & np.isfinite(pn)
-    if not seen.any():
-        # the lattice saw nothing: the tile is outside the swath or a sliver of it lies between
-        # the nodes; the bracketed search decides per cell
-        return _bracketed(geometry, grid, H, has_h, line, pixel, stats)
-    ln, pn = _fill(ln, seen), _fill(pn, seen)
-    gl = np.empty((R, C))
-    gp = np.empty((R, C))
-    _upsample(ln, pn, S, gl, gp)
-    idx = np.flatnonzero(has_h)
+    lattice = _Lattice.solve(geometry, grid, H, options.coarse_step, stats) if geometry.monotonic else None
+    if lattice is None:
+        # over-scanning strip, or the lattice saw nothing (the tile is outside the swath or a
+        # sliver of it lies between the nodes): the bracketed search decides per cell
+        solve_cells(geometry.ground_to_image, grid, H, has_h, line, pixel, stats)
+        return line, pixel, stats
+    _newton_at_every_cell(geometry, grid, H, lattice, options, line, pixel, stats)
+    validate(geometry.ground_to_image, grid, line, pixel, H, (geometry.lines, geometry.pixels),
+             options.validation_samples, seed, stats)
+    return line, pixel, stats
+
+
+@dataclass
+class _Lattice:
+    """Exact (line, pixel) at every ``step``-th cell of a tile (map points X, Y), gaps filled."""
+
+    step: int
+    X: np.ndarray
+    Y: np.ndarray
+    line: np.ndarray
+    pixel: np.ndarray
+
+    @classmethod
+    def solve(cls, geometry: RefinableStrip, grid: TileGrid, H: np.ndarray, step: int,
+              stats: InverseMapStats) -> _Lattice | None:
+        """The lattice of a tile at the DTM's heights there (where the DTM has none: filled from
+        the neighbouring nodes, or the tile's mean); None if no node is seen."""
+        R, C = H.shape
+        S = int(step)
+        nr, nc = (R - 1 + S - 1) // S + 1, (C - 1 + S - 1) // S + 1
+        xs = grid.x0 + np.arange(nc) * S * grid.res
+        ys = grid.y0 - np.arange(nr) * S * grid.res
+        Hn = geometry.height_on_lattice(xs, ys)
+        Hn = _fill(Hn, np.isfinite(Hn))
+        if not np.isfinite(Hn).any():
+            Hn = np.full((nr, nc), float(np.nanmean(H)))
+        X, Y = np.meshgrid(xs, ys)
+        ln, pn = geometry.ground_to_image(X.ravel(), Y.ravel(), Hn.ravel())
+        stats.exact_points += ln.size
+        ln, pn = ln.reshape(nr, nc), pn.reshape(nr, nc)
+        seen = np.isfinite(ln) & np.isfinite(pn)
+        if not seen.any():
+            return None
+        return cls(S, X, Y, _fill(ln, seen), _fill(pn, seen))
+
+    def starts(self, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """(line, pixel) bilinear between the nodes at every cell of the tile."""
+        gl = np.empty(shape)
+        gp = np.empty(shape)
+        _upsample(self.line, self.pixel, self.step, gl, gp)
+        return gl, gp
+
+
+def _newton_at_every_cell(geometry: RefinableStrip, grid: TileGrid, H: np.ndarray, lattice: _Lattice,
+                          options: InverseMapOptions, line: np.ndarray, pixel: np.ndarray,
+                          stats: InverseMapStats) -> None:
+    """In place: (line, pixel) of every cell with a height by Newton from the lattice's starts;
+    cells that do not converge by the bracketed search."""
+    C = H.shape[1]
+    idx = np.flatnonzero(np.isfinite(H))
     rows, cols = np.divmod(idx, C)
     Hc = H.ravel()[idx]
-    l0, p0 = gl.ravel()[idx], gp.ravel()[idx]
-    newton = dict(tol_line=options.tol_line, max_step_lines=options.max_step_lines, max_iter=options.max_iter)
-    if hasattr(geometry, "project_to_image_near"):
-        p_P = _project_points(geometry, X, Y, S, rows, cols, Hc)
-        l, p, status, evaluations = geometry.project_to_image_near(p_P, l0, p0, **newton)
-    else:
-        x, y = grid.xy(rows, cols)
-        l, p, status, evaluations = geometry.ground_to_image_near(x, y, Hc, l0, p0, **newton)
+    gl, gp = lattice.starts(H.shape)
+    p_P = _project_points(geometry, lattice.X, lattice.Y, lattice.step, rows, cols, Hc)
+    ln, pn, status, evaluations = geometry.project_to_image_near(
+        p_P, gl.ravel()[idx], gp.ravel()[idx], tol_line=options.tol_line, max_step_lines=options.max_step_lines,
+        max_iter=options.max_iter)
     stats.refined_cells += idx.size
     stats.newton_evaluations += int(evaluations.sum())
     ok = status == 0
-    line.ravel()[idx] = np.where(ok, l, np.nan)
-    pixel.ravel()[idx] = np.where(ok, p, np.nan)
-    again = status == 4  # no convergence: the bracketed search
+    line.ravel()[idx] = np.where(ok, ln, np.nan)
+    pixel.ravel()[idx] = np.where(ok, pn, np.nan)
+    again = np.zeros(H.shape, dtype=bool)
+    again.ravel()[idx[status == NO_CONVERGENCE]] = True
     if again.any():
-        r2, c2 = rows[again], cols[again]
-        x2, y2 = grid.xy(r2, c2)
-        line[r2, c2], pixel[r2, c2] = geometry.ground_to_image(x2, y2, H[r2, c2])
-        stats.exact_points += r2.size
-        stats.exact_cells += r2.size
-    _validate(geometry.ground_to_image, grid, line, pixel, H, image_shape, options.validation_samples, seed, stats)
-    return line, pixel, stats
+        solve_cells(geometry.ground_to_image, grid, H, again, line, pixel, stats)
 
 
-def _bracketed(geometry, grid, H, cells, line, pixel, stats):
-    """Every cell of ``cells`` (a mask) by the bracketed ground -> image."""
-    rows, cols = np.nonzero(cells)
-    x, y = grid.xy(rows, cols)
-    line[rows, cols], pixel[rows, cols] = geometry.ground_to_image(x, y, H[rows, cols])
-    stats.exact_points += rows.size
-    stats.exact_cells += rows.size
-    return line, pixel, stats
-
-
-def _project_points(geometry, X, Y, S, rows, cols, H) -> np.ndarray:
+def _project_points(geometry: RefinableStrip, X, Y, S, rows, cols, H) -> np.ndarray:
     """Project-frame points of cells (rows, cols) at heights H, from the lattice (X, Y).
 
     For a fixed map position the project frame point is affine in the height (ellipsoidal height

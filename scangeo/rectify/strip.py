@@ -1,23 +1,25 @@
 """Rectify one strip onto its output grid, in tiles, in two passes.
 
-Pass 1, per tile: DTM heights, the inverse map (exact on a coarse lattice, interpolated under
-error control), the range to the sensor, the fold test; every tile's ranges go into the strip's
+Pass 1 (:func:`map_cells`), per tile: DTM heights, the inverse map (refined per cell: exact at
+every cell), the range to the sensor, the fold test; every tile's ranges go into the strip's
 z-buffer. The per-cell results are kept in memory when they take at most a quarter of the memory
 budget, else in memory-mapped work files beside the output.
-Pass 2, per tile: visibility against the complete z-buffer, the image lines the tile needs (a
-rasterio window), ``cv2.remap`` of every band, nodata outside the swath, where the DTM has none
-and where the ground is hidden; optional layers and the GLT. The working GeoTIFF is then copied
-into the final layout (COG) under a hidden name and renamed: an interrupted run leaves nothing
-that looks finished.
+Pass 2 (:func:`resample`), per tile: visibility against the complete z-buffer, the image lines the
+tile needs (a rasterio window), ``cv2.remap`` of every band, nodata outside the swath, where the
+DTM has none and where the ground is hidden; optional layers and the GLT.
+Then (:func:`write_outputs`) the working GeoTIFF is copied into the final layout (COG) under a
+hidden name and renamed: an interrupted run leaves nothing that looks finished.
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import shutil
 import tempfile
 import time
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,20 +32,17 @@ from scangeo import __version__
 from scangeo.errors import InputFileError, ScangeoError
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify import occlusion
-from scangeo.rectify.geometry import StripGeometry, footprint_bounds, nadir_ground_pixel
 from scangeo.rectify.geolocation import GltWriter
+from scangeo.rectify.geometry import MapStripGeometry, footprint_bounds, nadir_ground_pixel
 from scangeo.rectify.geotiff import BandInfo, bands_of, describe, finalise, remove_partials, working_profile
-from scangeo.rectify.inverse_map import InverseMapStats, TileGrid, build_inverse_map
+from scangeo.rectify.inverse_map import InverseMapOptions, InverseMapStats, TileGrid, solve_every_cell
 from scangeo.rectify.options import LAYERS, RectifyOptions
-from scangeo.rectify.refined_map import build_refined_map
 from scangeo.rectify.output_grid import OutputGrid, nice_resolution
+from scangeo.rectify.refined_map import RefinableStrip, build_refined_map
 from scangeo.rectify.resample import RESAMPLING, in_image, line_window, remap_bands, source_nodata_mask
 
 log = logging.getLogger(__name__)
 
-#: largest tile of the inverse map, cells: its along-track baseline (scangeo.rectify.inverse_map)
-#: models the attitude's effect across a tile's width, which stays simple over 640 m
-INVERSE_TILE = 256
 #: largest tile of the refined inverse map (scangeo.rectify.refined_map), cells: no model across
 #: the tile, so only the memory budget (the pass's tile) bounds it
 REFINE_TILE = 1024
@@ -84,7 +83,7 @@ class StripResult:
         }
 
 
-def strip_grid(geometry: StripGeometry, options: RectifyOptions) -> OutputGrid:
+def strip_grid(geometry: MapStripGeometry, options: RectifyOptions) -> OutputGrid:
     """The output grid of a strip: the given or the nadir resolution, the given or footprint bounds."""
     res = options.resolution or nice_resolution(nadir_ground_pixel(geometry))
     bounds = options.bounds or footprint_bounds(geometry)
@@ -92,7 +91,7 @@ def strip_grid(geometry: StripGeometry, options: RectifyOptions) -> OutputGrid:
 
 
 def choose_tile_size(
-    options: RectifyOptions, geometry: StripGeometry, bands: int, itemsize: int, resolution: float,
+    options: RectifyOptions, geometry: MapStripGeometry, bands: int, itemsize: int, resolution: float,
     reserved: int = 0,
 ) -> int:
     """The largest tile (cells per side) whose working arrays fit the memory budget.
@@ -119,7 +118,7 @@ def choose_tile_size(
     )
 
 
-def _orientation(geometry: StripGeometry, grid: OutputGrid) -> float:
+def _orientation(geometry: MapStripGeometry, grid: OutputGrid) -> float:
     """Sign of det d(line, pixel)/d(row, col) on level ground at the strip centre."""
     l0, p0 = (geometry.lines - 1) / 2.0, (geometry.pixels - 1) / 2.0
     x, y, H = geometry.image_to_ground(np.array([l0]), np.array([p0]))
@@ -172,36 +171,110 @@ def _tile_slices(w: Window) -> tuple[slice, slice]:
     return slice(w.row_off, w.row_off + w.height), slice(w.col_off, w.col_off + w.width)
 
 
-def _pass1_tile(geometry, grid, w, options, track, orientation, zbuf, work, stats, seed):
-    rows = np.arange(w.row_off, w.row_off + w.height)
-    cols = np.arange(w.col_off, w.col_off + w.width)
-    x, y = grid.x_of_col(cols), grid.y_of_row(rows)
-    if hasattr(geometry, "height_on_lattice"):
-        H = np.asarray(geometry.height_on_lattice(x, y), dtype=float)
-    else:
-        H = np.asarray(geometry.height(*np.meshgrid(x, y)), dtype=float)
-    tile_grid = TileGrid(x[0], y[0], grid.resolution)
-    if _refines(geometry, options):
-        line, pixel, st = build_refined_map(geometry, tile_grid, H, options.inverse_map, seed=seed)
-    else:
-        along = (track[0][-1] - track[0][0], track[1][-1] - track[1][0])
-        line, pixel, st = build_inverse_map(
-            geometry.ground_to_image, tile_grid, H, (geometry.lines, geometry.pixels), options.inverse_map,
-            seed=seed, along=along, height=geometry.height,
-        )
-    stats.merge(st)
+@dataclass
+class StripRun:
+    """One strip's rectification in progress: what the steps share.
+
+    ``work`` holds the per-cell results of :func:`map_cells` (image line and pixel, range to the
+    sensor, its occlusion tolerance, optional layers) that :func:`resample` reads; ``zbuf`` the
+    strip's z-buffer (None without occlusion).
+    """
+
+    geometry: MapStripGeometry
+    grid: OutputGrid
+    options: RectifyOptions
+    src: rasterio.io.DatasetReader
+    nodata: float
+    work_dir: Path
+    work: _WorkArrays
+    zbuf: occlusion.ZBuffer | None
+    result: StripResult
+
+    @property
+    def windows(self) -> list[Window]:
+        """The output tiles of the resampling pass."""
+        return list(self.grid.tiles(self.result.tile_size))
+
+    @property
+    def layers(self) -> tuple[str, ...]:
+        return self.options.strip_layers
+
+
+def start_run(geometry: MapStripGeometry, grid: OutputGrid, options: RectifyOptions, src: rasterio.io.DatasetReader,
+              output: Path, work_dir: Path) -> StripRun:
+    """Tile size, working arrays (in memory when they take at most a quarter of the budget, else
+    memory-mapped files in ``work_dir``) and z-buffer of a strip."""
+    dtype = np.dtype(src.dtypes[0])
+    extra = tuple(n for n in ("view_zenith", "ground_pixel") if n in options.strip_layers)
+    work_bytes = _WorkArrays.nbytes(grid.shape, extra)
+    in_memory = work_bytes <= options.memory_budget_mb * 2**20 / 4
+    tile = choose_tile_size(options, geometry, src.count, dtype.itemsize, grid.resolution,
+                            reserved=work_bytes if in_memory else 0)
+    return StripRun(
+        geometry, grid, options, src, _output_nodata(options, src), work_dir,
+        _WorkArrays(work_dir, grid.shape, extra, in_memory),
+        occlusion.ZBuffer(geometry.lines, geometry.pixels) if options.occlusion else None,
+        StripResult(output, grid, tile_size=tile),
+    )
+
+
+def tile_inverse_map(geometry: MapStripGeometry, tile: TileGrid, H: np.ndarray, options: InverseMapOptions,
+                     seed: int = 0) -> tuple[np.ndarray, np.ndarray, InverseMapStats]:
+    """(line, pixel, stats) of every cell of a tile: the refined map where the geometry can
+    refine, else its ``ground_to_image`` at every cell; exact either way."""
+    if isinstance(geometry, RefinableStrip):
+        return build_refined_map(geometry, tile, H, options, seed=seed)
+    return solve_every_cell(geometry.ground_to_image, tile, H)
+
+
+def map_cells(run: StripRun, progress: ProgressCallback = no_progress) -> None:
+    """Pass 1: the inverse map, the range to the sensor and the fold test of every cell, tile by
+    tile, into ``run.work``; every tile's ranges into the z-buffer."""
+    g = run.geometry
+    # the projection centre at every line, one beyond each end (cells reach half a line out)
+    tx, ty, tH = g.sensor_position(np.arange(-1, g.lines + 1, dtype=float))
+    track = tuple(np.ascontiguousarray(t, dtype=float) for t in (tx, ty, tH))
+    facing = _orientation(g, run.grid)
+    run.result.inverse_map_method = "refine" if isinstance(g, RefinableStrip) else "exact"
+    tiles = list(run.grid.tiles(min(run.result.tile_size, REFINE_TILE)))
+    share = len(run.windows)  # pass 1 is the first half of the progress
+    for i, w in enumerate(tiles):
+        _map_tile(run, w, track, facing, seed=i)
+        progress(share * (i + 1) / len(tiles), 2 * share, f"inverse map {run.result.path.stem}")
+    stats = run.result.stats
+    if stats.max_error_px > run.options.max_error_px:
+        log.warning("%s: the inverse map's validation sample found %.3f px, above the tolerance of %.3f px",
+                    run.result.path.name, stats.max_error_px, run.options.max_error_px)
+
+
+def _tile_heights(geometry: MapStripGeometry, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    if isinstance(geometry, RefinableStrip):
+        return np.asarray(geometry.height_on_lattice(x, y), dtype=float)
+    return np.asarray(geometry.height(*np.meshgrid(x, y)), dtype=float)
+
+
+def _map_tile(run: StripRun, w: Window, track: tuple[np.ndarray, ...], facing: float, seed: int) -> None:
+    """Pass 1 of one tile: (line, pixel) of its cells, unseen beyond the image, ranges, folds."""
+    g, grid = run.geometry, run.grid
+    x = grid.x_of_col(np.arange(w.col_off, w.col_off + w.width))
+    y = grid.y_of_row(np.arange(w.row_off, w.row_off + w.height))
+    H = _tile_heights(g, x, y)
+    line, pixel, stats = tile_inverse_map(g, TileGrid(x[0], y[0], grid.resolution), H, run.options.inverse_map,
+                                          seed)
+    run.result.stats.merge(stats)
     near = np.isfinite(line) & np.isfinite(pixel)
     with np.errstate(invalid="ignore"):
-        near &= (line > -2) & (line < geometry.lines + 1) & (pixel > -2) & (pixel < geometry.pixels + 1)
+        near &= (line > -2) & (line < g.lines + 1) & (pixel > -2) & (pixel < g.pixels + 1)
     line[~near] = np.nan
     pixel[~near] = np.nan
     rng = np.empty(line.shape)
     sH = np.empty(line.shape)
-    _ranges(line, x, y, H, *(np.ascontiguousarray(t, dtype=float) for t in track), rng, sH)
+    _ranges(line, x, y, H, track[0], track[1], track[2], rng, sH)
     rs, cs = _tile_slices(w)
-    if options.occlusion:
-        rng_eff = np.where(occlusion.folded(line, pixel, orientation), np.inf, rng)
-        zbuf.add(line, pixel, rng_eff)
+    work = run.work
+    if run.zbuf is not None:
+        rng_eff = np.where(occlusion.folded(line, pixel, facing), np.inf, rng)
+        run.zbuf.add(line, pixel, rng_eff)
         work["tolerance"][rs, cs] = occlusion.range_tolerance(rng)
     else:
         rng_eff = rng
@@ -242,17 +315,90 @@ def _ranges(line, x, y, H, tx, ty, tH, rng, sH):
             sH[i, j] = ph
 
 
-def _refines(geometry: StripGeometry, options: RectifyOptions) -> bool:
-    """Whether the inverse map is refined per cell (the geometry can, and it is asked for)."""
-    return options.inverse_map.method == "refine" and hasattr(geometry, "ground_to_image_near") and hasattr(
-        geometry, "height_on_lattice")
+@dataclass
+class Resampled:
+    """The working files of pass 2 (in ``run.work_dir``), not yet in their final layout."""
+
+    image: Path
+    layers: Path | None
+    glt: GltWriter | None
+    tags: dict[str, object]
+
+
+def resample(run: StripRun, bands: list[BandInfo], tags: dict[str, object] | None = None,
+             progress: ProgressCallback = no_progress) -> Resampled:
+    """Pass 2: every tile's visible cells resampled from the image lines it needs into a working
+    GeoTIFF; the optional layers and the GLT beside it."""
+    src, grid, layers = run.src, run.grid, run.layers
+    dtype = np.dtype(src.dtypes[0])
+    out = Resampled(
+        run.work_dir / "working.tif", run.work_dir / "layers.tif" if layers else None,
+        GltWriter(run.work_dir / "glt", grid) if run.options.glt else None, _tags(tags, run.options, run.result),
+    )
+    windows = run.windows
+    with contextlib.ExitStack() as stack:
+        dst = stack.enter_context(rasterio.open(out.image, "w", **working_profile(grid, src.count, dtype, run.nodata)))
+        lay = None
+        if out.layers is not None:
+            profile = working_profile(grid, len(layers), np.float32, math.nan)
+            lay = stack.enter_context(rasterio.open(out.layers, "w", **profile))
+        for i, w in enumerate(windows):
+            _resample_tile(run, w, dst, lay, out.glt)
+            progress(len(windows) + i + 1, 2 * len(windows), f"resample {run.result.path.stem}")
+        describe(dst, bands, out.tags)
+    return out
+
+
+def write_outputs(run: StripRun, resampled: Resampled) -> None:
+    """The working files into their final layout under their final names: the layers, the GLT,
+    the orthoimage last (its presence means the strip's outputs are complete)."""
+    output, options, result = run.result.path, run.options, run.result
+    if resampled.layers is not None:
+        result.layers_path = output.with_name(output.stem + ".layers.tif")
+        with rasterio.open(resampled.layers, "r+") as lay:
+            layer_tags = {**resampled.tags, "layers": " ".join(run.layers)}
+            if "time" in run.layers:
+                layer_tags["time_origin_s"] = repr(time_origin(run.geometry))
+            describe(lay, [BandInfo(n) for n in run.layers], layer_tags)
+        finalise(resampled.layers, result.layers_path, options.geotiff, np.float32)
+    if resampled.glt is not None:
+        result.glt_path = resampled.glt.commit(output.with_suffix(".glt"))
+    finalise(resampled.image, output, options.geotiff, np.dtype(run.src.dtypes[0]))
+
+
+@contextlib.contextmanager
+def open_strip_image(image: Path, geometry: MapStripGeometry) -> Iterator[rasterio.io.DatasetReader]:
+    """The strip image, checked against the geometry's lines and pixels."""
+    try:
+        with warnings.catch_warnings():  # a raw scanner image has no georeferencing
+            warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+            src = rasterio.open(image)
+    except rasterio.errors.RasterioIOError as exc:
+        raise InputFileError(f"{image}: cannot read the strip image ({exc})") from exc
+    with src:
+        if (src.height, src.width) != (geometry.lines, geometry.pixels):
+            raise InputFileError(
+                f"{image}: image has {src.height} lines x {src.width} pixels, the strip's geometry "
+                f"{geometry.lines} x {geometry.pixels}"
+            )
+        yield src
+
+
+@contextlib.contextmanager
+def work_folder(output: Path) -> Iterator[Path]:
+    """A hidden folder beside ``output`` for the working files, removed afterwards."""
+    folder = Path(tempfile.mkdtemp(dir=output.parent, prefix=f".{output.name}.partial-"))
+    try:
+        yield folder
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def rectify_strip(
-    geometry: StripGeometry,
+    geometry: MapStripGeometry,
     image: str | Path,
     output: str | Path,
-    options: RectifyOptions = RectifyOptions(),
+    options: RectifyOptions | None = None,
     grid: OutputGrid | None = None,
     tags: dict[str, object] | None = None,
     bands: list[BandInfo] | None = None,
@@ -260,97 +406,37 @@ def rectify_strip(
 ) -> StripResult:
     """Rectify the strip image ``image`` onto ``grid`` and write the orthoimage ``output``.
 
+    The steps: :func:`map_cells` (pass 1: the refined inverse map, ranges, z-buffer),
+    :func:`resample` (pass 2: visibility, the image lines, ``cv2.remap``, layers, GLT) and
+    :func:`write_outputs` (final layout, orthoimage last).
+
     Parameters
     ----------
     geometry : the strip's geometry (orientation, sensor, DTM), map coordinates.
     image : the strip image, lines x pixels x bands (any GDAL raster).
     output : the orthoimage GeoTIFF to write; ``NAME.layers.tif`` and ``NAME.glt`` beside it
         when layers or the GLT are asked for.
-    options : resolution, resampling, tolerance, memory budget, layers, GeoTIFF layout.
+    options : resolution, resampling, tolerance, memory budget, layers, GeoTIFF layout (default:
+        ``RectifyOptions()``).
     grid : the output grid (default: :func:`strip_grid`).
     tags : metadata recorded in the GeoTIFF (variant, sigma0, fingerprint ...).
     bands : band names and wavelengths (default: from the image).
     progress : ``callback(done, total, message)``.
     """
     started = time.perf_counter()
+    options = options or RectifyOptions()
     image, output = Path(image), Path(output)
     output.parent.mkdir(parents=True, exist_ok=True)
     remove_partials(output)
     grid = grid or strip_grid(geometry, options)
-    layers = options.strip_layers
-    try:
-        with warnings.catch_warnings():  # a raw scanner image has no georeferencing
-            warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
-            src_ctx = rasterio.open(image)
-    except rasterio.errors.RasterioIOError as exc:
-        raise InputFileError(f"{image}: cannot read the strip image ({exc})") from exc
-    with rasterio.Env(GDAL_CACHEMAX=gdal_cache(options)), src_ctx as src:
-        if (src.height, src.width) != (geometry.lines, geometry.pixels):
-            raise InputFileError(
-                f"{image}: image has {src.height} lines x {src.width} pixels, the strip's geometry "
-                f"{geometry.lines} x {geometry.pixels}"
-            )
-        dtype = np.dtype(src.dtypes[0])
-        nodata = _output_nodata(options, src)
-        bands = bands or bands_of(src)
-        extra = tuple(n for n in ("view_zenith", "ground_pixel") if n in layers)
-        work_bytes = _WorkArrays.nbytes(grid.shape, extra)
-        in_memory = work_bytes <= options.memory_budget_mb * 2**20 / 4
-        tile = choose_tile_size(options, geometry, src.count, dtype.itemsize, grid.resolution,
-                                reserved=work_bytes if in_memory else 0)
-        result = StripResult(output, grid, tile_size=tile)
-        windows = list(grid.tiles(tile))
-        total = 2 * len(windows)
-        work_dir = Path(tempfile.mkdtemp(dir=output.parent, prefix=f".{output.name}.partial-"))
-        try:
-            work = _WorkArrays(work_dir, grid.shape, extra, in_memory)
-            zbuf = occlusion.ZBuffer(geometry.lines, geometry.pixels) if options.occlusion else None
-            # the projection centre at every line, one beyond each end (cells reach half a line out)
-            track = geometry.sensor_position(np.arange(-1, geometry.lines + 1, dtype=float))
-            orientation = _orientation(geometry, grid)
-            result.inverse_map_method = "refine" if _refines(geometry, options) else "lattice"
-            inverse_tile = REFINE_TILE if result.inverse_map_method == "refine" else INVERSE_TILE
-            inverse_tiles = list(grid.tiles(min(tile, inverse_tile)))
-            for i, w in enumerate(inverse_tiles):
-                _pass1_tile(geometry, grid, w, options, track, orientation, zbuf, work, result.stats, seed=i)
-                progress(len(windows) * (i + 1) / len(inverse_tiles), total, f"inverse map {output.stem}")
-            if result.stats.max_error_px > options.max_error_px:
-                log.warning(
-                    "%s: the inverse map's validation sample found %.3f px, above the tolerance of %.3f px "
-                    "(inverse_map_method %s; 'refine' solves every cell exactly)", output.name,
-                    result.stats.max_error_px, options.max_error_px, options.inverse_map_method)
-            working = work_dir / "working.tif"
-            layer_file = work_dir / "layers.tif" if layers else None
-            glt = GltWriter(work_dir / "glt", grid) if options.glt else None
-            with rasterio.open(working, "w", **working_profile(grid, src.count, dtype, nodata)) as dst:
-                lay = (
-                    rasterio.open(layer_file, "w", **working_profile(grid, len(layers), np.float32, math.nan))
-                    if layer_file else None
-                )
-                try:
-                    for i, w in enumerate(windows):
-                        _pass2_tile(src, dst, lay, glt, geometry, w, options, layers, work, zbuf, nodata, result)
-                        progress(len(windows) + i + 1, total, f"resample {output.stem}")
-                finally:
-                    if lay is not None:
-                        lay.close()
-                all_tags = _tags(tags, options, result)
-                describe(dst, bands, all_tags)
-            # the orthoimage last: its presence means the strip's outputs are complete
-            if layer_file is not None:
-                result.layers_path = output.with_name(output.stem + ".layers.tif")
-                with rasterio.open(layer_file, "r+") as lay:
-                    layer_tags = {**all_tags, "layers": " ".join(layers)}
-                    if "time" in layers:
-                        layer_tags["time_origin_s"] = repr(time_origin(geometry))
-                    describe(lay, [BandInfo(n) for n in layers], layer_tags)
-                finalise(layer_file, result.layers_path, options.geotiff, np.float32)
-            if glt is not None:
-                result.glt_path = glt.commit(output.with_suffix(".glt"))
-            finalise(working, output, options.geotiff, dtype)
-            work.close()
-        finally:
-            shutil.rmtree(work_dir, ignore_errors=True)
+    with rasterio.Env(GDAL_CACHEMAX=gdal_cache(options)), open_strip_image(image, geometry) as src:
+        with work_folder(output) as work_dir:
+            run = start_run(geometry, grid, options, src, output, work_dir)
+            map_cells(run, progress)
+            resampled = resample(run, bands or bands_of(src), tags, progress)
+            write_outputs(run, resampled)
+            run.work.close()
+    result = run.result
     result.seconds = time.perf_counter() - started
     log.info(
         "%s: %d x %d cells, %d valid, %d hidden, inverse map %d exact points, max error %.4f px, %.2f s",
@@ -374,36 +460,38 @@ def _tags(tags, options: RectifyOptions, result: StripResult) -> dict[str, objec
     return out
 
 
-def _pass2_tile(src, dst, lay, glt, geometry, w, options, layers, work, zbuf, nodata, result):
+def _resample_tile(run: StripRun, w: Window, dst, lay, glt: GltWriter | None) -> None:
+    """Pass 2 of one tile: visible cells resampled, nodata elsewhere; its layers and GLT."""
+    g, src, work, result = run.geometry, run.src, run.work, run.result
     rs, cs = _tile_slices(w)
     line = np.asarray(work["line"][rs, cs])
     pixel = np.asarray(work["pixel"][rs, cs])
-    valid = in_image(line, pixel, geometry.lines, geometry.pixels)
-    if zbuf is not None:
+    valid = in_image(line, pixel, g.lines, g.pixels)
+    if run.zbuf is not None:
         rng = np.asarray(work["range"][rs, cs])
-        seen = occlusion.visible(rng, np.asarray(work["tolerance"][rs, cs]), zbuf.nearest(line, pixel))
+        seen = occlusion.visible(rng, np.asarray(work["tolerance"][rs, cs]), run.zbuf.nearest(line, pixel))
         result.hidden_cells += int((valid & ~seen).sum())
         valid &= seen
-    _, radius = RESAMPLING[options.resampling]
-    lw = line_window(line, valid, geometry.lines, radius)
-    dtype = np.dtype(src.dtypes[0])
+    resampling = run.options.resampling
+    _, radius = RESAMPLING[resampling]
+    lw = line_window(line, valid, g.lines, radius)
     if lw is None:
-        out = np.full((src.count,) + line.shape, nodata, dtype=dtype)
+        out = np.full((src.count,) + line.shape, run.nodata, dtype=np.dtype(src.dtypes[0]))
     else:
-        data = src.read(window=lw.window(geometry.pixels))
-        out = remap_bands(data, line, pixel, lw, options.resampling)
+        data = src.read(window=lw.window(g.pixels))
+        out = remap_bands(data, line, pixel, lw, resampling)
         if src.nodata is not None:
-            valid &= ~source_nodata_mask(data, src.nodata, line, pixel, lw, options.resampling)
-        out[:, ~valid] = nodata
+            valid &= ~source_nodata_mask(data, src.nodata, line, pixel, lw, resampling)
+        out[:, ~valid] = run.nodata
     result.valid_cells += int(valid.sum())
     dst.write(out, window=w)
     if lay is not None:
-        lay.write(_layer_values(geometry, work, rs, cs, line, pixel, valid, layers), window=w)
+        lay.write(_layer_values(g, work, rs, cs, line, pixel, valid, run.layers), window=w)
     if glt is not None:
         glt.write(w, line, pixel, valid)
 
 
-def time_origin(geometry: StripGeometry) -> float:
+def time_origin(geometry: MapStripGeometry) -> float:
     """Time of the first line's centre pixel: the time layer holds seconds after it (float32)."""
     return float(np.asarray(geometry.time(np.array([0.0]), np.array([(geometry.pixels - 1) / 2.0])))[0])
 

@@ -7,8 +7,8 @@ turbulence, true terrain and DTM at 2.5 m) and an 11-band uint16 image of that s
 Then, side by side in this process, onto the same 2.5 m grid (the strip's footprint):
 
 * scangeo: ``rectify_strip`` (inverse map, z-buffer occlusion, cv2.remap of 11 bands in tiles,
-  COG writing), wall time from start to the final file; with the default refined inverse map and
-  (unless ``--no-lattice``) again with the lattice method, the one before it;
+  COG writing), wall time from start to the final file (the refined inverse map; the lattice
+  method before it was removed: docs/performance.md keeps its figures);
 * GDAL: rasterio ``reproject`` with geolocation arrays (GDAL's geolocation transformer, bilinear, 2
   threads) into memory, same grid; the geolocation arrays (image -> ground of every pixel corner on
   the DTM) are computed before and timed separately: they are the IGM the route needs as input.
@@ -97,8 +97,6 @@ def main() -> None:
     ap.add_argument("--lines", type=int, default=10_000)
     ap.add_argument("--resampling", default="bilinear", choices=("nearest", "bilinear", "cubic"))
     ap.add_argument("--keep", default=None, help="keep the project in this folder")
-    ap.add_argument("--no-lattice", dest="lattice", action="store_false",
-                    help="skip the run with the lattice inverse map (the method before the refined one)")
     args = ap.parse_args()
 
     from scangeo.io.project import Project
@@ -134,13 +132,6 @@ def main() -> None:
     rss_ours = peak_rss_mb()
     grid = result.grid
     mpx = grid.width * grid.height * 11 / 1e6
-    lattice = None
-    if args.lattice:
-        reset_peak_rss()
-        t0 = time.perf_counter()
-        lattice = rectify_strip(geometry, image_path, tmp / "ortho-lattice.tif",
-                                options.replace(inverse_map_method="lattice"))
-        lattice = (time.perf_counter() - t0, peak_rss_mb(), lattice.stats)
 
     t0 = time.perf_counter()
     x, y = corner_geolocation(geometry)
@@ -163,8 +154,6 @@ def main() -> None:
           f"({mpx:.1f} Mpx-bands), {args.resampling}; OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '')}")
     print(f"{'route':<44}{'wall s':>9}{'Mpx-bands/s':>13}{'peak RSS MB':>13}")
     print(f"{'scangeo rectify_strip (to the final COG)':<44}{t_ours:>9.2f}{mpx / t_ours:>13.1f}{rss_ours:>13.0f}")
-    if lattice:
-        print(f"{'  same, inverse_map_method = lattice':<44}{lattice[0]:>9.2f}{mpx / lattice[0]:>13.1f}{lattice[1]:>13.0f}")
     print(f"{'GDAL geolocation warp (in memory)':<44}{t_gdal:>9.2f}{mpx / t_gdal:>13.1f}{rss_gdal:>13.0f}")
     print(f"{'  + its input: IGM of the pixel corners':<44}{t_igm:>9.2f}")
     print(f"ratio scangeo / GDAL throughput: {t_gdal / t_ours:.1f}x (with the IGM: {(t_gdal + t_igm) / t_ours:.1f}x)")
@@ -173,10 +162,6 @@ def main() -> None:
           f"{s.newton_evaluations / max(s.refined_cells, 1):.2f} Newton evaluations per refined cell, validated max "
           f"error {s.max_error_px:.1e} px; {result.valid_cells} valid, {result.hidden_cells} hidden cells; tile "
           f"{result.tile_size}")
-    if lattice:
-        ls = lattice[2]
-        print(f"scangeo inverse map (lattice): {ls.exact_points / 1e6:.2f} M exact solutions, validated max error "
-              f"{ls.max_error_px:.4f} px; ratio refine / lattice throughput {lattice[0] / t_ours:.1f}x")
     print(f"GDAL minus scangeo (band 1): mean shift {mean.round(4)} px (x, y), 128-cell windows rms "
           f"{np.sqrt((per ** 2).mean(0)).round(4)} px, max |shift| {np.abs(per).max():.3f} px over {len(per)} windows")
     if not args.keep:

@@ -164,20 +164,20 @@ def test_cli_rectify_and_its_errors(project, tmp_path, capsys):
     with rasterio.open(folder / "02.tif") as d:
         assert d.tags()["inverse_map_method"] == "refine" and float(d.tags()["inverse_map_max_error_px"]) < 1e-3
         refined = d.read(1)
-    # the lattice method on request: a changed setting redoes the strip; the same orthoimage within
-    # its tolerance (nearest resampling: a cell may flip to the neighbouring pixel at a boundary)
+    # a changed setting (the validation's tolerance) redoes the strip: the same orthoimage, the
+    # inverse map being exact at every cell either way
     assert main(["rectify", str(root), "--variant", "DG", "--strips", "02", "--resolution", "5",
-                 "--config", str(cfg), "--inverse-map", "lattice", "--no-progress"]) == 0
+                 "--config", str(cfg), "--max-error", "0.02", "--no-progress"]) == 0
     with rasterio.open(folder / "02.tif") as d:
-        assert d.tags()["inverse_map_method"] == "lattice" and float(d.tags()["inverse_map_max_error_px"]) <= 0.05
-        assert np.mean(d.read(1) != refined) < 0.01
-    # errors name what is wrong
+        assert d.tags()["inverse_map_tolerance_px"] == "0.02" and d.tags()["inverse_map_method"] == "refine"
+        assert np.array_equal(d.read(1), refined)
+    # errors name what is wrong: the lattice method is gone
     with pytest.raises(SystemExit) as exit_:
-        main(["rectify", str(root), "--variant", "DG", "--inverse-map", "exact", "--no-progress"])
-    assert exit_.value.code == 2 and "invalid choice: 'exact'" in capsys.readouterr().err
-    cfg.write_text('[rectify]\ninverse_map_method = "exact"\n')
+        main(["rectify", str(root), "--variant", "DG", "--inverse-map", "lattice", "--no-progress"])
+    assert exit_.value.code == 2 and "unrecognized arguments: --inverse-map" in capsys.readouterr().err
+    cfg.write_text('[rectify]\ninverse_map_method = "lattice"\n')
     assert main(["rectify", str(root), "--variant", "DG", "--config", str(cfg), "--no-progress"]) == 1
-    assert "inverse_map_method must be 'refine' or 'lattice'" in capsys.readouterr().err
+    assert "unknown key 'inverse_map_method'" in capsys.readouterr().err
     assert main(["rectify", str(root), "--variant", "P4", "--no-progress"]) == 1
     assert "no adjusted trajectories for variant 'P4'" in capsys.readouterr().err
     assert main(["rectify", str(root), "--variant", "DG", "--strips", "99", "--no-progress"]) == 1

@@ -36,6 +36,8 @@ def test_rectified_strip_matches_the_ground_texture(tmp_path, terrain, method):
     mean, per = estimate_shift(o, r.grid, TEX, valid)
     assert np.all(np.abs(mean) < 0.02) and np.all(np.sqrt((per ** 2).mean(0)) < 0.05)
     assert r.stats.max_error_px <= 0.05
+    # the analytic strip cannot refine: its ground_to_image is asked at every cell
+    assert r.inverse_map_method == "exact" and r.stats.refined_cells == 0 and r.stats.exact_cells >= r.valid_cells
 
 
 def test_nodata_outside_the_swath_where_the_dtm_has_none_and_at_source_nodata(tmp_path):
