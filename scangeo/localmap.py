@@ -98,7 +98,9 @@ class LocalPolynomialMap:
 
     def __call__(self, pts: np.ndarray) -> np.ndarray:
         pts = np.asarray(pts, dtype=float)
-        return _design((pts.reshape(-1, 3) - self.centre) / self.scale, self.exps).__matmul__(self.coef).reshape(pts.shape)
+        return (
+            _design((pts.reshape(-1, 3) - self.centre) / self.scale, self.exps).__matmul__(self.coef).reshape(pts.shape)
+        )
 
     def contains(self, pts: np.ndarray) -> np.ndarray:
         pts = np.asarray(pts, dtype=float)

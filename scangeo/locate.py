@@ -138,8 +138,13 @@ def read_map_points(path) -> tuple[list[str], np.ndarray]:
     if not body:
         raise ProjectFileError(f"{path}: no points after the header")
     points = [r[header.index("point")] for r in body]
-    xyz = np.column_stack([column_floats(path, header, body, numbers, "x"), column_floats(path, header, body, numbers, "y"),
-                           column_floats(path, header, body, numbers, "z", default=np.nan)])
+    xyz = np.column_stack(
+        [
+            column_floats(path, header, body, numbers, "x"),
+            column_floats(path, header, body, numbers, "y"),
+            column_floats(path, header, body, numbers, "z", default=np.nan),
+        ]
+    )
     return points, xyz
 
 
@@ -148,8 +153,10 @@ def locate_image_file(project: Project, strip_id: str, path, geometry: StripGeom
     project.strip(strip_id)
     points, line, pixel = read_image_points(path)
     xyz, reasons = image_to_map(project, strip_id, line, pixel, geometry)
-    rows = [[p, _text(li, 6), _text(pi, 6), _text(x, 4), _text(y, 4), _text(z, 4), r]
-            for p, li, pi, (x, y, z), r in zip(points, line, pixel, xyz, reasons)]
+    rows = [
+        [p, _text(li, 6), _text(pi, 6), _text(x, 4), _text(y, 4), _text(z, 4), r]
+        for p, li, pi, (x, y, z), r in zip(points, line, pixel, xyz, reasons)
+    ]
     return LocatedPoints(["point", "line", "pixel", "x", "y", "z", "reason"], rows)
 
 
@@ -159,6 +166,8 @@ def locate_ground_file(project: Project, strip_id: str, path, geometry: StripGeo
     points, xyz = read_map_points(path)
     xyz = fill_heights(project, xyz)
     line, pixel, reasons = map_to_image(project, strip_id, xyz, geometry)
-    rows = [[p, _text(x, 4), _text(y, 4), _text(z, 4), _text(li, 6), _text(pi, 6), r]
-            for p, (x, y, z), li, pi, r in zip(points, xyz, line, pixel, reasons)]
+    rows = [
+        [p, _text(x, 4), _text(y, 4), _text(z, 4), _text(li, 6), _text(pi, 6), r]
+        for p, (x, y, z), li, pi, r in zip(points, xyz, line, pixel, reasons)
+    ]
     return LocatedPoints(["point", "x", "y", "z", "line", "pixel", "reason"], rows)

@@ -154,8 +154,20 @@ def build_block(project: Project, variant: Variant, points: ImagePoints, ground:
     params.add(Boresight(), mount.boresight, "boresight" in cal, regularisation_sigma=0.01, names=["roll", "pitch", "heading"])
     params.add(LeverArm(), mount.lever_arm_B, "lever_arm" in cal, regularisation_sigma=0.5, names=["x", "y", "z"])
     params.add(TimeOffset(), [mount.time_offset], "time_offset" in cal, regularisation_sigma=0.01, names=["dt"])
-    params.add(ScanIndex(), [getattr(sensor, "index_error", 0.0)], "index_error" in cal, regularisation_sigma=0.01, names=["index"])
-    params.add(ScanScale(), [getattr(sensor, "scale_error", 0.0)], "scale_error" in cal, regularisation_sigma=0.01, names=["scale"])
+    params.add(
+        ScanIndex(),
+        [getattr(sensor, "index_error", 0.0)],
+        "index_error" in cal,
+        regularisation_sigma=0.01,
+        names=["index"],
+    )
+    params.add(
+        ScanScale(),
+        [getattr(sensor, "scale_error", 0.0)],
+        "scale_error" in cal,
+        regularisation_sigma=0.01,
+        names=["scale"],
+    )
 
     given = {str(p): i for i, p in enumerate(ground.point)}
     roles = {str(p): variant.role_of(str(p), str(r)) for p, r in zip(ground.point, ground.role)}
@@ -207,8 +219,18 @@ def build_block(project: Project, variant: Variant, points: ImagePoints, ground:
             notes.append(f"strip {sid} has no image measurement in the adjustment")
             continue
         sigma = points.sigma_px[sel] if variant.image_sigma_px is None else variant.image_sigma_px
-        groups.append(ImageObservations(sid, project.sensor.model, s.spline, project.timing(sid),
-                                        points.point[sel].astype(str), points.line[sel], points.pixel[sel], sigma))
+        groups.append(
+            ImageObservations(
+                sid,
+                project.sensor.model,
+                s.spline,
+                project.timing(sid),
+                points.point[sel].astype(str),
+                points.line[sel],
+                points.pixel[sel],
+                sigma,
+            )
+        )
         if not any(roles[str(p)] in CONTROL_COMPONENTS for p in points.point[sel]):
             notes.append(f"strip {sid} has no control point: it is held only by tie points and its GPS/IMU")
     ctrl = [p for p in used if roles[p] in CONTROL_COMPONENTS]

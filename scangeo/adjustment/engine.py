@@ -152,18 +152,22 @@ def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
             group = solution.groups[gi]
             sel = group.row_unit == unit
             rows.append(solution.system.row_slices[gi].start + np.flatnonzero(sel))
-            rejections.append(Rejection(group.name, str(group.ids[sel][0]),
-                                        tuple(str(c) for c in group.components[sel]), w, rounds))
+            rejections.append(
+                Rejection(group.name, str(group.ids[sel][0]), tuple(str(c) for c in group.components[sel]), w, rounds)
+            )
             log.info("data snooping round %d: rejected %s %s (|w| = %.2f)", rounds, group.name, group.ids[sel][0], w)
         rows = np.concatenate(rows)
-        callback(0.7 + 0.3 * min(len(rejections) / max(snooping.max_rejections, 1), 1.0), 1.0,
-                 f"data snooping: {len(rejections)} rejected")
+        callback(
+            0.7 + 0.3 * min(len(rejections) / max(snooping.max_rejections, 1), 1.0),
+            1.0,
+            f"data snooping: {len(rejections)} rejected",
+        )
         if snooping.method == "update":
             if update is None:
                 update = RemovalUpdate(solver, solution, stats.leverages, _tested_rows(solution))
             if update.remove(rows, snooping.max_update_rows):
                 continue
-            solver.parameters.set_values(update.values)   # refactorise from the latest values
+            solver.parameters.set_values(update.values)  # refactorise from the latest values
             active, update = update.active, None
         else:
             active = [a.copy() for a in solution.active]

@@ -177,8 +177,12 @@ class ImageObservations(ObservationGroup):
         # knots: d/d coef[j+i, c] = d/ds_c * B_i
         dl_ds, dp_ds = chain(f["dv_ds"])
         B = f["B"]
-        add([self.knots], (B[:, :, None] * dl_ds[:, None, :]).reshape(n, 24), (B[:, :, None] * dp_ds[:, None, :]).reshape(n, 24),
-            ((f["j"][:, None] + np.arange(4))[:, :, None] * 6 + np.arange(6)).reshape(n, 24))
+        add(
+            [self.knots],
+            (B[:, :, None] * dl_ds[:, None, :]).reshape(n, 24),
+            (B[:, :, None] * dp_ds[:, None, :]).reshape(n, 24),
+            ((f["j"][:, None] + np.arange(4))[:, :, None] * 6 + np.arange(6)).reshape(n, 24),
+        )
         # ground point
         dl, dp = chain(_T(f["R_PS"]))
         add(self._ground, dl, dp, np.arange(3), np.arange(n))

@@ -44,8 +44,17 @@ def coefficient_table(result: VariantResult) -> list[dict]:
         for c in stats.significance(key):
             deg = any(c.component.startswith(a) for a in _ANGULAR) or key in (Boresight(), ScanIndex())
             f = math.degrees(1.0) if deg else 1.0
-            out.append({"block": key.label, "name": c.component, "unit": "deg" if deg else ("s" if key == TimeOffset() else "m" if key != ScanScale() else ""),
-                        "value": _num(c.value * f), "sigma": _num(c.sigma * f), "t": _num(c.t), "significant": c.significant})
+            out.append(
+                {
+                    "block": key.label,
+                    "name": c.component,
+                    "unit": "deg" if deg else ("s" if key == TimeOffset() else "m" if key != ScanScale() else ""),
+                    "value": _num(c.value * f),
+                    "sigma": _num(c.sigma * f),
+                    "t": _num(c.t),
+                    "significant": c.significant,
+                }
+            )
     return out
 
 
@@ -54,24 +63,52 @@ def report_dict(result: VariantResult) -> dict:
     sol, stats = adj.solution, adj.statistics
     v = result.variant
     return {
-        "variant": v.name, "strategy": v.strategy, "description": v.description,
-        "sigma0": _num(stats.sigma0), "accounting": stats.accounting.as_dict(),
-        "converged": sol.converged, "iterations": [
-            {"number": it.number, "cost": _num(it.cost), "max_scaled_step": _num(it.max_scaled_step),
-             "damping": it.damping, "seconds": round(it.seconds, 4)} for it in sol.iterations],
-        "snooping_rounds": adj.snooping_rounds, "full_solutions": adj.full_solutions,
+        "variant": v.name,
+        "strategy": v.strategy,
+        "description": v.description,
+        "sigma0": _num(stats.sigma0),
+        "accounting": stats.accounting.as_dict(),
+        "converged": sol.converged,
+        "iterations": [
+            {
+                "number": it.number,
+                "cost": _num(it.cost),
+                "max_scaled_step": _num(it.max_scaled_step),
+                "damping": it.damping,
+                "seconds": round(it.seconds, 4),
+            }
+            for it in sol.iterations
+        ],
+        "snooping_rounds": adj.snooping_rounds,
+        "full_solutions": adj.full_solutions,
         "solver_backend": sol.factor.backend,
-        "backends_available": available_backends(), "seconds": round(result.seconds, 3),
-        "models": [{"id": m.id, "strips": list(m.strips), "t_start": m.t_start, "t_end": m.t_end,
-                    "position_degree": m.position_degree, "attitude_degree": m.attitude_degree,
-                    "rotation": m.rotation, "follows": m.follows, "unknowns": m.size, "conditions": m.conditions}
-                   for m in result.block.models],
+        "backends_available": available_backends(),
+        "seconds": round(result.seconds, 3),
+        "models": [
+            {
+                "id": m.id,
+                "strips": list(m.strips),
+                "t_start": m.t_start,
+                "t_end": m.t_end,
+                "position_degree": m.position_degree,
+                "attitude_degree": m.attitude_degree,
+                "rotation": m.rotation,
+                "follows": m.follows,
+                "unknowns": m.size,
+                "conditions": m.conditions,
+            }
+            for m in result.block.models
+        ],
         "strips": result.rms_per_strip(),
         "coefficients": coefficient_table(result),
-        "regularisation": [{"unknown": n.key.label, "component": n.component, "sigma": n.sigma, "reason": n.reason}
-                           for n in sol.regularisation],
-        "rejections": [{"group": r.group, "id": r.id, "components": list(r.components), "w": _num(r.w), "round": r.round}
-                       for r in adj.rejections],
+        "regularisation": [
+            {"unknown": n.key.label, "component": n.component, "sigma": n.sigma, "reason": n.reason}
+            for n in sol.regularisation
+        ],
+        "rejections": [
+            {"group": r.group, "id": r.id, "components": list(r.components), "w": _num(r.w), "round": r.round}
+            for r in adj.rejections
+        ],
         "notes": list(result.notes),
     }
 
@@ -86,15 +123,29 @@ def residual_rows(result: VariantResult):
         strip = getattr(g, "strip", "")
         for i in range(g.n_rows):
             pid = str(g.ids[i])
-            kind = result.block.role(pid) if isinstance(g, ImageObservations) or g.name in ("ground control", "dtm heights") else g.kind
+            kind = (
+                result.block.role(pid)
+                if isinstance(g, ImageObservations) or g.name in ("ground control", "dtm heights")
+                else g.kind
+            )
             if g.name.startswith("gpsimu"):
                 kind = "gpsimu"
             elif g.name == "dtm heights":
                 kind = "dtm"
             flagged = (not act[i]) or (math.isfinite(w[i]) and abs(w[i]) > result.variant.critical_value)
-            yield [g.name, pid, strip, kind, g.components[i], f"{res[i] * g.sigma[i]:.6g}", g.units[i], f"{g.sigma[i]:.6g}",
-                   "" if not math.isfinite(w[i]) else f"{w[i]:.3f}", "" if not math.isfinite(red[i]) else f"{red[i]:.4f}",
-                   int(flagged)]
+            yield [
+                g.name,
+                pid,
+                strip,
+                kind,
+                g.components[i],
+                f"{res[i] * g.sigma[i]:.6g}",
+                g.units[i],
+                f"{g.sigma[i]:.6g}",
+                "" if not math.isfinite(w[i]) else f"{w[i]:.3f}",
+                "" if not math.isfinite(red[i]) else f"{red[i]:.4f}",
+                int(flagged),
+            ]
     c = result.checks
     crit = result.variant.critical_value
     for p, s, dl, dp, st, sig in zip(c.point, c.strip, c.line, c.pixel, c.status, c.sigma_px):
@@ -102,8 +153,19 @@ def residual_rows(result: VariantResult):
         for comp, unit, v in (("line", "line", dl), ("pixel", "px", dp)):
             # w of a check measurement: its residual over its measurement sigma (orientation error ignored)
             w = v / sig
-            yield ["check points", p, s, "check", comp, f"{v:.6g}" if ok else "", unit, f"{sig:.6g}",
-                   f"{w:.3f}" if ok else "", "", int(not ok or abs(w) > crit)]
+            yield [
+                "check points",
+                p,
+                s,
+                "check",
+                comp,
+                f"{v:.6g}" if ok else "",
+                unit,
+                f"{sig:.6g}",
+                f"{w:.3f}" if ok else "",
+                "",
+                int(not ok or abs(w) > crit),
+            ]
 
 
 def write_results(result: VariantResult, out_dir=None) -> Path:
@@ -121,10 +183,19 @@ def write_results(result: VariantResult, out_dir=None) -> Path:
         vals = spline.evaluate(t)
         traj = ProjectTrajectory(t, vals[:, :3], vals[:, 3:], f"adjusted {sid}")
         write_trajectory_csv(tmp / f"trajectory_{sid}.csv", GpsImuStream.from_project(traj, frame))
-        (tmp / f"spline_{sid}.json").write_text(json.dumps(
-            {"strip": sid, "t0": spline.t0, "spacing": spline.spacing, "components": ["x", "y", "z", "roll", "pitch", "heading"],
-             "units": "m, rad; project frame (positions of the navigation reference point)",
-             "project_origin": frame.to_dict(), "coef": spline.coef.tolist()}))
+        (tmp / f"spline_{sid}.json").write_text(
+            json.dumps(
+                {
+                    "strip": sid,
+                    "t0": spline.t0,
+                    "spacing": spline.spacing,
+                    "components": ["x", "y", "z", "roll", "pitch", "heading"],
+                    "units": "m, rad; project frame (positions of the navigation reference point)",
+                    "project_origin": frame.to_dict(),
+                    "coef": spline.coef.tolist(),
+                }
+            )
+        )
     with open(tmp / "residuals.csv", "w", newline="") as f:
         csv.writer(f).writerows(residual_rows(result))
     (tmp / "report.json").write_text(json.dumps(report_dict(result), indent=1))

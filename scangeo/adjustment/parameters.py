@@ -189,8 +189,9 @@ class Layout:
         """The sparse Jacobian (n_rows x n) of a group from its parts; fixed components dropped."""
         rows, cols, vals = [], [], []
         for part in parts:
-            r, c, v, b = np.broadcast_arrays(part.rows, part.cols, part.values,
-                                             part.cols if part.block is None else part.block)
+            r, c, v, b = np.broadcast_arrays(
+                part.rows, part.cols, part.values, part.cols if part.block is None else part.block
+            )
             full = self.full_indices(part.keys, None if part.block is None else b.ravel(), c.ravel())
             col = self.full_to_free[full]
             keep = col >= 0
@@ -199,8 +200,9 @@ class Layout:
             vals.append(v.ravel()[keep])
         if not rows:
             return sp.csr_matrix((n_rows, self.n))
-        return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                             shape=(n_rows, self.n))
+        return sp.csr_matrix(
+            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n_rows, self.n)
+        )
 
     def add_step(self, values: Mapping[Key, np.ndarray], dx: np.ndarray) -> dict[Key, np.ndarray]:
         """``values`` moved by the column vector ``dx`` (fixed components unchanged), as a new dict."""

@@ -147,11 +147,18 @@ def run_variant(project_root, variant: str | Variant, variants_file=None,
         *(np.zeros(0, dtype=object),), np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=object), np.zeros(0, int))
     callback(0.0, 1.0, f"{v.name}: setting up")
     block = build_block(project, v, points, ground)
-    adj = adjust(block.parameters, block.groups,
-                 SolverOptions(max_iterations=v.max_iterations, backend=v.backend),
-                 SnoopingOptions(enabled=v.snooping, critical_value=v.critical_value,
-                                 per_round=max(1, v.rejections_per_round), method=v.snooping_method),
-                 callback)
+    adj = adjust(
+        block.parameters,
+        block.groups,
+        SolverOptions(max_iterations=v.max_iterations, backend=v.backend),
+        SnoopingOptions(
+            enabled=v.snooping,
+            critical_value=v.critical_value,
+            per_round=max(1, v.rejections_per_round),
+            method=v.snooping_method,
+        ),
+        callback,
+    )
     result = VariantResult(block, adj, CheckResiduals(*(np.zeros(0),) * 5), 0.0, list(block.notes))
     result.checks = evaluate_checks(block, result.geometry)
     result.seconds = time.perf_counter() - t0

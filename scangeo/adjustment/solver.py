@@ -204,7 +204,7 @@ class Solver:
                 rounds = max(self._regularised[int(c)] for c in empty) + 1
                 if rounds > 4:
                     raise NotPositiveDefinite("regularisation did not make the normal equations regular", pivots)
-                fresh, tighten = empty, 100.0 ** rounds
+                fresh, tighten = empty, 100.0**rounds
             group = self._regularise(values, fresh, reason, tighten)
             self.groups.append(group)
             active = active + [np.ones(group.n_rows, bool)]
@@ -215,7 +215,7 @@ class Solver:
         opts = self.options
         values = self.parameters.values()
         active = [np.ones(g.n_rows, bool) for g in self.groups] if active is None else list(active)
-        active += [np.ones(g.n_rows, bool) for g in self.groups[len(active):]]
+        active += [np.ones(g.n_rows, bool) for g in self.groups[len(active) :]]
         iterations: list[IterationInfo] = []
         converged = False
         final = None
@@ -229,11 +229,13 @@ class Solver:
             step = factor.solve(-system.gradient)
             # dx^T N dx: the step's squared length in standard deviations of the unknowns
             predicted = float(step @ -system.gradient)
-            if (float(np.max(np.abs(step), initial=0.0)) < opts.step_tolerance
-                    or predicted < opts.chi2_tolerance):  # converged: no trial needed
+            if (
+                float(np.max(np.abs(step), initial=0.0)) < opts.step_tolerance or predicted < opts.chi2_tolerance
+            ):  # converged: no trial needed
                 values = self.layout.add_step(values, step / system.scale)
-                iterations.append(IterationInfo(it, cost, float(np.max(np.abs(step), initial=0.0)), 0.0,
-                                                time.perf_counter() - t0))
+                iterations.append(
+                    IterationInfo(it, cost, float(np.max(np.abs(step), initial=0.0)), 0.0, time.perf_counter() - t0)
+                )
                 self.callback(it, opts.max_iterations, f"iteration {it}: cost {cost:.6g}")
                 converged = True
                 final = (system, factor)  # the step is negligible: keep this linearisation and factor
@@ -243,8 +245,9 @@ class Solver:
             lam = 0.0
             if new_cost > cost and new_cost <= cost * (1 + FLOOR):
                 # the Gauss-Newton step changes the cost only at the rounding level: a minimum
-                iterations.append(IterationInfo(it, cost, float(np.max(np.abs(step), initial=0.0)), 0.0,
-                                                time.perf_counter() - t0))
+                iterations.append(
+                    IterationInfo(it, cost, float(np.max(np.abs(step), initial=0.0)), 0.0, time.perf_counter() - t0)
+                )
                 self.callback(it, opts.max_iterations, f"iteration {it}: cost {cost:.6g}")
                 converged = True
                 final = (system, factor)
@@ -276,14 +279,24 @@ class Solver:
         n_groups = len(self.groups)
         if final is not None:
             system, factor = final
-            system.residuals = np.concatenate([np.where(a, g.residuals(values), 0.0)
-                                               for g, a in zip(self.groups, active)])
+            system.residuals = np.concatenate(
+                [np.where(a, g.residuals(values), 0.0) for g, a in zip(self.groups, active)]
+            )
         else:
             system, factor = self.factorize(values, active)
         active += [np.ones(g.n_rows, bool) for g in self.groups[n_groups:]]
         self.parameters.set_values(values)
-        return Solution(self.parameters, self.layout, list(self.groups), active, system, factor,
-                        iterations, converged, list(self.regularisation))
+        return Solution(
+            self.parameters,
+            self.layout,
+            list(self.groups),
+            active,
+            system,
+            factor,
+            iterations,
+            converged,
+            list(self.regularisation),
+        )
 
     def _cost(self, values, active) -> float:
         """The cost at trial values; infinite where a model cannot be evaluated (the step is damped)."""

@@ -111,15 +111,23 @@ def _variant(t: Table, name: str, defaults: dict) -> Variant:
     roles = t.get("roles", dict, {})
     for pattern, role in roles.items():
         if role not in ROLES:
-            raise ProjectFileError(f"{t.path} [{t.name}] roles: {pattern!r} = {role!r}: expected one of {', '.join(ROLES)}")
+            raise ProjectFileError(
+                f"{t.path} [{t.name}] roles: {pattern!r} = {role!r}: expected one of {', '.join(ROLES)}"
+            )
     kw["roles"] = tuple(roles.items())
     strips = []
     for i, s in enumerate(t.get("strip", list, [])):
         st = Table(s, t.path, f"{t.name}.strip #{i + 1}")
-        strips.append(StripModels(
-            str(st.get("id", (str, int))), st.get("position_degree", int, None), st.get("attitude_degree", int, None),
-            st.get("rotation", bool, None), tuple(float(v) for v in st.get("breaks_lines", list, [])),
-            tuple(float(v) for v in st.get("breaks_times", list, []))))
+        strips.append(
+            StripModels(
+                str(st.get("id", (str, int))),
+                st.get("position_degree", int, None),
+                st.get("attitude_degree", int, None),
+                st.get("rotation", bool, None),
+                tuple(float(v) for v in st.get("breaks_lines", list, [])),
+                tuple(float(v) for v in st.get("breaks_times", list, [])),
+            )
+        )
         st.finish()
         if (strips[-1].breaks_lines or strips[-1].breaks_times) and kw["strategy"] in ("DG", "BE"):
             raise ProjectFileError(f"{t.path} [{t.name}]: breaks need per-strip models (strategy SE, P or S)")

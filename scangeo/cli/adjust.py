@@ -15,7 +15,9 @@ def add_parser(subparsers, common) -> None:
                     "heights (docs/adjustment.md). Writes PROJECT/results/NAME/.",
     )
     p.add_argument("project", help="the project folder (with project.toml, points.csv, ground.csv)")
-    p.add_argument("--variant", default="SE", help="variant name from variants.toml or built in: DG, BE, SE (default SE)")
+    p.add_argument(
+        "--variant", default="SE", help="variant name from variants.toml or built in: DG, BE, SE (default SE)"
+    )
     p.add_argument("--variants", default=None, help="variants file (default PROJECT/variants.toml)")
     p.add_argument("--out", default=None, help="output folder (default PROJECT/results/NAME)")
     p.set_defaults(func=run)
@@ -30,16 +32,20 @@ def run(args) -> int:
     out = write_results(result, args.out)
     stats = result.adjustment.statistics
     acc = stats.accounting
-    print(f"variant {result.variant.name} ({result.variant.strategy}): sigma0 {stats.sigma0:.3f}, "
-          f"{acc.observations} observations + {acc.pseudo_observations} pseudo, {acc.unknowns} unknowns "
-          f"({acc.parameters} parameters - {acc.conditions} conditions), redundancy {acc.redundancy}, "
-          f"{len(result.adjustment.solution.iterations)} iterations, {len(result.adjustment.rejections)} rejected")
+    print(
+        f"variant {result.variant.name} ({result.variant.strategy}): sigma0 {stats.sigma0:.3f}, "
+        f"{acc.observations} observations + {acc.pseudo_observations} pseudo, {acc.unknowns} unknowns "
+        f"({acc.parameters} parameters - {acc.conditions} conditions), redundancy {acc.redundancy}, "
+        f"{len(result.adjustment.solution.iterations)} iterations, {len(result.adjustment.rejections)} rejected"
+    )
     for sid, e in result.rms_per_strip().items():
         for kind in ("control", "check"):
             r = e[kind]
             if r["n"]:
-                print(f"  strip {sid} {kind:7s} n={r['n']:3d}  rms along {r['rms_along_lines']:.2f} lines, "
-                      f"across {r['rms_across_px']:.2f} px")
+                print(
+                    f"  strip {sid} {kind:7s} n={r['n']:3d}  rms along {r['rms_along_lines']:.2f} lines, "
+                    f"across {r['rms_across_px']:.2f} px"
+                )
     for note in result.notes:
         print(f"  note: {note}")
     for n in result.adjustment.solution.regularisation:

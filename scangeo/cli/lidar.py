@@ -175,7 +175,9 @@ def _scenario_table(sigmas) -> list[dict]:
 # -------------------------------------------------------------------------------------- network
 def _add_network(sub, common) -> None:
     p = sub.add_parser(
-        "network", parents=[common], help="network design of a 1D strip adjustment (plot + table)",
+        "network",
+        parents=[common],
+        help="network design of a 1D strip adjustment (plot + table)",
         description="Precision of the strip offsets of a regular block from its configuration alone: "
         "without and with cross strips, with 4 corner control areas or control at both ends of every "
         "4th strip.",
@@ -195,8 +197,15 @@ def _add_network(sub, common) -> None:
 def run_network(args: argparse.Namespace) -> int:
     from scangeo.lidar.network import BlockLayout, design_scenarios, plot_design
 
-    layout = BlockLayout(n_strips=args.strips, n_cross=args.cross, length=args.length, swath=args.swath,
-                         overlap=args.overlap, sigma_tie=args.sigma_tie / 100, sigma_control=args.sigma_control / 100)
+    layout = BlockLayout(
+        n_strips=args.strips,
+        n_cross=args.cross,
+        length=args.length,
+        swath=args.swath,
+        overlap=args.overlap,
+        sigma_tie=args.sigma_tie / 100,
+        sigma_control=args.sigma_control / 100,
+    )
     scenarios = plot_design(layout, args.plot) if args.plot else design_scenarios(layout)
     table = {name: [round(100 * float(v), 3) for v in sig] for name, sig in scenarios.items()}
     if args.json:
@@ -211,7 +220,9 @@ def run_network(args: argparse.Namespace) -> int:
 # ---------------------------------------------------------------------------------- real data
 def _add_check(sub, common) -> None:
     p = sub.add_parser(
-        "check-returns", parents=[common], help="recompute real returns from SBET, boresight, scan angle, range",
+        "check-returns",
+        parents=[common],
+        help="recompute real returns from SBET, boresight, scan angle, range",
         description="Recompute every LAS return from the SBET trajectory, the boresight and lever arm of a "
         "leeward config.toml, the return's scan angle and its range, and report the rms of recomputed minus "
         "given coordinates, before and after fitting small boresight rotations and a scan-angle scale.",
@@ -219,8 +230,12 @@ def _add_check(sub, common) -> None:
     p.add_argument("--sbet", required=True, help="Applanix SBET (.out)")
     p.add_argument("--las", required=True, help="LAS/LAZ returns with GPS time and scan angle")
     p.add_argument("--config", required=True, help="leeward config.toml (boresight rad, lever arm m, utm_zone)")
-    p.add_argument("--heading", choices=("platform", "true"), default="platform",
-                   help="platform: SBET heading as is (default); true: heading minus wander angle")
+    p.add_argument(
+        "--heading",
+        choices=("platform", "true"),
+        default="platform",
+        help="platform: SBET heading as is (default); true: heading minus wander angle",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run_check)
 
@@ -234,33 +249,51 @@ def run_check(args: argparse.Namespace) -> int:
         return 0
     e, n, u = r["rms_enu_m"]
     print(f"{r['returns']} returns, mean range {r['mean_range_m']:.1f} m, heading = {r['heading']}")
-    print(f"recomputed - given, configured boresight: rms east {e:.3f} north {n:.3f} up {u:.3f} m, 3D {r['rms_3d_m']:.3f} m")
+    print(
+        f"recomputed - given, configured boresight: rms east {e:.3f} north {n:.3f} up {u:.3f} m, 3D {r['rms_3d_m']:.3f} m"
+    )
     f = r["fit_deg"]
-    print(f"fitted boresight corrections: roll {f['boresight_roll']:+.4f} pitch {f['boresight_pitch']:+.4f} "
-          f"yaw {f['boresight_yaw']:+.4f} deg, scan-angle scale {r['fit_scan_scale']:+.5f}")
+    print(
+        f"fitted boresight corrections: roll {f['boresight_roll']:+.4f} pitch {f['boresight_pitch']:+.4f} "
+        f"yaw {f['boresight_yaw']:+.4f} deg, scan-angle scale {r['fit_scan_scale']:+.5f}"
+    )
     e, n, u = r["fit_rms_enu_m"]
-    print(f"after the fit: rms east {e:.3f} north {n:.3f} up {u:.3f} m, 3D {r['fit_rms_3d_m']:.3f} m "
-          f"(whole-degree scan angles alone: {r['expected_rms_from_whole_degree_scan_angles_m']:.3f} m)")
+    print(
+        f"after the fit: rms east {e:.3f} north {n:.3f} up {u:.3f} m, 3D {r['fit_rms_3d_m']:.3f} m "
+        f"(whole-degree scan angles alone: {r['expected_rms_from_whole_degree_scan_angles_m']:.3f} m)"
+    )
     return 0
 
 
 # ---------------------------------------------------------------------------- forward/reverse
 def _add_forward_reverse(sub, common) -> None:
     p = sub.add_parser(
-        "forward-reverse", parents=[common], help="recover attitude errors from forward/reverse flights",
+        "forward-reverse",
+        parents=[common],
+        help="recover attitude errors from forward/reverse flights",
         description="Simulate a strip flown north (A), the same line flown south (B) and a parallel strip "
         "flown north half a swath east (C) with the given errors, and recover roll and pitch from the A-B "
         "differences at nadir and heading from the A-C difference.",
     )
     p.add_argument("--height", type=float, default=1500.0, help="flying height, m (default 1500)")
     p.add_argument("--scan-angle", type=float, default=40.0, help="total scan angle, deg (default 40)")
-    p.add_argument("--imu", type=_floats(3), default=(0.03, -0.02, 0.05), metavar="DEG,DEG,DEG",
-                   help="IMU error roll, pitch, heading, deg (default 0.03,-0.02,0.05)")
+    p.add_argument(
+        "--imu",
+        type=_floats(3),
+        default=(0.03, -0.02, 0.05),
+        metavar="DEG,DEG,DEG",
+        help="IMU error roll, pitch, heading, deg (default 0.03,-0.02,0.05)",
+    )
     p.add_argument("--mounting", type=_floats(3), default=(0.0, 0.0, 0.0), metavar="DEG,DEG,DEG")
     p.add_argument("--range-error", type=float, default=0.2, metavar="M", help="default 0.2")
     p.add_argument("--scan-angle-error", type=float, default=0.05, metavar="DEG", help="default 0.05")
-    p.add_argument("--gps", type=_floats(3), default=(0.3, -0.2, 0.4), metavar="M,M,M",
-                   help="north, east, down, m (default 0.3,-0.2,0.4)")
+    p.add_argument(
+        "--gps",
+        type=_floats(3),
+        default=(0.3, -0.2, 0.4),
+        metavar="M,M,M",
+        help="north, east, down, m (default 0.3,-0.2,0.4)",
+    )
     p.add_argument("--lever-arm", type=_floats(3), default=(0.0, 0.0, 0.1), metavar="M,M,M", help="default 0,0,0.1")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run_forward_reverse)
@@ -272,16 +305,24 @@ def run_forward_reverse(args: argparse.Namespace) -> int:
 
     geometry = FlightGeometry(height=args.height, fov=args.scan_angle * DEG, pulses=2001)
     errors = SystematicErrors(
-        imu=tuple(v * DEG for v in args.imu), mounting=tuple(v * DEG for v in args.mounting),
-        range_offset=args.range_error, scan_angle_error=args.scan_angle_error * DEG,
-        gps=tuple(args.gps), lever_arm=tuple(args.lever_arm),
+        imu=tuple(v * DEG for v in args.imu),
+        mounting=tuple(v * DEG for v in args.mounting),
+        range_offset=args.range_error,
+        scan_angle_error=args.scan_angle_error * DEG,
+        gps=tuple(args.gps),
+        lever_arm=tuple(args.lever_arm),
     )
     r = recover_attitude(geometry, errors)
     got = {"roll": r.roll / DEG, "pitch": r.pitch / DEG, "heading": r.heading / DEG}
     injected = dict(zip(("roll", "pitch", "heading"), (a + b for a, b in zip(args.imu, args.mounting))))
     if args.json:
-        _print_json({"recovered_deg": got, "imu_plus_mounting_deg": injected,
-                     "heading_from_forward_reverse_edges_deg": r.heading_from_edges / DEG})
+        _print_json(
+            {
+                "recovered_deg": got,
+                "imu_plus_mounting_deg": injected,
+                "heading_from_forward_reverse_edges_deg": r.heading_from_edges / DEG,
+            }
+        )
         return 0
     print(f"{'angle':<8} {'injected (IMU+mounting) deg':>28} {'recovered deg':>14} {'rel. error':>11}")
     for k in got:

@@ -113,9 +113,17 @@ class ImagePoints:
                 )
 
     def write(self, path) -> None:
-        write_csv(path, ["point", "strip", "line", "pixel", "sigma_px"],
-                  zip(self.point, self.strip, (f"{v:.4f}" for v in self.line), (f"{v:.4f}" for v in self.pixel),
-                      (f"{v:g}" for v in self.sigma_px)))
+        write_csv(
+            path,
+            ["point", "strip", "line", "pixel", "sigma_px"],
+            zip(
+                self.point,
+                self.strip,
+                (f"{v:.4f}" for v in self.line),
+                (f"{v:.4f}" for v in self.pixel),
+                (f"{v:g}" for v in self.sigma_px),
+            ),
+        )
 
 
 @dataclass(frozen=True)
@@ -156,9 +164,14 @@ class GroundPoints:
         return cls(point, xyz, sxy, sz, role, np.array(numbers), str(path))
 
     def write(self, path) -> None:
-        write_csv(path, ["point", "x", "y", "z", "sigma_xy", "sigma_z", "role"],
-                  ([p, f"{x:.4f}", f"{y:.4f}", f"{z:.4f}", f"{sx:g}", f"{sz:g}", r]
-                   for p, (x, y, z), sx, sz, r in zip(self.point, self.xyz, self.sigma_xy, self.sigma_z, self.role)))
+        write_csv(
+            path,
+            ["point", "x", "y", "z", "sigma_xy", "sigma_z", "role"],
+            (
+                [p, f"{x:.4f}", f"{y:.4f}", f"{z:.4f}", f"{sx:g}", f"{sz:g}", r]
+                for p, (x, y, z), sx, sz, r in zip(self.point, self.xyz, self.sigma_xy, self.sigma_z, self.role)
+            ),
+        )
 
 
 def write_csv(path, header: list[str], rows) -> None:

@@ -153,8 +153,9 @@ class Project:
         dup = {i for i in ids if ids.count(i) > 1}
         if dup:
             raise ProjectFileError(f"{file}: strip id {sorted(dup)[0]!r} appears more than once")
-        return cls(root, crs, dtm, geoid, tuple(origin) if origin else None, sensor, strips,
-                   knot_spacing, dtm_sigma, traj_crs)
+        return cls(
+            root, crs, dtm, geoid, tuple(origin) if origin else None, sensor, strips, knot_spacing, dtm_sigma, traj_crs
+        )
 
     # --- frames and DTM -------------------------------------------------------------------------
     @cached_property
@@ -233,5 +234,11 @@ class Project:
         if spline is None:
             traj = self.stream(strip_id).to_project(self.map_frame.frame)
             spline = OrientationSpline.from_trajectory(traj, self.knot_spacing)
-        return StripGeometry(sensor or self.sensor.model, spline, self.timing(strip_id), self.n_lines(strip_id),
-                             mounting or self.sensor.mounting, strip_id)
+        return StripGeometry(
+            sensor or self.sensor.model,
+            spline,
+            self.timing(strip_id),
+            self.n_lines(strip_id),
+            mounting or self.sensor.mounting,
+            strip_id,
+        )

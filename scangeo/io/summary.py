@@ -175,11 +175,17 @@ def summarise_raster(path: Path, as_dtm: bool) -> dict[str, Any]:
                         "nodata_fraction": round(1.0 - finite.size / values.size, 6),
                     })
                 else:
-                    out.update({
-                        "lines": src.height, "pixels": src.width, "bands": src.count, "dtype": src.dtypes[0],
-                        "band_names": [d or "" for d in src.descriptions] if any(src.descriptions) else [], "nodata": src.nodata,
-                        **_crs_fields(src.crs),
-                    })
+                    out.update(
+                        {
+                            "lines": src.height,
+                            "pixels": src.width,
+                            "bands": src.count,
+                            "dtype": src.dtypes[0],
+                            "band_names": [d or "" for d in src.descriptions] if any(src.descriptions) else [],
+                            "nodata": src.nodata,
+                            **_crs_fields(src.crs),
+                        }
+                    )
                 return out
     except rasterio.errors.RasterioIOError as exc:
         raise InputFileError(f"{path}: cannot read the raster ({exc})") from exc
@@ -192,12 +198,21 @@ def summarise_points(path: Path, kind: str) -> dict[str, Any]:
     if kind == "points":
         pts = ImagePoints.read(path)
         strips, counts = np.unique(pts.strip.astype(str), return_counts=True)
-        return {"kind": "points", "path": str(path), "measurements": len(pts),
-                "points": len(set(pts.point)), "per_strip": dict(zip(strips.tolist(), counts.tolist()))}
+        return {
+            "kind": "points",
+            "path": str(path),
+            "measurements": len(pts),
+            "points": len(set(pts.point)),
+            "per_strip": dict(zip(strips.tolist(), counts.tolist())),
+        }
     g = GroundPoints.read(path)
     roles, counts = np.unique(g.role.astype(str), return_counts=True)
-    return {"kind": "ground", "path": str(path), "points": len(g),
-            "per_role": dict(zip(roles.tolist(), counts.tolist()))}
+    return {
+        "kind": "ground",
+        "path": str(path),
+        "points": len(g),
+        "per_role": dict(zip(roles.tolist(), counts.tolist())),
+    }
 
 
 def summarise_project(path: Path) -> dict[str, Any]:
@@ -211,14 +226,21 @@ def summarise_project(path: Path) -> dict[str, Any]:
     sensor = project.sensor
     model = sensor.model
     out: dict[str, Any] = {
-        "kind": "project", "path": str(project.root), "crs": project.crs,
+        "kind": "project",
+        "path": str(project.root),
+        "crs": project.crs,
         "geoid": str(project.geoid.path) if project.geoid.path else f"constant {project.geoid.constant:g} m",
         "origin": list(project.origin) if project.origin else None,
         "knot_spacing_s": project.knot_spacing,
         "sensor": {
-            "kind": sensor.kind, "pixels": model.pixels, "line_rate_hz": sensor.line_rate,
-            **({"fov_deg": round(float(np.degrees(model.fov)), 6), "per_pixel_timing": model.per_pixel_timing}
-               if sensor.kind == "whiskbroom" else {}),
+            "kind": sensor.kind,
+            "pixels": model.pixels,
+            "line_rate_hz": sensor.line_rate,
+            **(
+                {"fov_deg": round(float(np.degrees(model.fov)), 6), "per_pixel_timing": model.per_pixel_timing}
+                if sensor.kind == "whiskbroom"
+                else {}
+            ),
             "lever_arm_m": [float(v) for v in sensor.mounting.lever_arm_B],
             "boresight_deg": [round(float(v), 9) for v in np.degrees(sensor.mounting.boresight)],
             "bands": list(sensor.bands),
@@ -241,8 +263,11 @@ def summarise_project(path: Path) -> dict[str, Any]:
 
 def _strip_summary(project, strip_id: str) -> dict[str, Any]:
     cfg = project.strip(strip_id)
-    out: dict[str, Any] = {"id": strip_id, "image": str(cfg.image) if cfg.image else None,
-                           "trajectory": str(cfg.trajectory)}
+    out: dict[str, Any] = {
+        "id": strip_id,
+        "image": str(cfg.image) if cfg.image else None,
+        "trajectory": str(cfg.trajectory),
+    }
     try:
         n = project.n_lines(strip_id)
         timing = project.timing(strip_id)
@@ -253,11 +278,16 @@ def _strip_summary(project, strip_id: str) -> dict[str, Any]:
         half_scan = float(np.abs(project.sensor.model.time_offset(edges)).max())
         nav_first = first - half_scan + project.sensor.mounting.time_offset
         nav_last = last + half_scan + project.sensor.mounting.time_offset
-        out.update({
-            "trajectory_records": len(stream),
-            "trajectory_time_s": {"start": round(float(stream.time[0]), 6), "end": round(float(stream.time[-1]), 6)},
-            "covered": bool(stream.time[0] <= nav_first and nav_last <= stream.time[-1]),
-        })
+        out.update(
+            {
+                "trajectory_records": len(stream),
+                "trajectory_time_s": {
+                    "start": round(float(stream.time[0]), 6),
+                    "end": round(float(stream.time[-1]), 6),
+                },
+                "covered": bool(stream.time[0] <= nav_first and nav_last <= stream.time[-1]),
+            }
+        )
     except ScangeoError as exc:
         out["error"] = str(exc)
     return out

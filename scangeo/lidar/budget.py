@@ -75,7 +75,9 @@ def alpha_from_covariance(path: str | Path, sigma_offset_cm: float) -> float:
         raise InputFileError(f"{path}: cannot read an offset covariance matrix ({exc})") from exc
     C = np.atleast_2d(np.asarray(C, dtype=float))
     if C.shape[0] != C.shape[1] or not np.allclose(C, C.T, atol=1e-12 * max(np.abs(C).max(), 1e-30)):
-        raise InputFileError(f"{path}: a {C.shape[0]}x{C.shape[1]} matrix, expected a symmetric square covariance (m^2)")
+        raise InputFileError(
+            f"{path}: a {C.shape[0]}x{C.shape[1]} matrix, expected a symmetric square covariance (m^2)"
+        )
     if sigma_offset_cm <= 0:
         raise LidarError(f"--sigma-offset {sigma_offset_cm}: expected > 0 with --offset-covariance")
     n = C.shape[0]
@@ -88,14 +90,16 @@ class FlightScenario:
     """A flight scenario for the cost-benefit table (area mean over ``area_m2``)."""
 
     name: str
-    density: float            # points per m^2 (all flights together)
+    density: float  # points per m^2 (all flights together)
     control_areas: int
-    flights: int = 1          # how often the block is flown
+    flights: int = 1  # how often the block is flown
     alpha: float = 1.0
     relative_cost: float = 1.0
 
 
-def scenario_row(scenario: FlightScenario, area_m2: float = 100.0 * 100.0, sigmas: BudgetSigmas = BudgetSigmas()) -> dict:
+def scenario_row(
+    scenario: FlightScenario, area_m2: float = 100.0 * 100.0, sigmas: BudgetSigmas = BudgetSigmas()
+) -> dict:
     """Budget of one scenario: area of ``area_m2`` (default a 100 m x 100 m block cell)."""
     side = np.sqrt(area_m2)
     points = max(int(scenario.density * area_m2), 1)
@@ -117,7 +121,15 @@ def default_scenarios(alpha_few: float, alpha_many: float) -> list[FlightScenari
     return [
         base,
         replace(base, name="4 pt/m2, 4 control areas", density=4.0, relative_cost=2.0 + 4 * 0.02),
-        replace(base, name="1 pt/m2, 12 control areas", control_areas=12, alpha=alpha_many, relative_cost=1.0 + 12 * 0.02),
-        replace(base, name="flown twice, 2 pt/m2, 4 control areas", density=2.0, flights=2,
-                alpha=alpha_few / np.sqrt(2.0), relative_cost=2.0 + 4 * 0.02),
+        replace(
+            base, name="1 pt/m2, 12 control areas", control_areas=12, alpha=alpha_many, relative_cost=1.0 + 12 * 0.02
+        ),
+        replace(
+            base,
+            name="flown twice, 2 pt/m2, 4 control areas",
+            density=2.0,
+            flights=2,
+            alpha=alpha_few / np.sqrt(2.0),
+            relative_cost=2.0 + 4 * 0.02,
+        ),
     ]

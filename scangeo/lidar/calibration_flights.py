@@ -34,7 +34,9 @@ from scangeo.errors import LidarError
 from scangeo.lidar.laser_equation import FlightGeometry, SystematicErrors, error_vectors
 
 
-def world_errors(geometry: FlightGeometry, errors: SystematicErrors, line_east: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def world_errors(
+    geometry: FlightGeometry, errors: SystematicErrors, line_east: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """Errors (north, east, up; m) of one scan line against the true ground east coordinate.
 
     Returns ``(east, err_W)`` sorted by east; ``line_east`` shifts the flight line (m).
@@ -68,7 +70,9 @@ class AttitudeRecovery:
     d_ac_middle: np.ndarray
 
 
-def recover_attitude(geometry: FlightGeometry, errors: SystematicErrors, offset: float | None = None) -> AttitudeRecovery:
+def recover_attitude(
+    geometry: FlightGeometry, errors: SystematicErrors, offset: float | None = None
+) -> AttitudeRecovery:
     """Simulate A, B, C with ``errors`` and recover roll, pitch, heading from planimetric differences.
 
     Parameters
@@ -91,10 +95,16 @@ def recover_attitude(geometry: FlightGeometry, errors: SystematicErrors, offset:
     d_ab = _at(eA, wA, 0.0) - _at(eB, wB, 0.0)
     d_ac = _at(eA, wA, offset / 2) - _at(eC, wC, offset / 2)
     edge = 0.45 * swath
-    heading_edges = ((_at(eA, wA, edge) - _at(eB, wB, edge))[0] - (_at(eA, wA, -edge) - _at(eB, wB, -edge))[0]) / (2 * edge)
+    heading_edges = ((_at(eA, wA, edge) - _at(eB, wB, edge))[0] - (_at(eA, wA, -edge) - _at(eB, wB, -edge))[0]) / (
+        2 * edge
+    )
     return AttitudeRecovery(
-        roll=float(d_ab[1] / (2 * H)), pitch=float(-d_ab[0] / (2 * H)), heading=float(d_ac[0] / offset),
-        heading_from_edges=float(heading_edges), d_ab_nadir=d_ab, d_ac_middle=d_ac,
+        roll=float(d_ab[1] / (2 * H)),
+        pitch=float(-d_ab[0] / (2 * H)),
+        heading=float(d_ac[0] / offset),
+        heading_from_edges=float(heading_edges),
+        d_ab_nadir=d_ab,
+        d_ac_middle=d_ac,
     )
 
 

@@ -48,15 +48,17 @@ class BlockLayout:
         return [(i * self.spacing, y) for i in idx for y in (0.0, self.length)]
 
 
-def build_block(layout: BlockLayout, controls: list[tuple[float, float]]) -> tuple[list[Strip], list[TieArea], list[ControlArea]]:
+def build_block(
+    layout: BlockLayout, controls: list[tuple[float, float]]
+) -> tuple[list[Strip], list[TieArea], list[ControlArea]]:
     """Strips, tie areas and control areas (observations zero) of a regular block."""
     if layout.n_strips < 1 or not 0.0 <= layout.overlap < 1.0:
-        raise LidarError(f"block layout: {layout.n_strips} strips, overlap {layout.overlap} (expected >= 1 strip, 0 <= overlap < 1)")
+        raise LidarError(
+            f"block layout: {layout.n_strips} strips, overlap {layout.overlap} (expected >= 1 strip, 0 <= overlap < 1)"
+        )
     strips = [Strip(f"L{i + 1}", i * layout.spacing, layout.length / 2, 0.0) for i in range(layout.n_strips)]
     cross_y = (np.arange(layout.n_cross) + 0.5) * layout.length / max(layout.n_cross, 1)
-    strips += [
-        Strip(f"Q{k + 1}", layout.width / 2, float(y), np.pi / 2) for k, y in enumerate(cross_y)
-    ]
+    strips += [Strip(f"Q{k + 1}", layout.width / 2, float(y), np.pi / 2) for k, y in enumerate(cross_y)]
     ties: list[TieArea] = []
     n_along = max(int(round(layout.length / layout.tie_spacing)), 1)
     ys = (np.arange(n_along) + 0.5) * layout.length / n_along
@@ -90,12 +92,15 @@ def design_scenarios(layout: BlockLayout) -> dict[str, np.ndarray]:
     """Offset precision (m) of the parallel strips for the standard comparison of configurations."""
     no_cross = BlockLayout(**{**layout.__dict__, "n_cross": 0})
     return {
-        f"{layout.n_strips} strips, no cross strips, 4 corner controls":
-            offset_precision(no_cross, no_cross.corner_controls())[: layout.n_strips],
-        f"{layout.n_strips} strips, {layout.n_cross} cross strips, 4 corner controls":
-            offset_precision(layout, layout.corner_controls())[: layout.n_strips],
-        f"{layout.n_strips} strips, {layout.n_cross} cross strips, controls at both ends of every 4th strip":
-            offset_precision(layout, layout.ends_controls(4))[: layout.n_strips],
+        f"{layout.n_strips} strips, no cross strips, 4 corner controls": offset_precision(
+            no_cross, no_cross.corner_controls()
+        )[: layout.n_strips],
+        f"{layout.n_strips} strips, {layout.n_cross} cross strips, 4 corner controls": offset_precision(
+            layout, layout.corner_controls()
+        )[: layout.n_strips],
+        f"{layout.n_strips} strips, {layout.n_cross} cross strips, controls at both ends of every 4th strip": offset_precision(
+            layout, layout.ends_controls(4)
+        )[: layout.n_strips],
     }
 
 
@@ -111,11 +116,13 @@ def plot_design(layout: BlockLayout, path: str) -> dict[str, np.ndarray]:
     strips, ties, _ = build_block(layout, [])
     for s in strips[: layout.n_strips]:
         ax0.plot([s.x0, s.x0], [0, layout.length], color="0.6", lw=4, alpha=0.5)
-    for s in strips[layout.n_strips:]:
+    for s in strips[layout.n_strips :]:
         ax0.plot([0, layout.width], [s.y0, s.y0], color="tab:orange", lw=4, alpha=0.6)
     ax0.plot([t.x for t in ties], [t.y for t in ties], "k.", ms=2, label="tie areas")
-    for xy, marker, label in ((layout.corner_controls(), "^", "corner controls"),
-                              (layout.ends_controls(4), "v", "end controls (every 4th strip)")):
+    for xy, marker, label in (
+        (layout.corner_controls(), "^", "corner controls"),
+        (layout.ends_controls(4), "v", "end controls (every 4th strip)"),
+    ):
         ax0.plot(*np.array(xy).T, marker, ms=8, mfc="none", label=label)
     ax0.set_xlabel("x (m)")
     ax0.set_ylabel("y (m)")

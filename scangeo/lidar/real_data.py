@@ -41,7 +41,9 @@ def _read_sbet(path: str | Path) -> np.ndarray:
     path = Path(path)
     size = path.stat().st_size
     if size == 0 or size % _SBET_DTYPE.itemsize:
-        raise InputFileError(f"{path}: {size} bytes, expected a multiple of {_SBET_DTYPE.itemsize} (17 float64 per record)")
+        raise InputFileError(
+            f"{path}: {size} bytes, expected a multiple of {_SBET_DTYPE.itemsize} (17 float64 per record)"
+        )
     records = np.fromfile(path, dtype=_SBET_DTYPE)
     if np.any(np.diff(records["time"]) <= 0):
         k = int(np.argmax(np.diff(records["time"]) <= 0)) + 1
@@ -64,8 +66,11 @@ def read_leeward_config(path: str | Path) -> LeewardConfig:
     try:
         data = tomllib.loads(path.read_text())
         b = data["boresight"]
-        return LeewardConfig((float(b["roll"]), float(b["pitch"]), float(b["yaw"])),
-                             tuple(float(v) for v in data["lever_arm"]), int(data["utm_zone"]))
+        return LeewardConfig(
+            (float(b["roll"]), float(b["pitch"]), float(b["yaw"])),
+            tuple(float(v) for v in data["lever_arm"]),
+            int(data["utm_zone"]),
+        )
     except (KeyError, ValueError, TypeError, tomllib.TOMLDecodeError) as exc:
         raise InputFileError(f"{path}: expected utm_zone, lever_arm and [boresight] roll/pitch/yaw ({exc!r})") from exc
 
@@ -74,8 +79,8 @@ def read_leeward_config(path: str | Path) -> LeewardConfig:
 class Returns:
     """Laser returns in ECEF with the trajectory interpolated at their times."""
 
-    p_ecef: np.ndarray      # (n, 3) given returns, m
-    nav_ecef: np.ndarray    # (n, 3) navigation point, m
+    p_ecef: np.ndarray  # (n, 3) given returns, m
+    nav_ecef: np.ndarray  # (n, 3) navigation point, m
     R_ecef_body: np.ndarray  # (n, 3, 3)
     scan_angle: np.ndarray  # (n,) rad (LAS scan angle rank)
     lat: np.ndarray
@@ -94,16 +99,26 @@ def load_returns(sbet: str | Path, las: str | Path, utm_zone: int, heading: str 
     cloud = laspy.read(str(las))
     t = np.asarray(cloud.gps_time, dtype=float)
     if t.min() < nav["time"][0] or t.max() > nav["time"][-1]:
-        raise InputFileError(f"{las}: GPS times {t.min():.3f}..{t.max():.3f} s outside the SBET's "
-                             f"{nav['time'][0]:.3f}..{nav['time'][-1]:.3f} s")
+        raise InputFileError(
+            f"{las}: GPS times {t.min():.3f}..{t.max():.3f} s outside the SBET's "
+            f"{nav['time'][0]:.3f}..{nav['time'][-1]:.3f} s"
+        )
     interp = {k: np.interp(t, nav["time"], nav[k]) for k in ("lat", "lon", "alt", "roll", "pitch")}
     hdg = unwrap_heading(nav["heading"] - (nav["wander"] if heading == "true" else 0.0))
     to_geo = pyproj.Transformer.from_crs(32600 + utm_zone, 4326, always_xy=True)
     lon, lat = to_geo.transform(np.asarray(cloud.x), np.asarray(cloud.y))
     p = geodetic_to_ecef(np.radians(lat), np.radians(lon), np.asarray(cloud.z, dtype=float))
-    R = R_ecef_ned(interp["lat"], interp["lon"]) @ rph_to_matrix(interp["roll"], interp["pitch"], np.interp(t, nav["time"], hdg))
-    return Returns(p, geodetic_to_ecef(interp["lat"], interp["lon"], interp["alt"]), R,
-                   np.radians(np.asarray(cloud.scan_angle_rank, dtype=float)), interp["lat"], interp["lon"])
+    R = R_ecef_ned(interp["lat"], interp["lon"]) @ rph_to_matrix(
+        interp["roll"], interp["pitch"], np.interp(t, nav["time"], hdg)
+    )
+    return Returns(
+        p,
+        geodetic_to_ecef(interp["lat"], interp["lon"], interp["alt"]),
+        R,
+        np.radians(np.asarray(cloud.scan_angle_rank, dtype=float)),
+        interp["lat"],
+        interp["lon"],
+    )
 
 
 def _recompute_body(r: Returns, config: LeewardConfig, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -253,8 +253,10 @@ def _run_dask(tasks: list[StripTask], address: str, on_done) -> list[dict]:
         raise ScangeoError("--scheduler needs dask[distributed] (pip install 'scangeo[cluster]')") from exc
     out = []
     with Client(address) as client:
-        futures = [client.submit(run_strip_task, t, pure=False, key=f"rectify-{t.variant}-{t.strip}-{t.fingerprint}")
-                   for t in tasks]
+        futures = [
+            client.submit(run_strip_task, t, pure=False, key=f"rectify-{t.variant}-{t.strip}-{t.fingerprint}")
+            for t in tasks
+        ]
         for n, f in enumerate(dask_completed(futures), start=1):
             out.append(f.result())
             on_done(n)
@@ -270,4 +272,3 @@ def grid_of(path: Path) -> OutputGrid:
     with rasterio.open(path) as src:
         t = src.transform
         return OutputGrid(src.crs.to_wkt(), float(t.a), float(t.c), float(t.f), src.width, src.height)
-

@@ -37,7 +37,10 @@ def _view_zenith_band(layers) -> int:
 
 
 def build_mosaic(
-    orthos: list[Path], output: Path, profile: GeoTiffProfile = GeoTiffProfile(), progress: ProgressCallback = no_progress
+    orthos: list[Path],
+    output: Path,
+    profile: GeoTiffProfile = GeoTiffProfile(),
+    progress: ProgressCallback = no_progress,
 ) -> Path:
     """Mosaic the orthoimages ``orthos`` (with their ``.layers.tif``) into ``output``."""
     output = Path(output)
@@ -85,12 +88,12 @@ def _mosaic_tile(w, srcs, lays, grids, offsets, bands_vz, count, dtype, nodata) 
             continue
         win = Window(cs - c0, rs - r0, ce - cs, re - rs)
         vz = lay.read(bvz, window=win)
-        sub = best[rs - w.row_off:re - w.row_off, cs - w.col_off:ce - w.col_off]
+        sub = best[rs - w.row_off : re - w.row_off, cs - w.col_off : ce - w.col_off]
         take = np.isfinite(vz) & (vz < sub)
         if not take.any():
             continue
         data = src.read(window=win)
-        target = out[:, rs - w.row_off:re - w.row_off, cs - w.col_off:ce - w.col_off]
+        target = out[:, rs - w.row_off : re - w.row_off, cs - w.col_off : ce - w.col_off]
         target[:, take] = data[:, take]
         sub[take] = vz[take]
     return out

@@ -157,8 +157,13 @@ def height_correction_plot(strip_id: str, series: dict[str, Series], height: Ser
     if truth is not None:
         ax.plot(truth.time, -truth.values[:, 2], color="k", lw=1.0, ls="--", label="- injected GPS height error (truth)")
     for i, (variant, s) in enumerate(series.items()):
-        ax.plot(s.time, s.values[:, 2], lw=1.3, color=(colours or {}).get(variant, colour(i)),
-                label=f"Z correction {variant}")
+        ax.plot(
+            s.time,
+            s.values[:, 2],
+            lw=1.3,
+            color=(colours or {}).get(variant, colour(i)),
+            label=f"Z correction {variant}",
+        )
     for b in breaks:
         ax.axvline(b, color="k", ls=":", lw=0.8)
     ax.set_xlabel("time since the first line (s)")
@@ -180,8 +185,12 @@ def tracks_map(tracks: dict[str, Series], footprints: dict[str, np.ndarray]) -> 
             ax.fill(f[:, 0], f[:, 1], color=colour(i), alpha=0.12, ec=colour(i), lw=0.6)
         ax.plot(x, y, color=colour(i), lw=1.2)
         m = len(x) // 2
-        ax.annotate("", xy=(x[m + 1], y[m + 1]), xytext=(x[m - 25 if m > 25 else 0], y[m - 25 if m > 25 else 0]),
-                    arrowprops=dict(arrowstyle="-|>", color=colour(i), lw=1.5, mutation_scale=18))
+        ax.annotate(
+            "",
+            xy=(x[m + 1], y[m + 1]),
+            xytext=(x[m - 25 if m > 25 else 0], y[m - 25 if m > 25 else 0]),
+            arrowprops=dict(arrowstyle="-|>", color=colour(i), lw=1.5, mutation_scale=18),
+        )
         ax.text(x[0], y[0], f" {sid} start", fontsize=8, color=colour(i))
     ax.set_aspect("equal")
     ax.ticklabel_format(useOffset=False, style="plain")
@@ -201,10 +210,12 @@ def gpsimu_plot(strip_id: str, s: Series, direction: str) -> bytes:
     u = xy[-1] / max(np.linalg.norm(xy[-1]), 1e-9)
     right = np.array([u[1], -u[0]])  # to the right of the flight direction
     offset = xy @ right
-    panels = [("offset right of the straight line (m)", [(offset - np.polyval(np.polyfit(t, offset, 1), t), "across")]),
-              ("ellipsoidal height h (m)", [(v[:, 2], "h")]),
-              ("roll, pitch (deg)", [(v[:, 3], "roll"), (v[:, 4], "pitch")]),
-              ("heading (deg)", [(v[:, 5], "heading")])]
+    panels = [
+        ("offset right of the straight line (m)", [(offset - np.polyval(np.polyfit(t, offset, 1), t), "across")]),
+        ("ellipsoidal height h (m)", [(v[:, 2], "h")]),
+        ("roll, pitch (deg)", [(v[:, 3], "roll"), (v[:, 4], "pitch")]),
+        ("heading (deg)", [(v[:, 5], "heading")]),
+    ]
     for k, (title, lines) in enumerate(panels):
         ax = fig.add_subplot(2, 2, k + 1)
         for j, (vals, label) in enumerate(lines):
@@ -221,5 +232,14 @@ def gpsimu_plot(strip_id: str, s: Series, direction: str) -> bytes:
     return png(fig)
 
 
-__all__ = ["StripFrame", "correction_plot", "gpsimu_plot", "height_correction_plot", "nice", "png", "residual_map",
-           "rms_chart", "tracks_map"]
+__all__ = [
+    "StripFrame",
+    "correction_plot",
+    "gpsimu_plot",
+    "height_correction_plot",
+    "nice",
+    "png",
+    "residual_map",
+    "rms_chart",
+    "tracks_map",
+]

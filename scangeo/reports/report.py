@@ -111,29 +111,45 @@ def _vectors_section(project: Project, c: Comparison, vectors: dict[str, Residua
     for sid in c.strips:
         png = figures.residual_map(frames[sid], [vectors[n].of_strip(sid) for n in shown],
                                    [_rms_title(c, n, sid) for n in shown], sid)
-        sec.parts.append(html.figure(png, f"Strip {sid}: residual vectors of {' and '.join(shown)}", f"fig-vectors-{sid}"))
+        sec.parts.append(
+            html.figure(png, f"Strip {sid}: residual vectors of {' and '.join(shown)}", f"fig-vectors-{sid}")
+        )
     return sec
 
 
 def _corrections_section(project: Project, c: Comparison) -> html.Section:
     sec = html.Section("Correction functions", "corrections")
     adjusted = [v.name for v in c.variants if v.error is None and v.strategy != "DG"]
-    sec.parts.append(html.paragraph(
-        "The correction each variant applied to the GPS/IMU: adjusted orientation minus GPS/IMU as measured, over "
-        "the image (x east, y north, z up in the project frame; angles w.r.t. the project frame's NED axes)."))
+    sec.parts.append(
+        html.paragraph(
+            "The correction each variant applied to the GPS/IMU: adjusted orientation minus GPS/IMU as measured, over "
+            "the image (x east, y north, z up in the project frame; angles w.r.t. the project frame's NED axes)."
+        )
+    )
     for sid in problem_strips(project, adjusted):
         ps = [v.name for v in c.variants if v.name in adjusted and v.strategy in ("P", "S")]
         series = {n: correction_series(project, n, sid) for n in ps}
         height, _ = gpsimu_series(project, sid)
         breaks = sorted({b for n in ps for b in breaks_of(project, n, sid)})
         png = figures.height_correction_plot(sid, series, height, true_gps_error(project, sid), breaks, _colours(c))
-        sec.parts.append(html.figure(png, f"Problem strip {sid}: Z corrections of {', '.join(ps)} and the GPS/IMU "
-                                          "height's deviation from the mean flight height", f"fig-height-{sid}"))
+        sec.parts.append(
+            html.figure(
+                png,
+                f"Problem strip {sid}: Z corrections of {', '.join(ps)} and the GPS/IMU "
+                "height's deviation from the mean flight height",
+                f"fig-height-{sid}",
+            )
+        )
     for sid in c.strips:
         series = {n: correction_series(project, n, sid) for n in adjusted}
         breaks = sorted({b for n in adjusted for b in breaks_of(project, n, sid)})
-        sec.parts.append(html.figure(figures.correction_plot(sid, series, breaks, _colours(c)),
-                                     f"Strip {sid}: corrections of {', '.join(adjusted)} over time", f"fig-corr-{sid}"))
+        sec.parts.append(
+            html.figure(
+                figures.correction_plot(sid, series, breaks, _colours(c)),
+                f"Strip {sid}: corrections of {', '.join(adjusted)} over time",
+                f"fig-corr-{sid}",
+            )
+        )
     return sec
 
 
@@ -143,32 +159,70 @@ def _gpsimu_section(project: Project, c: Comparison, frames: dict[str, figures.S
     for sid in c.strips:
         tracks[sid], directions[sid] = gpsimu_series(project, sid)
     footprints = {s: f.footprint for s, f in frames.items()}
-    sec.parts.append(html.figure(figures.tracks_map(tracks, footprints), "Strips, tracks and flight directions",
-                                 "fig-tracks"))
+    sec.parts.append(
+        html.figure(figures.tracks_map(tracks, footprints), "Strips, tracks and flight directions", "fig-tracks")
+    )
     for sid in c.strips:
-        sec.parts.append(html.figure(figures.gpsimu_plot(sid, tracks[sid], directions[sid]),
-                                     f"Strip {sid}: GPS/IMU positions and angles, flying {directions[sid]}",
-                                     f"fig-gpsimu-{sid}"))
+        sec.parts.append(
+            html.figure(
+                figures.gpsimu_plot(sid, tracks[sid], directions[sid]),
+                f"Strip {sid}: GPS/IMU positions and angles, flying {directions[sid]}",
+                f"fig-gpsimu-{sid}",
+            )
+        )
     return sec
 
 
 def _accounting_section(project: Project, c: Comparison) -> html.Section:
     sec = html.Section("Unknowns, observations and conditions", "accounting")
-    sec.parts.append(html.paragraph(
-        "unknowns = parameters - conditions (the C0 continuity of split models, eliminated by their "
-        "parametrisation); redundancy = observations + pseudo-observations - unknowns."))
-    sec.parts.append(html.table(*markdown_tables(c)["accounting"], table_id="accounting-table", text_columns=(0, 1),
-                                wide_columns=(1,)))
+    sec.parts.append(
+        html.paragraph(
+            "unknowns = parameters - conditions (the C0 continuity of split models, eliminated by their "
+            "parametrisation); redundancy = observations + pseudo-observations - unknowns."
+        )
+    )
+    sec.parts.append(
+        html.table(
+            *markdown_tables(c)["accounting"], table_id="accounting-table", text_columns=(0, 1), wide_columns=(1,)
+        )
+    )
     rows = []
     for v in c.variants:
         for m in _variant_report(project, v.name).get("models", []):
-            rows.append([v.name, m["id"], ", ".join(m.get("strips", [])), f"{m['t_end'] - m['t_start']:.1f}",
-                         str(m["position_degree"]), str(m["attitude_degree"]), "yes" if m.get("rotation") else "",
-                         m.get("follows") or "", str(m["unknowns"]), str(m["conditions"])])
+            rows.append(
+                [
+                    v.name,
+                    m["id"],
+                    ", ".join(m.get("strips", [])),
+                    f"{m['t_end'] - m['t_start']:.1f}",
+                    str(m["position_degree"]),
+                    str(m["attitude_degree"]),
+                    "yes" if m.get("rotation") else "",
+                    m.get("follows") or "",
+                    str(m["unknowns"]),
+                    str(m["conditions"]),
+                ]
+            )
     if rows:
         sec.parts.append("<h3>GPS/IMU models</h3>")
-        sec.parts.append(html.table(["variant", "model", "strips", "span (s)", "position degree", "attitude degree",
-                                     "rotation", "follows", "unknowns", "conditions"], rows, text_columns=(0, 1, 2)))
+        sec.parts.append(
+            html.table(
+                [
+                    "variant",
+                    "model",
+                    "strips",
+                    "span (s)",
+                    "position degree",
+                    "attitude degree",
+                    "rotation",
+                    "follows",
+                    "unknowns",
+                    "conditions",
+                ],
+                rows,
+                text_columns=(0, 1, 2),
+            )
+        )
     return sec
 
 
@@ -180,10 +234,16 @@ def _notes_section(project: Project, c: Comparison) -> html.Section:
             sec.parts.append(html.paragraph(f"the adjustment failed: {v.error}", "warn"))
             continue
         r = _variant_report(project, v.name)
-        reg = [f"{n['unknown']} [{n['component']}]: pseudo-observation with sigma {n['sigma']:g} ({n['reason']})"
-               for n in r.get("regularisation", [])]
-        rej = [f"{x['group']} {x['id']} ({', '.join(x['components'])}): w = {x['w']:.1f}, round {x['round']}"
-               if x.get("w") is not None else f"{x['group']} {x['id']}" for x in r.get("rejections", [])]
+        reg = [
+            f"{n['unknown']} [{n['component']}]: pseudo-observation with sigma {n['sigma']:g} ({n['reason']})"
+            for n in r.get("regularisation", [])
+        ]
+        rej = [
+            f"{x['group']} {x['id']} ({', '.join(x['components'])}): w = {x['w']:.1f}, round {x['round']}"
+            if x.get("w") is not None
+            else f"{x['group']} {x['id']}"
+            for x in r.get("rejections", [])
+        ]
         sec.parts.append(html.paragraph(f"regularised unknowns: {len(reg) or 'none'}"))
         sec.parts.append(html.bullet_list(reg))
         sec.parts.append(html.paragraph(f"observations rejected by data snooping: {len(rej) or 'none'}"))
@@ -192,8 +252,9 @@ def _notes_section(project: Project, c: Comparison) -> html.Section:
     return sec
 
 
-def write_report(project_root, out=None, *, geopackage: bool = True,
-                 callback: ProgressCallback = no_progress) -> ReportFiles:
+def write_report(
+    project_root, out=None, *, geopackage: bool = True, callback: ProgressCallback = no_progress
+) -> ReportFiles:
     """Write ``report.html`` (and ``residuals.gpkg``) of a compared project into ``out`` (default PROJECT/results)."""
     root = Path(project_root)
     project = Project.load(root)
@@ -215,25 +276,36 @@ def write_report(project_root, out=None, *, geopackage: bool = True,
     step("footprints")
     frames = {sid: strip_frame(project, sid) for sid in comparison.strips}
     sections = []
-    for title, make in (("comparison", lambda: _comparison_section(comparison)),
-                        ("residual vectors", lambda: _vectors_section(project, comparison, vectors, frames)),
-                        ("corrections", lambda: _corrections_section(project, comparison)),
-                        ("GPS/IMU", lambda: _gpsimu_section(project, comparison, frames)),
-                        ("accounting and notes", lambda: _accounting_section(project, comparison))):
+    for title, make in (
+        ("comparison", lambda: _comparison_section(comparison)),
+        ("residual vectors", lambda: _vectors_section(project, comparison, vectors, frames)),
+        ("corrections", lambda: _corrections_section(project, comparison)),
+        ("GPS/IMU", lambda: _gpsimu_section(project, comparison, frames)),
+        ("accounting and notes", lambda: _accounting_section(project, comparison)),
+    ):
         step(title)
         sections.append(make())
     sections.append(_notes_section(project, comparison))
     gpkg = None
     if geopackage:
         gpkg = write_geopackage(folder / "residuals.gpkg", [vectors[n] for n in names], project.crs)
-    files = [f"comparison.md, comparison.csv, comparison.json: the table ({comparison.variants_file})",
-             *([f"{gpkg.name}: residual vectors of every variant (layers check_NAME, vectors_NAME), {project.crs}"]
-               if gpkg else []),
-             "NAME/: every variant's adjusted trajectories, splines, residuals.csv and report.json"]
+    files = [
+        f"comparison.md, comparison.csv, comparison.json: the table ({comparison.variants_file})",
+        *(
+            [f"{gpkg.name}: residual vectors of every variant (layers check_NAME, vectors_NAME), {project.crs}"]
+            if gpkg
+            else []
+        ),
+        "NAME/: every variant's adjusted trajectories, splines, residuals.csv and report.json",
+    ]
     sections.append(html.Section("Files", "files", [html.bullet_list(files)]))
     stamp = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
-    intro = [html.paragraph(f"Project {root.resolve()} ({project.crs}, {len(comparison.strips)} strips); "
-                            f"variants from {comparison.variants_file}; scangeo {__version__}, {stamp}.")]
+    intro = [
+        html.paragraph(
+            f"Project {root.resolve()} ({project.crs}, {len(comparison.strips)} strips); "
+            f"variants from {comparison.variants_file}; scangeo {__version__}, {stamp}."
+        )
+    ]
     text = html.document(f"scangeo residual report: {root.name}", intro, sections)
     path = folder / "report.html"
     tmp = path.with_name(f".{path.name}.tmp")

@@ -208,8 +208,10 @@ class Pushbroom:
 
     def kernel_params(self) -> tuple[int, np.ndarray, np.ndarray]:
         if self.is_pinhole:
-            p = np.array([self.principal_point, self.pitch, self.focal_length, self.k1, self.k2,
-                          self.line_offset, self.pixels], dtype=float)
+            p = np.array(
+                [self.principal_point, self.pitch, self.focal_length, self.k1, self.k2, self.line_offset, self.pixels],
+                dtype=float,
+            )
             return KIND_PINHOLE, p, np.zeros((0, 2))
         table = np.column_stack([np.tan(np.asarray(self.along, float)), np.tan(np.asarray(self.across, float))])
         return KIND_TABLE, np.array([self.pixels], dtype=float), table

@@ -242,8 +242,11 @@ def _write_project(root: Path, config: SimulationConfig, seed: int, map_frame: M
     writer.write_raster(root / "truth" / "dtm_error.tif",
                         dataclasses.replace(terrain.dtm, values=terrain.dtm_error), description="DTM minus truth (m)")
     pc = config.points
-    sigmas = {"control": (pc.control_sigma_xy_m, pc.control_sigma_z_m), "check": (pc.control_sigma_xy_m, pc.control_sigma_z_m),
-              "height": (pc.height_sigma_xy_m, pc.height_sigma_z_m)}
+    sigmas = {
+        "control": (pc.control_sigma_xy_m, pc.control_sigma_z_m),
+        "check": (pc.control_sigma_xy_m, pc.control_sigma_z_m),
+        "height": (pc.height_sigma_xy_m, pc.height_sigma_z_m),
+    }
     rng = rng_for(seed, "ground coordinates")
     given = np.column_stack([points.x, points.y, points.z])
     for i, kind in enumerate(points.kind):
@@ -252,23 +255,43 @@ def _write_project(root: Path, config: SimulationConfig, seed: int, map_frame: M
             sxy, sz = sigmas[role]
             given[i] += rng.standard_normal(3) * np.array([sxy, sxy, sz])
     writer.write_points(root, points, [s.strip_id for s in strips], pc.measurement_sigma_px, given, sigmas)
-    writer.write_json(root / "truth" / "errors.json", {
-        "problem_strip": plan.strips[config.gpsimu_errors.problem_strip - 1].strip_id if config.gpsimu_errors.problem_strip else None,
-        "breaks_lines": list(config.gpsimu_errors.breaks_lines),
-        "boresight_error_deg": list(config.sensor.boresight_error_deg),
-        "true_boresight_deg": list(np.add(config.sensor.boresight_deg, config.sensor.boresight_error_deg)),
-        "crab_deg": float(np.degrees(crab)),
-        "position_frame": "project frame P (x east, y north, z up) of project.toml's origin",
-        "strips": {s.strip_id: {**s.errors.parameters, **_mean_errors(s, plan_strip, config.sensor.line_rate_hz)}
-                   for s, plan_strip in zip(strips, plan.strips)},
-    })
-    writer.write_json(root / "truth" / "scenario.json", {
-        "seed": seed, "config_source": config.source, "config": dataclasses.asdict(config),
-        "crs": map_frame.crs.to_string(), "origin_deg": origin,
-        "flight_height_m": plan.flight_height_m, "swath_m": plan.swath_m, "strip_spacing_m": plan.spacing_m,
-        "strips": [dataclasses.asdict(s) for s in plan.strips],
-    })
-    text = writer.project_toml(crs=map_frame.crs.to_string(), origin_deg=origin,
-                               geoid_undulation_m=config.block.geoid_undulation_m,
-                               dtm_sigma_m=config.terrain.dtm_error_sigma_m, sensor=config.sensor, strips=entries)
+    writer.write_json(
+        root / "truth" / "errors.json",
+        {
+            "problem_strip": plan.strips[config.gpsimu_errors.problem_strip - 1].strip_id
+            if config.gpsimu_errors.problem_strip
+            else None,
+            "breaks_lines": list(config.gpsimu_errors.breaks_lines),
+            "boresight_error_deg": list(config.sensor.boresight_error_deg),
+            "true_boresight_deg": list(np.add(config.sensor.boresight_deg, config.sensor.boresight_error_deg)),
+            "crab_deg": float(np.degrees(crab)),
+            "position_frame": "project frame P (x east, y north, z up) of project.toml's origin",
+            "strips": {
+                s.strip_id: {**s.errors.parameters, **_mean_errors(s, plan_strip, config.sensor.line_rate_hz)}
+                for s, plan_strip in zip(strips, plan.strips)
+            },
+        },
+    )
+    writer.write_json(
+        root / "truth" / "scenario.json",
+        {
+            "seed": seed,
+            "config_source": config.source,
+            "config": dataclasses.asdict(config),
+            "crs": map_frame.crs.to_string(),
+            "origin_deg": origin,
+            "flight_height_m": plan.flight_height_m,
+            "swath_m": plan.swath_m,
+            "strip_spacing_m": plan.spacing_m,
+            "strips": [dataclasses.asdict(s) for s in plan.strips],
+        },
+    )
+    text = writer.project_toml(
+        crs=map_frame.crs.to_string(),
+        origin_deg=origin,
+        geoid_undulation_m=config.block.geoid_undulation_m,
+        dtm_sigma_m=config.terrain.dtm_error_sigma_m,
+        sensor=config.sensor,
+        strips=entries,
+    )
     writer.write_text(root / "project.toml", text)

@@ -76,13 +76,16 @@ def block_extent(flight: FlightConfig, sensor: SensorConfig, centre: tuple[float
     swath = swath_width(sensor, flight.height_above_ground_m)
     spacing = swath * (1.0 - flight.sidelap)
     width = (flight.strips - 1) * spacing + swath
-    length = flight.lines / sensor.line_rate_hz * flight.ground_speed_mps + 2 * flight.run_in_s * flight.ground_speed_mps
+    length = (
+        flight.lines / sensor.line_rate_hz * flight.ground_speed_mps + 2 * flight.run_in_s * flight.ground_speed_mps
+    )
     cx, cy = centre
     return Extent(cx - width / 2, cy - length / 2, cx + width / 2, cy + length / 2)
 
 
-def plan_flight(flight: FlightConfig, sensor: SensorConfig, centre: tuple[float, float], mean_height_m: float,
-                time_start_s: float) -> FlightPlan:
+def plan_flight(
+    flight: FlightConfig, sensor: SensorConfig, centre: tuple[float, float], mean_height_m: float, time_start_s: float
+) -> FlightPlan:
     """Strips side by side around the block centre, in the configured order and directions."""
     swath = swath_width(sensor, flight.height_above_ground_m)
     spacing = swath * (1.0 - flight.sidelap)
@@ -96,17 +99,33 @@ def plan_flight(flight: FlightConfig, sensor: SensorConfig, centre: tuple[float,
         else:
             direction = 1 if flight.direction == "north" else -1
         t_first = time_start_s + k * (duration + 2 * flight.run_in_s + flight.turn_s)
-        strips.append(StripPlan(
-            number=k + 1, strip_id=f"{k + 1:02d}", x=cx + (k - (flight.strips - 1) / 2) * spacing,
-            y_start=cy - direction * length / 2, y_end=cy + direction * length / 2, direction=direction,
-            first_line_time=round(t_first, 6), lines=flight.lines,
-        ))
-    return FlightPlan(tuple(strips), mean_height_m + flight.height_above_ground_m, swath, spacing,
-                      flight.ground_speed_mps, sensor.line_rate_hz, flight.run_in_s, flight.gpsimu_rate_hz)
+        strips.append(
+            StripPlan(
+                number=k + 1,
+                strip_id=f"{k + 1:02d}",
+                x=cx + (k - (flight.strips - 1) / 2) * spacing,
+                y_start=cy - direction * length / 2,
+                y_end=cy + direction * length / 2,
+                direction=direction,
+                first_line_time=round(t_first, 6),
+                lines=flight.lines,
+            )
+        )
+    return FlightPlan(
+        tuple(strips),
+        mean_height_m + flight.height_above_ground_m,
+        swath,
+        spacing,
+        flight.ground_speed_mps,
+        sensor.line_rate_hz,
+        flight.run_in_s,
+        flight.gpsimu_rate_hz,
+    )
 
 
-def true_stream(plan: FlightPlan, strip: StripPlan, map_frame: MapFrame, dynamics, crab_rad: float,
-                pitch_trim_rad: float = 0.0) -> GpsImuStream:
+def true_stream(
+    plan: FlightPlan, strip: StripPlan, map_frame: MapFrame, dynamics, crab_rad: float, pitch_trim_rad: float = 0.0
+) -> GpsImuStream:
     """The true GPS/IMU stream (geodetic, NED attitude) of a strip at the GPS/IMU epochs.
 
     Parameters
@@ -129,7 +148,9 @@ def true_stream(plan: FlightPlan, strip: StripPlan, map_frame: MapFrame, dynamic
     v_L = np.einsum("nij,nj->ni", R_LP, v_P)
     track = np.arctan2(v_L[:, 1], v_L[:, 0])
     heading = np.unwrap(track + strip.direction * crab_rad + dev[:, 2])
-    return GpsImuStream(t, lat, lon, h, dev[:, 0], pitch_trim_rad + dev[:, 1], heading, source=f"truth strip {strip.strip_id}")
+    return GpsImuStream(
+        t, lat, lon, h, dev[:, 0], pitch_trim_rad + dev[:, 1], heading, source=f"truth strip {strip.strip_id}"
+    )
 
 
 def truth_spline(stream: GpsImuStream, map_frame: MapFrame, rate_hz: float) -> OrientationSpline:

@@ -160,9 +160,13 @@ def draw_errors(config: StripErrorConfig, time: np.ndarray, first_line_time: flo
                                              config.excursion_shape)
     pos["excursion"] = excursion
     roll_exc = np.zeros((n, 3))
-    roll_exc[:, 0] = deg * piecewise_excursion(time, t_knots, config.excursion_roll_deg,
-                                               config.bulge_roll_deg or (0.0,) * max(len(config.excursion_roll_deg) - 1, 0),
-                                               config.excursion_shape)
+    roll_exc[:, 0] = deg * piecewise_excursion(
+        time,
+        t_knots,
+        config.excursion_roll_deg,
+        config.bulge_roll_deg or (0.0,) * max(len(config.excursion_roll_deg) - 1, 0),
+        config.excursion_shape,
+    )
     att["excursion"] = roll_exc
 
     pos["white_noise"] = rng.standard_normal((n, 3)) * config.white_noise_m
@@ -192,7 +196,14 @@ def apply_errors(true: GpsImuStream, errors: StripErrors, map_frame: MapFrame) -
     attitude["rotation"] = rotation_att
     filled = StripErrors(errors.time, errors.position, attitude, errors.parameters)
     total = filled.attitude_total
-    measured = GpsImuStream(true.time, lat, lon, h, true.roll + total[:, 0], true.pitch + total[:, 1],
-                            true.heading + total[:, 2], source=true.source.replace("truth", "measured"))
+    measured = GpsImuStream(
+        true.time,
+        lat,
+        lon,
+        h,
+        true.roll + total[:, 0],
+        true.pitch + total[:, 1],
+        true.heading + total[:, 2],
+        source=true.source.replace("truth", "measured"),
+    )
     return measured, filled
-

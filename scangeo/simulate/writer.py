@@ -90,15 +90,27 @@ def project_toml(*, crs: str, origin_deg: tuple[float, float, float], geoid_undu
     for s in strips:
         lines += ["", "[[strips]]", f'id = "{s["id"]}"']
         lines += [f'image = "{s["image"]}"'] if "image" in s else []
-        lines += [f'trajectory = "{s["trajectory"]}"', f"first_line_time = {s['first_line_time']!r}", f"lines = {s['lines']}"]
+        lines += [
+            f'trajectory = "{s["trajectory"]}"',
+            f"first_line_time = {s['first_line_time']!r}",
+            f"lines = {s['lines']}",
+        ]
     return "\n".join(lines) + "\n"
 
 
-def write_points(root: Path, points: PointSet, strip_ids: list[str], sigma_px: float, given_xyz: np.ndarray,
-                 sigmas: dict[str, tuple[float, float]]) -> None:
+def write_points(
+    root: Path,
+    points: PointSet,
+    strip_ids: list[str],
+    sigma_px: float,
+    given_xyz: np.ndarray,
+    sigmas: dict[str, tuple[float, float]],
+) -> None:
     """points.csv, ground.csv and truth/points.csv, truth/measurements.csv."""
-    rows = [(points.id[i], strip_ids[k], f"{l:.4f}", f"{p:.4f}", f"{sigma_px:g}")
-            for i, k, l, p in zip(points.m_point, points.m_strip, points.line, points.pixel)]
+    rows = [
+        (points.id[i], strip_ids[k], f"{l:.4f}", f"{p:.4f}", f"{sigma_px:g}")
+        for i, k, l, p in zip(points.m_point, points.m_strip, points.line, points.pixel)
+    ]
     write_csv(root / "points.csv", ["point", "strip", "line", "pixel", "sigma_px"], rows)
     ground = []
     for i, kind in enumerate(points.kind):
@@ -108,17 +120,38 @@ def write_points(root: Path, points: PointSet, strip_ids: list[str], sigma_px: f
         sxy, sz = sigmas[role]
         ground.append((points.id[i], *(CSV_FLOAT.format(v) for v in given_xyz[i]), f"{sxy:g}", f"{sz:g}", role))
     write_csv(root / "ground.csv", ["point", "x", "y", "z", "sigma_xy", "sigma_z", "role"], ground)
-    truth = [(points.id[i], points.kind[i], ROLE_OF_KIND[points.kind[i]],
-              *(CSV_FLOAT.format(v) for v in (points.x[i], points.y[i], points.z[i], *given_xyz[i], *points.p_P[i])),
-              int(points.land_class[i])) for i in range(len(points.id))]
-    write_csv(root / "truth" / "points.csv",
-              ["point", "kind", "role", "x", "y", "z", "x_given", "y_given", "z_given", "x_P", "y_P", "z_P",
-               "land_class"], truth)
-    meas = [(points.id[i], strip_ids[k], f"{lt:.6f}", f"{pt:.6f}", f"{l:.4f}", f"{p:.4f}", int(b))
-            for i, k, lt, pt, l, p, b in zip(points.m_point, points.m_strip, points.line_true, points.pixel_true,
-                                             points.line, points.pixel, points.blunder)]
-    write_csv(root / "truth" / "measurements.csv",
-              ["point", "strip", "line_true", "pixel_true", "line", "pixel", "blunder"], meas)
+    truth = [
+        (
+            points.id[i],
+            points.kind[i],
+            ROLE_OF_KIND[points.kind[i]],
+            *(CSV_FLOAT.format(v) for v in (points.x[i], points.y[i], points.z[i], *given_xyz[i], *points.p_P[i])),
+            int(points.land_class[i]),
+        )
+        for i in range(len(points.id))
+    ]
+    write_csv(
+        root / "truth" / "points.csv",
+        ["point", "kind", "role", "x", "y", "z", "x_given", "y_given", "z_given", "x_P", "y_P", "z_P", "land_class"],
+        truth,
+    )
+    meas = [
+        (points.id[i], strip_ids[k], f"{lt:.6f}", f"{pt:.6f}", f"{l:.4f}", f"{p:.4f}", int(b))
+        for i, k, lt, pt, l, p, b in zip(
+            points.m_point,
+            points.m_strip,
+            points.line_true,
+            points.pixel_true,
+            points.line,
+            points.pixel,
+            points.blunder,
+        )
+    ]
+    write_csv(
+        root / "truth" / "measurements.csv",
+        ["point", "strip", "line_true", "pixel_true", "line", "pixel", "blunder"],
+        meas,
+    )
 
 
 def write_errors(path: Path, errors: StripErrors) -> None:
@@ -135,8 +168,9 @@ def write_errors(path: Path, errors: StripErrors) -> None:
     columns += [errors.position_total, np.degrees(errors.attitude_total)]
     data = np.hstack(columns)
     tmp = path.with_name(path.name + ".tmp")
-    np.savetxt(tmp, data, delimiter=",", header=",".join(header), comments="",
-               fmt=["%.6f"] + ["%.6g"] * (data.shape[1] - 1))
+    np.savetxt(
+        tmp, data, delimiter=",", header=",".join(header), comments="", fmt=["%.6f"] + ["%.6g"] * (data.shape[1] - 1)
+    )
     os.replace(tmp, path)
 
 

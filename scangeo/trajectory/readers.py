@@ -86,7 +86,9 @@ def _parse_rows(path, lines: list[str], delimiter, columns: dict[str, int]) -> n
     if bad_rows.size:
         r = bad_rows[0]
         name = list(columns)[int(np.flatnonzero(~np.isfinite(out[r]))[0])]
-        raise TrajectoryError(f"{path} line {r + 2}: {name} is not a finite number ({out[r][list(columns).index(name)]})")
+        raise TrajectoryError(
+            f"{path} line {r + 2}: {name} is not a finite number ({out[r][list(columns).index(name)]})"
+        )
     return out
 
 
@@ -171,8 +173,14 @@ def read_sbet(path) -> GpsImuStream:
     check_times(raw["time"], str(path), lambda i: f"record {i + 1}")
     heading = np.unwrap(raw["platform_heading"] - raw["wander"])
     return GpsImuStream(
-        raw["time"].copy(), raw["lat"].copy(), raw["lon"].copy(), raw["alt"].copy(),
-        raw["roll"].copy(), raw["pitch"].copy(), heading, source=str(path),
+        raw["time"].copy(),
+        raw["lat"].copy(),
+        raw["lon"].copy(),
+        raw["alt"].copy(),
+        raw["roll"].copy(),
+        raw["pitch"].copy(),
+        heading,
+        source=str(path),
     )
 
 
@@ -188,10 +196,23 @@ def write_trajectory_csv(path, stream: GpsImuStream) -> None:
     """Write ``time,lat,lon,h,roll,pitch,heading`` (degrees, ellipsoidal m), atomically."""
     path = Path(path)
     data = np.column_stack(
-        [stream.time, np.degrees(stream.lat), np.degrees(stream.lon), stream.h,
-         np.degrees(stream.roll), np.degrees(stream.pitch), np.degrees(stream.heading)]
+        [
+            stream.time,
+            np.degrees(stream.lat),
+            np.degrees(stream.lon),
+            stream.h,
+            np.degrees(stream.roll),
+            np.degrees(stream.pitch),
+            np.degrees(stream.heading),
+        ]
     )
     tmp = path.with_name(path.name + ".tmp")
-    np.savetxt(tmp, data, delimiter=",", header="time,lat,lon,h,roll,pitch,heading", comments="",
-               fmt=["%.6f", "%.11f", "%.11f", "%.4f", "%.8f", "%.8f", "%.8f"])
+    np.savetxt(
+        tmp,
+        data,
+        delimiter=",",
+        header="time,lat,lon,h,roll,pitch,heading",
+        comments="",
+        fmt=["%.6f", "%.11f", "%.11f", "%.4f", "%.8f", "%.8f", "%.8f"],
+    )
     os.replace(tmp, path)

@@ -65,7 +65,9 @@ class GpsImuStream:
         n = len(self.time)
         for name in ("lat", "lon", "h", "roll", "pitch", "heading"):
             if len(getattr(self, name)) != n:
-                raise TrajectoryError(f"{self.source}: column {name} has {len(getattr(self, name))} values, time has {n}")
+                raise TrajectoryError(
+                    f"{self.source}: column {name} has {len(getattr(self, name))} values, time has {n}"
+                )
         if n < 2:
             raise TrajectoryError(f"{self.source}: a trajectory needs at least 2 records, found {n}")
         check_times(np.asarray(self.time), self.source)

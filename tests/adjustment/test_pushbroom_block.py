@@ -39,23 +39,40 @@ def look_angle_table(pixels: int = PIXELS) -> np.ndarray:
 
 
 def true_geometry(root, project: Project, sid: str, boresight) -> StripGeometry:
-    traj = read_trajectory(root / "truth" / f"trajectory_{sid}.csv", crs=project.crs).to_project(project.map_frame.frame)
+    traj = read_trajectory(root / "truth" / f"trajectory_{sid}.csv", crs=project.crs).to_project(
+        project.map_frame.frame
+    )
     m = project.sensor.mounting
-    return StripGeometry(project.sensor.model, OrientationSpline.from_trajectory(traj, project.knot_spacing),
-                         project.timing(sid), project.n_lines(sid), Mounting(m.lever_arm_B, boresight, m.time_offset), sid)
+    return StripGeometry(
+        project.sensor.model,
+        OrientationSpline.from_trajectory(traj, project.knot_spacing),
+        project.timing(sid),
+        project.n_lines(sid),
+        Mounting(m.lever_arm_B, boresight, m.time_offset),
+        sid,
+    )
 
 
 def make_pushbroom(source, root, boresight_error_deg=(0.0, 0.0, 0.0), seed=5):
     """Copy of the simulated block ``source`` with a pushbroom sensor and rendered measurements."""
     shutil.copytree(source, root, ignore=shutil.ignore_patterns("results"))
-    np.savetxt(root / "look_angles.csv", look_angle_table(), fmt=["%d", "%.6f", "%.6f"], delimiter=",",
-               header="pixel,along_deg,across_deg", comments="")
+    np.savetxt(
+        root / "look_angles.csv",
+        look_angle_table(),
+        fmt=["%d", "%.6f", "%.6f"],
+        delimiter=",",
+        header="pixel,along_deg,across_deg",
+        comments="",
+    )
     text = (root / "project.toml").read_text()
     sensor = re.search(r"\[sensor\]\n(.*?)\n\n", text, re.S)
-    keep = [ln for ln in sensor.group(1).splitlines()
-            if ln.split("=")[0].strip() in ("line_rate_hz", "boresight_deg", "lever_arm_m")]
+    keep = [
+        ln
+        for ln in sensor.group(1).splitlines()
+        if ln.split("=")[0].strip() in ("line_rate_hz", "boresight_deg", "lever_arm_m")
+    ]
     new = "\n".join(["[sensor]", 'kind = "pushbroom"', f"pixels = {PIXELS}", 'look_angles = "look_angles.csv"', *keep])
-    (root / "project.toml").write_text(text[:sensor.start()] + new + "\n\n" + text[sensor.end():])
+    (root / "project.toml").write_text(text[: sensor.start()] + new + "\n\n" + text[sensor.end() :])
     project = Project.load(root)
     bore = project.sensor.mounting.boresight + np.radians(boresight_error_deg)
     truth = np.genfromtxt(root / "truth" / "points.csv", delimiter=",", names=True, dtype=None, encoding="utf-8")
@@ -64,7 +81,9 @@ def make_pushbroom(source, root, boresight_error_deg=(0.0, 0.0, 0.0), seed=5):
     rows = ["point,strip,line,pixel,sigma_px"]
     for s in project.strips:
         line, pixel, status = true_geometry(root, project, s.id, bore).ground_to_image(p_P)
-        inside = ((status & ~16) == 0) & (pixel > 5) & (pixel < PIXELS - 6) & (line > 5) & (line < project.n_lines(s.id) - 6)
+        inside = (
+            ((status & ~16) == 0) & (pixel > 5) & (pixel < PIXELS - 6) & (line > 5) & (line < project.n_lines(s.id) - 6)
+        )
         for k in np.flatnonzero(inside):
             dl, dp = rng.normal(0.0, NOISE_PX, 2)
             rows.append(f"{truth['point'][k]},{s.id},{line[k] + dl:.4f},{pixel[k] + dp:.4f},{NOISE_PX}")
@@ -97,7 +116,7 @@ def test_se_on_a_pushbroom_block_recovers_the_shifts_and_checks_reach_the_noise(
         est, sigma = result.adjustment.parameters[m.key].values, stats.sigmas(m.key)
         assert np.all(np.abs(est + shift) < 3 * sigma), (sid, est, -shift, sigma)
         assert np.all(sigma[:2] < 0.5)
-        assert np.linalg.norm(shift) > 1.0        # the injected shift is real (1-3 m)
+        assert np.linalg.norm(shift) > 1.0  # the injected shift is real (1-3 m)
     assert 0.7 < stats.sigma0 < 1.3
     # check points: with the true orientation their rms is the measurement noise alone
     bore = project.sensor.mounting.boresight

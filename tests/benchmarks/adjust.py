@@ -113,11 +113,13 @@ def run_case(root: Path, variant: str, source: str | None = None) -> dict:
 def show(label: str, r: dict, **bases: dict) -> None:
     ratio = "".join(f"  x{b['seconds'] / r['seconds']:.1f} vs {name}" for name, b in bases.items())
     it = sum(r["per_iteration"]) / max(len(r["per_iteration"]), 1)
-    print(f"{label:32s} {r['unknowns']:7d} unknowns {r['observations']:8d} obs  {r['seconds']:6.1f} s total "
-          f"({r['cpu_s']:6.1f} s cpu)  "
-          f"{it:5.2f} s/iteration ({r['iterations']} it, {r['solves']} full solutions, {r['rounds']} snooping rounds, "
-          f"{r['rejected']} rejected, sigma0 {r['sigma0']:.6f})  peak {r['peak_mib']:6.0f} MiB  [{r['backend']}]{ratio}",
-          flush=True)
+    print(
+        f"{label:32s} {r['unknowns']:7d} unknowns {r['observations']:8d} obs  {r['seconds']:6.1f} s total "
+        f"({r['cpu_s']:6.1f} s cpu)  "
+        f"{it:5.2f} s/iteration ({r['iterations']} it, {r['solves']} full solutions, {r['rounds']} snooping rounds, "
+        f"{r['rejected']} rejected, sigma0 {r['sigma0']:.6f})  peak {r['peak_mib']:6.0f} MiB  [{r['backend']}]{ratio}",
+        flush=True,
+    )
 
 
 def load() -> str:
@@ -129,9 +131,12 @@ def main() -> None:
     parser.add_argument("--cache", default="/tmp/scangeo-bench-adjust", help="folder for the simulated blocks")
     parser.add_argument("--only", choices=["vienna", "block24", "scaling"], default=None)
     parser.add_argument("--repeat", type=int, default=1, help="runs of each block24 SE case, interleaved")
-    parser.add_argument("--before", default=None, metavar="SRC",
-                        help="also run block24 SE with an older source tree, e.g. made by "
-                             "`git archive COMMIT scangeo | tar -x -C SRC`")
+    parser.add_argument(
+        "--before",
+        default=None,
+        metavar="SRC",
+        help="also run block24 SE with an older source tree, e.g. made by `git archive COMMIT scangeo | tar -x -C SRC`",
+    )
     args = parser.parse_args()
     cache = Path(args.cache)
     cache.mkdir(parents=True, exist_ok=True)

@@ -35,11 +35,20 @@ def turbulent_strip(n_lines: int, z: float = 2300.0) -> StripGeometry:
     duration = n_lines / 25.0 + 4.0
     t = np.arange(0.0, duration, 0.02)
     def turb(amp_deg, periods):
-        return sum(np.radians(amp_deg) * rng.uniform(0.3, 1) * np.sin(2 * np.pi * t / p + rng.uniform(0, 6)) for p in periods)
-    values = np.column_stack([
-        5 * np.sin(t / 30), -duration * 67 / 2 + 67 * t, z + 3 * np.sin(t / 7),
-        turb(1.5, (3.1, 7.3, 17.0)), turb(0.6, (4.3, 11.0)), np.radians(0.5) + turb(0.4, (9.0, 23.0)),
-    ])
+        return sum(
+            np.radians(amp_deg) * rng.uniform(0.3, 1) * np.sin(2 * np.pi * t / p + rng.uniform(0, 6)) for p in periods
+        )
+
+    values = np.column_stack(
+        [
+            5 * np.sin(t / 30),
+            -duration * 67 / 2 + 67 * t,
+            z + 3 * np.sin(t / 7),
+            turb(1.5, (3.1, 7.3, 17.0)),
+            turb(0.6, (4.3, 11.0)),
+            np.radians(0.5) + turb(0.4, (9.0, 23.0)),
+        ]
+    )
     spline = OrientationSpline.fit(t, values, 0.2)
     return StripGeometry(Whiskbroom(), spline, LineTiming(2.0, 25.0), n_lines)
 
@@ -83,8 +92,10 @@ def main() -> None:
     args = ap.parse_args()
     import numba
 
-    print(f"cores: {os.cpu_count()}, numba threads: {numba.get_num_threads()}, "
-          f"OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '-')}")
+    print(
+        f"cores: {os.cpu_count()}, numba threads: {numba.get_num_threads()}, "
+        f"OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '-')}"
+    )
     strip = turbulent_strip(args.lines)
     rng = np.random.default_rng(0)
     # ground points inside the footprint: random (line, pixel), at random heights along the ray
@@ -101,9 +112,11 @@ def main() -> None:
         line, pixel, status = strip.ground_to_image(pts, tol_line=1e-4)
         dt = time.perf_counter() - t0
         err = np.nanmax(np.abs(line - ref))
-        print(f"scangeo ground->image, {label}: {len(pts) / dt / 1e6:.2f} M points/s "
-              f"({dt:.2f} s for {len(pts) / 1e6:.0f} M; max |line error| {err:.1e}; "
-              f"status ok {np.mean(status == 0) * 100:.2f} %)")
+        print(
+            f"scangeo ground->image, {label}: {len(pts) / dt / 1e6:.2f} M points/s "
+            f"({dt:.2f} s for {len(pts) / 1e6:.0f} M; max |line error| {err:.1e}; "
+            f"status ok {np.mean(status == 0) * 100:.2f} %)"
+        )
         if label == "along-track order":
             rate_ours = len(pts) / dt
     n_base = min(1_000_000, args.points)
@@ -111,8 +124,10 @@ def main() -> None:
     bl, bp = numpy_ground_to_image(strip, P[:n_base])
     dt = time.perf_counter() - t0
     rate_base = n_base / dt
-    print(f"baseline numpy + scipy CubicSpline ({n_base / 1e6:.0f} M points): {rate_base / 1e6:.2f} M points/s; "
-          f"max |line difference| to scangeo {np.nanmax(np.abs(bl - lines[:n_base])):.1e}")
+    print(
+        f"baseline numpy + scipy CubicSpline ({n_base / 1e6:.0f} M points): {rate_base / 1e6:.2f} M points/s; "
+        f"max |line difference| to scangeo {np.nanmax(np.abs(bl - lines[:n_base])):.1e}"
+    )
     print(f"ratio scangeo / baseline: {rate_ours / rate_base:.1f}x")
 
     hgt = SHARED / "dtm" / "N44E005.hgt"
@@ -130,9 +145,11 @@ def main() -> None:
     t0 = time.perf_counter()
     g, status = strip.image_to_ground(L, J, dtm)
     dt = time.perf_counter() - t0
-    print(f"scangeo image->ground, every pixel of 716 x {args.lines} over SRTM (heights {dtm.h_min:.0f}-"
-          f"{dtm.h_max:.0f} m, 4000 m flight): {dt:.2f} s ({len(L) / dt / 1e6:.2f} M rays/s), "
-          f"ok {np.mean(status == 0) * 100:.2f} %")
+    print(
+        f"scangeo image->ground, every pixel of 716 x {args.lines} over SRTM (heights {dtm.h_min:.0f}-"
+        f"{dtm.h_max:.0f} m, 4000 m flight): {dt:.2f} s ({len(L) / dt / 1e6:.2f} M rays/s), "
+        f"ok {np.mean(status == 0) * 100:.2f} %"
+    )
     print(f"peak memory (max RSS): {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
 
 

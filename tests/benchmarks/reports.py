@@ -60,13 +60,17 @@ def main() -> None:
     t = time.perf_counter()
     files = write_report(root)
     print(f"write_report ({files.figures} figures, GeoPackage)        {time.perf_counter() - t:6.1f} s", flush=True)
-    print(f"peak resident memory of this process           {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:6.0f} MiB")
+    print(
+        f"peak resident memory of this process           {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:6.0f} MiB"
+    )
     if args.demo:
         from scangeo.reports.demo import run_demo
 
         t = time.perf_counter()
         r = run_demo(cache / "demo", overwrite=True)
-        print(f"demo total {time.perf_counter() - t:.0f} s: " + ", ".join(f"{k} {v:.0f} s" for k, v in r.seconds.items()))
+        print(
+            f"demo total {time.perf_counter() - t:.0f} s: " + ", ".join(f"{k} {v:.0f} s" for k, v in r.seconds.items())
+        )
 
 
 if __name__ == "__main__":

@@ -81,7 +81,9 @@ def main() -> None:
         f, t_again = timed(fz.factorize, N)  # numeric refactorisation (cholmod reuses the analysis)
         x, t_solve = timed(f.solve, b)
         ldl, t_ldl = timed(f.ldl)
-        rows.append((f"{backend}: factor (first, with ordering)", t_first, ldl.L.nnz + N.shape[0], np.abs(N @ x - b).max()))
+        rows.append(
+            (f"{backend}: factor (first, with ordering)", t_first, ldl.L.nnz + N.shape[0], np.abs(N @ x - b).max())
+        )
         rows.append((f"{backend}: factor (again, same pattern)", t_again, None, None))
         rows.append((f"{backend}: solve", t_solve, None, None))
         rows.append((f"{backend}: explicit LDL^T for selected inversion", t_ldl, None, None))
@@ -92,8 +94,10 @@ def main() -> None:
             e = np.zeros((N.shape[0], probe.size))
             e[probe, np.arange(probe.size)] = 1.0
             ref = f.solve(e)[probe, np.arange(probe.size)]
-            print(f"selected-inverse check at {probe.size} unknowns: max rel. error "
-                  f"{np.max(np.abs(inv.diagonal()[probe] - ref) / ref):.1e}")
+            print(
+                f"selected-inverse check at {probe.size} unknowns: max rel. error "
+                f"{np.max(np.abs(inv.diagonal()[probe] - ref) / ref):.1e}"
+            )
     base = rows[0][1] if not args.skip_baseline else None
     print(f"{'step':66s} {'seconds':>8s} {'x baseline':>10s} {'nnz(L)':>10s} {'residual':>9s}")
     for name, t, nnz, res in rows:

@@ -33,8 +33,10 @@ def main() -> None:
     traj = stream.to_project(frame)
     inner = (traj.time > traj.time[0] + 1) & (traj.time < traj.time[-1] - 1)
     print(f"{len(stream)} samples, {stream.rate_hz:.0f} Hz, {traj.time[-1] - traj.time[0]:.1f} s")
-    print("| knot spacing | fit: position rms / max (mm) | fit: roll, pitch, heading rms (urad) | fit: attitude max (urad) "
-          "| 50 Hz held out: position rms / max (mm) | held out: attitude rms / max (urad) |")
+    print(
+        "| knot spacing | fit: position rms / max (mm) | fit: roll, pitch, heading rms (urad) | fit: attitude max (urad) "
+        "| 50 Hz held out: position rms / max (mm) | held out: attitude rms / max (urad) |"
+    )
     print("|---|---|---|---|---|---|")
     every4 = np.zeros(len(traj.time), bool)
     every4[::4] = True
@@ -44,9 +46,11 @@ def main() -> None:
         sub = type(traj)(traj.time[every4], traj.p_P[every4], traj.angles_P[every4])
         held = OrientationSpline.from_trajectory(sub, spacing, t_range=(traj.time[0], traj.time[-1]))
         hp, ha = errors(held, traj, inner & ~every4)
-        print(f"| {spacing:g} s | {np.sqrt(np.mean(dp**2)):.1f} / {dp.max():.1f} | "
-              f"{', '.join(f'{x:.1f}' for x in np.sqrt(np.mean(da**2, axis=0)))} | {da.max():.0f} | "
-              f"{np.sqrt(np.mean(hp**2)):.1f} / {hp.max():.1f} | {np.sqrt(np.mean(ha**2)):.1f} / {ha.max():.0f} |")
+        print(
+            f"| {spacing:g} s | {np.sqrt(np.mean(dp**2)):.1f} / {dp.max():.1f} | "
+            f"{', '.join(f'{x:.1f}' for x in np.sqrt(np.mean(da**2, axis=0)))} | {da.max():.0f} | "
+            f"{np.sqrt(np.mean(hp**2)):.1f} / {hp.max():.1f} | {np.sqrt(np.mean(ha**2)):.1f} / {ha.max():.0f} |"
+        )
 
 
 if __name__ == "__main__":

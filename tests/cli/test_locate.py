@@ -28,7 +28,11 @@ def dt_pixel(info) -> float:
 
 
 def pixel_time(info, line, pixel):
-    return info.first_line_time + np.asarray(line, float) / info.line_rate + (np.asarray(pixel, float) - 50) * dt_pixel(info)
+    return (
+        info.first_line_time
+        + np.asarray(line, float) / info.line_rate
+        + (np.asarray(pixel, float) - 50) * dt_pixel(info)
+    )
 
 
 def write_csv(path, header, rows):
@@ -106,7 +110,8 @@ def test_off_nadir_pixels_against_an_independent_ray(tiny_project, strip, pixel)
     across = 0.9996 * info.height_above_ground * np.tan(theta)
     sign = 1.0 if strip == "1" else -1.0
     lon, lat = pyproj.Transformer.from_crs(info.crs, "EPSG:4326", always_xy=True).transform(
-        info.easting(strip), info.y0)
+        info.easting(strip), info.y0
+    )
     gamma = np.radians(pyproj.Proj(info.crs).get_factors(lon, lat).meridian_convergence)
     assert (strip == "1") == (abs(gamma) < 1e-12)
     east = sign * across  # true-east offset of the ground point from the track
@@ -137,12 +142,14 @@ def test_points_without_an_answer(tiny_project):
     xyz, reasons = image_to_map(project, "1", [-1.0, 400.0, 10.0, 10.0, 10.0], [50.0, 50.0, -0.6, 100.6, 100.4])
     assert reasons[:4] == [OUTSIDE_IMAGE] * 4 and reasons[4] == ""
     assert np.isnan(xyz[:4]).all() and np.isfinite(xyz[4]).all()
-    ground = np.array([
-        [info.x0 + 1500.0, info.y0, info.ground_H],   # 1.5 km east of the track: outside the swath
-        [info.x0, info.y0 + 1500.0, info.ground_H],   # under the trajectory's end, after the last line
-        [info.x0 + 100.0, info.y0 + 3000.0, np.nan],  # no z and off the DTM
-        [info.x0 + 100.0, info.y0, np.nan],           # z from the DTM
-    ])
+    ground = np.array(
+        [
+            [info.x0 + 1500.0, info.y0, info.ground_H],  # 1.5 km east of the track: outside the swath
+            [info.x0, info.y0 + 1500.0, info.ground_H],  # under the trajectory's end, after the last line
+            [info.x0 + 100.0, info.y0 + 3000.0, np.nan],  # no z and off the DTM
+            [info.x0 + 100.0, info.y0, np.nan],  # z from the DTM
+        ]
+    )
     line, pixel, reasons = map_to_image(project, "1", ground)
     assert reasons == ["outside the swath", "not seen by the strip", NO_HEIGHT, ""]
     assert np.isnan(line[:3]).all() and np.isnan(pixel[:3]).all()
@@ -168,8 +175,11 @@ def test_lines_beyond_the_trajectory(tiny_project):
 # ------------------------------------------------------------------------------------ files and CLI
 def test_cli_image_to_ground_file(tiny_project, tmp_path):
     info = tiny_project
-    src = write_csv(tmp_path / "img.csv", ["point", "line", "pixel", "note"],
-                    [["a", "200", "50", "x"], ["b", "0", "100", ""], ["c", "-5", "50", ""], ["a", "399", "0", ""]])
+    src = write_csv(
+        tmp_path / "img.csv",
+        ["point", "line", "pixel", "note"],
+        [["a", "200", "50", "x"], ["b", "0", "100", ""], ["c", "-5", "50", ""], ["a", "399", "0", ""]],
+    )
     out = tmp_path / "out.csv"
     assert main(["locate", str(info.root), "--strip", "1", "--image", str(src), "-o", str(out)]) == 0
     assert not (tmp_path / "out.csv.tmp").exists()
@@ -185,11 +195,15 @@ def test_cli_image_to_ground_file(tiny_project, tmp_path):
 
 def test_cli_ground_to_image_from_a_ground_csv(tiny_project, tmp_path, capsys):
     info = tiny_project
-    src = write_csv(tmp_path / "ground.csv", ["point", "x", "y", "z", "sigma_xy", "sigma_z", "role"], [
-        ["g1", f"{info.x0}", f"{info.y0}", f"{info.ground_H}", "0.1", "0.1", "control"],
-        ["g2", f"{info.x0 + 1500}", f"{info.y0}", f"{info.ground_H}", "0.1", "0.1", "check"],
-        ["g3", f"{info.x0}", f"{info.y0 - 500}", "", "0.1", "0.1", "planimetric"],
-    ])
+    src = write_csv(
+        tmp_path / "ground.csv",
+        ["point", "x", "y", "z", "sigma_xy", "sigma_z", "role"],
+        [
+            ["g1", f"{info.x0}", f"{info.y0}", f"{info.ground_H}", "0.1", "0.1", "control"],
+            ["g2", f"{info.x0 + 1500}", f"{info.y0}", f"{info.ground_H}", "0.1", "0.1", "check"],
+            ["g3", f"{info.x0}", f"{info.y0 - 500}", "", "0.1", "0.1", "planimetric"],
+        ],
+    )
     assert main(["locate", str(info.root), "--strip", "1", "--ground", str(src)]) == 0
     captured = capsys.readouterr()
     lines = captured.out.strip().splitlines()
@@ -202,13 +216,16 @@ def test_cli_ground_to_image_from_a_ground_csv(tiny_project, tmp_path, capsys):
     assert "1 of 3 points have no answer" in captured.err
 
 
-@pytest.mark.parametrize("text, expected", [
-    ("point,line\na,1\n", "line 1: missing column pixel"),
-    ("point,line,pixel\na,1,x\n", "line 2: pixel 'x' is not a number"),
-    ("point,line,pixel\na,1,2\nb,1\n", "line 3: 2 fields, expected 3"),
-    ("point,line,pixel\n", "no points after the header"),
-    ("", "empty"),
-])
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("point,line\na,1\n", "line 1: missing column pixel"),
+        ("point,line,pixel\na,1,x\n", "line 2: pixel 'x' is not a number"),
+        ("point,line,pixel\na,1,2\nb,1\n", "line 3: 2 fields, expected 3"),
+        ("point,line,pixel\n", "no points after the header"),
+        ("", "empty"),
+    ],
+)
 def test_bad_image_point_files(tiny_project, tmp_path, text, expected):
     path = tmp_path / "img.csv"
     path.write_text(text)

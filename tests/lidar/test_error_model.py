@@ -62,7 +62,9 @@ def test_scan_angle_of_pulse_i_of_n_index_and_scale():
     # turning the beam by dtheta about the sensor moves the point by -rho dtheta across
     rho = H / np.cos(theta)
     np.testing.assert_allclose(err_i[:, 1], -rho * np.cos(theta) * d_index, rtol=1e-3)
-    np.testing.assert_allclose(err_s[:, 1], -rho * np.cos(theta) * d_fov * (0.5 - np.arange(5) / 4), rtol=1e-3, atol=1e-9)
+    np.testing.assert_allclose(
+        err_s[:, 1], -rho * np.cos(theta) * d_fov * (0.5 - np.arange(5) / 4), rtol=1e-3, atol=1e-9
+    )
 
 
 def test_gps_and_lever_arm_shift_every_return_by_minus_offset():
@@ -84,8 +86,14 @@ def test_secondary_height_error_on_slope():
 
 
 def test_total_is_sum_of_sources_for_small_errors():
-    e = SystematicErrors(range_offset=0.05, index_error=1e-4, mounting=(1e-4, -2e-4, 3e-4),
-                         imu=(-1e-4, 1e-4, 2e-4), lever_arm=(0.01, 0.02, 0.03), gps=(0.05, 0.0, -0.1))
+    e = SystematicErrors(
+        range_offset=0.05,
+        index_error=1e-4,
+        mounting=(1e-4, -2e-4, 3e-4),
+        imu=(-1e-4, 1e-4, 2e-4),
+        lever_arm=(0.01, 0.02, 0.03),
+        gps=(0.05, 0.0, -0.1),
+    )
     table = error_budget_by_source(GEOMETRY, e)
     assert list(table) == ["range", "scanner", "mounting", "imu", "lever_arm", "gps", "total"]
     summed = sum(table[k].start for k in table if k != "total")
@@ -100,8 +108,22 @@ def test_geometry_is_checked():
 
 
 def test_cli_errors_json_shape_and_values(run_lidar_json):
-    out = run_lidar_json(["lidar", "errors", "--height", "1000", "--scan-angle", "40",
-                          "--range-error", "0.1", "--mounting", "0,0.01,0", "--gps", "0,0,0.05"])
+    out = run_lidar_json(
+        [
+            "lidar",
+            "errors",
+            "--height",
+            "1000",
+            "--scan-angle",
+            "40",
+            "--range-error",
+            "0.1",
+            "--mounting",
+            "0,0.01,0",
+            "--gps",
+            "0,0,0.05",
+        ]
+    )
     assert set(out) == {"sources", "total"}
     assert list(out["sources"]) == ["range", "mounting", "gps"]
     for entry in [*out["sources"].values(), out["total"]]:

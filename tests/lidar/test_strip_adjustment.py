@@ -100,7 +100,9 @@ def test_adjustment_recovers_injected_offsets_and_tilts():
 def test_two_strips_hand_computed():
     # strip 0 has control (sigma 1), tie 0-1 (sigma 1): offsets 0.3 and 0.3-0.1; var = [1, 2]
     strips = [Strip("a", 0, 0, 0), Strip("b", 500, 0, 0)]
-    result = adjust_strips(strips, [TieArea(0, 1, 250, 0, dh=0.1, sigma=1.0)], [ControlArea(0, 0, 0, dh=0.3, sigma=1.0)])
+    result = adjust_strips(
+        strips, [TieArea(0, 1, 250, 0, dh=0.1, sigma=1.0)], [ControlArea(0, 0, 0, dh=0.3, sigma=1.0)]
+    )
     np.testing.assert_allclose(result.params[:, 0], [0.3, 0.2])
     np.testing.assert_allclose(result.offset_sigma**2, [1.0, 2.0])
 

@@ -65,7 +65,9 @@ def test_files_read_back(compared_small):
     assert list(rows[0]) == CSV_FIELDS
     assert len(rows) == len(c.variants) * len(c.strips)
     row = next(r for r in rows if r["variant"] == "S4" and r["strip"] == c.strips[1])
-    assert float(row["check_rms_across_px"]) == pytest.approx(c.variant("S4").strips[c.strips[1]]["check"]["rms_across_px"], rel=1e-5)
+    assert float(row["check_rms_across_px"]) == pytest.approx(
+        c.variant("S4").strips[c.strips[1]]["check"]["rms_across_px"], rel=1e-5
+    )
     assert float(row["true_rms_ground_m"]) > 0
     md = (root / "results" / "comparison.md").read_text()
     for v in c.variants:
@@ -97,8 +99,10 @@ def test_a_failing_variant_is_reported_not_raised(problem_small, tmp_path):
     root = tmp_path / "p"
     shutil.copytree(problem_small, root)
     variants = tmp_path / "mine.toml"
-    variants.write_text('[variants.SE]\nstrategy = "SE"\n[variants.BAD]\nstrategy = "S"\n'
-                        '[[variants.BAD.strip]]\nid = "01"\nbreaks_lines = [100000.0]\n')
+    variants.write_text(
+        '[variants.SE]\nstrategy = "SE"\n[variants.BAD]\nstrategy = "S"\n'
+        '[[variants.BAD.strip]]\nid = "01"\nbreaks_lines = [100000.0]\n'
+    )
     c = compare_project(root, variants, names=["SE", "BAD"])
     assert c.variant("SE").error is None
     assert "variant BAD, strip 01: breaks must lie inside" in c.variant("BAD").error

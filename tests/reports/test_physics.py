@@ -89,12 +89,16 @@ def test_corrections_halve_the_problem_strips_across_track_error(vienna, name):
     assert true(name) <= 0.5 * true("SE")
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "measured with the default variants (the same observations in every variant: DTM heights at the tie points, "
-    "no automatic rejection; docs/reports.md, 'A fair comparison'), preset of commit abdf7c2: SE, without the "
-    "problem strip's correction, is pulled by the DTM heights the excursions contradict, so its good strip 03 "
-    "worsens (across 0.33 -> 0.47 px half size, 0.38 -> 0.45 px full size, along 0.31 -> 0.41 px); P/S keep strip 03 at 0.32-0.37 px, "
-    "which is 69-77 % of SE (along 92-93 % half size, 69-73 % full size); strip 01 across 84-91 % resp. 81-88 %"))
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "measured with the default variants (the same observations in every variant: DTM heights at the tie points, "
+        "no automatic rejection; docs/reports.md, 'A fair comparison'), preset of commit abdf7c2: SE, without the "
+        "problem strip's correction, is pulled by the DTM heights the excursions contradict, so its good strip 03 "
+        "worsens (across 0.33 -> 0.47 px half size, 0.38 -> 0.45 px full size, along 0.31 -> 0.41 px); P/S keep strip 03 at 0.32-0.37 px, "
+        "which is 69-77 % of SE (along 92-93 % half size, 69-73 % full size); strip 01 across 84-91 % resp. 81-88 %"
+    ),
+)
 @pytest.mark.parametrize("name", CORRECTED)
 def test_good_strips_stay_as_they_were(vienna, name):
     c, _, good = vienna

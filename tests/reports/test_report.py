@@ -129,7 +129,9 @@ def test_report_opens_in_a_browser(compared_small, tmp_path):
             "return Array.from(document.images).map(i => [i.id || i.alt, i.complete, i.naturalWidth, i.naturalHeight])")
         table_rows = driver.execute_script(
             "return Array.from(document.querySelectorAll('#comparison-table tbody tr')).map(r => r.cells[0].textContent)")
-        sections = driver.execute_script("return Array.from(document.querySelectorAll('section h2')).map(h => h.textContent)")
+        sections = driver.execute_script(
+            "return Array.from(document.querySelectorAll('section h2')).map(h => h.textContent)"
+        )
         figure_ids = driver.execute_script("return Array.from(document.querySelectorAll('figure')).map(f => f.id)")
         height = driver.execute_script("return document.body.scrollHeight")
         driver.set_window_size(1300, min(int(height) + 50, 12000))
@@ -143,12 +145,20 @@ def test_report_opens_in_a_browser(compared_small, tmp_path):
     # the table, the rms chart; per strip residual vectors, corrections, GPS/IMU; the problem strip's
     # height corrections; the map of the tracks
     n = len(c.strips)
-    assert sorted(figure_ids) == sorted(["fig-rms", "fig-tracks", "fig-height-02"]
-                                        + [f"fig-{k}-{s}" for k in ("vectors", "corr", "gpsimu") for s in c.strips])
+    assert sorted(figure_ids) == sorted(
+        ["fig-rms", "fig-tracks", "fig-height-02"]
+        + [f"fig-{k}-{s}" for k in ("vectors", "corr", "gpsimu") for s in c.strips]
+    )
     assert len(figure_ids) == 3 + 3 * n
-    assert sections == ["Comparison of strategies", "Residual vectors at the check points", "Correction functions",
-                        "GPS/IMU data", "Unknowns, observations and conditions", "Regularisation and blunders",
-                        "Files"]
+    assert sections == [
+        "Comparison of strategies",
+        "Residual vectors at the check points",
+        "Correction functions",
+        "GPS/IMU data",
+        "Unknowns, observations and conditions",
+        "Regularisation and blunders",
+        "Files",
+    ]
     from PIL import Image
 
     with Image.open(shot) as im:

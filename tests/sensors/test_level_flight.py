@@ -41,7 +41,9 @@ def test_edge_pixel_lands_at_H_tan_theta_on_the_correct_side(direction):
     assert np.allclose(g[:, 0], height * np.tan(theta), atol=1e-4)
     # pixel 0 is on the left (west, x < 0) when pixels grow to the right
     assert np.sign(g[0, 0]) == -direction
-    assert abs(g[0, 0]) == pytest.approx((H_FLIGHT - H_GROUND) * np.tan(np.radians(42.9 / 2) - 0.5 * sensor.step), rel=1e-3)
+    assert abs(g[0, 0]) == pytest.approx(
+        (H_FLIGHT - H_GROUND) * np.tan(np.radians(42.9 / 2) - 0.5 * sensor.step), rel=1e-3
+    )
 
 
 def test_one_degree_roll_moves_the_ground_point_by_the_expected_amount():
