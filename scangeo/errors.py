@@ -22,6 +22,10 @@ class TrajectoryError(InputFileError):
     """A GPS/IMU trajectory file is malformed (times, columns, records)."""
 
 
+class CRSError(ProjectFileError):
+    """A coordinate reference system given by the user is not known to PROJ (names the file and key)."""
+
+
 class DTMError(ScangeoError):
     """A DTM cannot be read or does not cover what is asked."""
 
