@@ -18,6 +18,11 @@ class ProjectFileError(InputFileError):
     """project.toml, variants.toml, points.csv or ground.csv is malformed."""
 
 
+class OrientationFileError(InputFileError):
+    """An ``orientation.json`` (an adjusted orientation, docs/formats.md) is missing, of another
+    schema version, or malformed (names the file and the key)."""
+
+
 class TrajectoryError(InputFileError):
     """A GPS/IMU trajectory file is malformed (times, columns, records)."""
 
