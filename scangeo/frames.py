@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pyproj
 
-from scangeo.errors import InputFileError
+from scangeo.errors import CRSError, InputFileError
 from scangeo.grid import RasterGrid
 
 WGS84_A = 6378137.0
@@ -26,6 +26,22 @@ WGS84_E2 = WGS84_F * (2.0 - WGS84_F)
 
 #: The geographic 2D CRS of the project frame's ellipsoid (lon, lat order with always_xy).
 GEOGRAPHIC_CRS = pyproj.CRS.from_epsg(4326)
+
+
+def parse_crs(crs, where: str = "CRS") -> pyproj.CRS:
+    """A pyproj CRS of a user's input (EPSG code, WKT, PROJ string, pyproj.CRS).
+
+    ``where`` names the file and key for the message, e.g. ``project.toml [project] crs``; a CRS
+    PROJ does not know raises :class:`~scangeo.errors.CRSError` instead of pyproj's own error.
+    """
+    if isinstance(crs, pyproj.CRS):
+        return crs
+    try:
+        return pyproj.CRS.from_user_input(crs)
+    except (pyproj.exceptions.CRSError, TypeError, ValueError) as exc:
+        text = str(crs) if len(str(crs)) <= 80 else str(crs)[:77] + "..."
+        raise CRSError(f"{where}: {text!r} is not a coordinate reference system PROJ knows "
+                       "(expected e.g. EPSG:32633, a WKT or a PROJ string)") from exc
 
 
 def geodetic_to_ecef(lat, lon, h) -> np.ndarray:
@@ -170,7 +186,7 @@ class MapFrame:
     """
 
     def __init__(self, crs, frame: ProjectFrame, geoid: Geoid | None = None) -> None:
-        crs = pyproj.CRS.from_user_input(crs)
+        crs = parse_crs(crs)
         if crs.is_compound:
             crs = crs.sub_crs_list[0]
         self.crs = crs

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from scangeo.errors import ProjectFileError
-from scangeo.frames import Geoid, MapFrame, ProjectFrame
+from scangeo.frames import Geoid, MapFrame, ProjectFrame, parse_crs
 from scangeo.io.toml_config import Table, load_toml
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.sensors.strip import Mounting, StripGeometry
@@ -132,6 +132,7 @@ class Project:
                 raise ProjectFileError(f"{file}: unknown table [{key}] (expected project, sensor, strips)")
         p = Table(data.get("project", {}), file, "project")
         crs = p.get("crs", str)
+        parse_crs(crs, f"{file} [project] crs")
         dtm = root / p.get("dtm", str)
         geoid_file = p.get("geoid", str, None)
         undulation = p.get("geoid_undulation_m", float, None)
@@ -143,6 +144,8 @@ class Project:
         knot_spacing = p.get("knot_spacing_s", float, 0.2)
         dtm_sigma = p.get("dtm_sigma_m", float, 1.5)
         traj_crs = p.get("trajectory_crs", str, None)
+        if traj_crs is not None:
+            parse_crs(traj_crs, f"{file} [project] trajectory_crs")
         p.finish()
         sensor = SensorConfig.from_table(Table(data.get("sensor", {}), file, "sensor"), root)
         raw_strips = data.get("strips", [])
