@@ -29,6 +29,7 @@ import numpy as np
 from scangeo.adjustment.observations import ObservationGroup
 from scangeo.adjustment.parameters import Parameters
 from scangeo.adjustment.removal import RemovalUpdate
+from scangeo.adjustment.separability import NOTE, examine_unit
 from scangeo.adjustment.solver import Solution, Solver, SolverOptions
 from scangeo.adjustment.statistics import Statistics
 from scangeo.errors import AdjustmentError
@@ -50,6 +51,9 @@ class SnoopingOptions:
     method: str = "update"
     #: with ``method = "update"``: at most this many rows removed between full solutions
     max_update_rows: int = 64
+    #: a blunder that cannot be told apart from another measurement's (``separability.py``) removes
+    #: its whole point with a note instead of blaming one measurement
+    separability: bool = True
 
     def __post_init__(self) -> None:
         if self.method not in ("update", "resolve"):
@@ -65,6 +69,9 @@ class Rejection:
     components: tuple[str, ...]
     w: float
     round: int
+    #: False: a non-separable blunder, every measurement of the point removed (``note`` says why)
+    separable: bool = True
+    note: str = ""
 
 
 @dataclass
@@ -151,10 +158,15 @@ def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
         for gi, unit, w in worst:
             group = solution.groups[gi]
             sel = group.row_unit == unit
-            rows.append(solution.system.row_slices[gi].start + np.flatnonzero(sel))
-            rejections.append(
-                Rejection(group.name, str(group.ids[sel][0]), tuple(str(c) for c in group.components[sel]), w, rounds)
-            )
+            comps = tuple(str(c) for c in group.components[sel])
+            verdict = examine_unit(solution, stats, update, gi, unit) if snooping.separability else None
+            if verdict is None or verdict.separable:
+                rows.append(solution.system.row_slices[gi].start + np.flatnonzero(sel))
+                rejections.append(Rejection(group.name, str(group.ids[sel][0]), comps, w, rounds))
+            else:  # the whole point: which of its measurements holds the blunder cannot be told
+                rows.append(verdict.rows)
+                note = f"{NOTE}: {verdict.reason} ({'; '.join(verdict.partners)})"
+                rejections.append(Rejection(group.name, str(group.ids[sel][0]), comps, w, rounds, False, note))
             log.info("data snooping round %d: rejected %s %s (|w| = %.2f)", rounds, group.name, group.ids[sel][0], w)
         rows = np.concatenate(rows)
         callback(

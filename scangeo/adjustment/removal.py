@@ -99,6 +99,17 @@ class RemovalUpdate:
         self._S_inv = np.linalg.inv(S)
         return self._solve()
 
+    @property
+    def scaled_jacobian(self) -> sp.csr_matrix:
+        """``J D^-1`` of the last full solution's linearisation (removed rows included)."""
+        return self._Js
+
+    def apply_inverse(self, b: np.ndarray) -> np.ndarray:
+        """``N'^-1 b`` for one or several (n x k) right-hand sides."""
+        b = np.asarray(b, dtype=float)
+        y = np.asarray(self.solution.factor.solve(b)).reshape(b.shape)
+        return y + self._U @ (self._S_inv @ (self._U.T @ b))
+
     def _apply_inverse(self, b: np.ndarray) -> np.ndarray:
         """``N'^-1 b`` for the scaled normal matrix with the removed rows left out."""
         y = np.asarray(self.solution.factor.solve(b)).ravel()
@@ -131,11 +142,16 @@ class RemovalUpdate:
         return False
 
     # -- tests ----------------------------------------------------------------------------------
-    def w_tests(self) -> list[np.ndarray]:
-        """Per group, Baarda's w of every active tested row (NaN elsewhere), as ``Statistics.w_tests``."""
+    def leverages(self) -> np.ndarray:
+        """``h'_i = j_i N'^-1 j_i^T`` of every tested row of the stack (NaN for the others)."""
         B = self._J_tested @ self._U
         h = np.full(self._residuals.size, np.nan)
         h[self._tested] = self._h0 + np.einsum("ik,ik->i", B @ self._S_inv, B)
+        return h
+
+    def w_tests(self) -> list[np.ndarray]:
+        """Per group, Baarda's w of every active tested row (NaN elsewhere), as ``Statistics.w_tests``."""
+        h = self.leverages()
         out = []
         for act, sl in zip(self.active, self.solution.system.row_slices):
             red = 1.0 - h[sl]

@@ -1,0 +1,172 @@
+"""Reliability of an adjustment (Baarda): minimal detectable blunders and their effect on the result.
+
+With whitened rows (residual / sigma, Jacobian / sigma), ``N = J^T J`` and the redundancy number
+``r_i = 1 - j_i N^-1 j_i^T`` of row ``i``:
+
+- **internal reliability**, the minimal detectable blunder (MDB) of row ``i``: the blunder the w-test
+  (two-sided, significance ``alpha0``) finds with probability ``beta``,
+
+      MDB_i = sigma_i * delta0 / sqrt(r_i),   delta0 = z(1 - alpha0 / 2) + z(beta)
+
+  (``alpha0 = 0.1 %``, ``beta = 80 %``: ``delta0 = 3.29 + 0.84 = 4.13``, ``lambda0 = delta0^2 = 17.07``),
+  in the observation's unit (lines, pixels, metres, radians). A row with ``r_i`` below
+  ``MIN_REDUNDANCY`` is uncontrolled: its MDB is infinite (no blunder there can be detected);
+- **external reliability**: an undetected blunder of MDB size shifts the unknowns by
+  ``dx_i = N^-1 j_i^T delta0 / sqrt(r_i)``. Reported are its effect on the observation's own ground
+  point (``ext_point_m``: the length of the shift of ``Ground(id)``, metres), its largest effect on the
+  ground positions of the strips (``ext_orientation_m``: the horizontal shift, at fixed height, of
+  where a pixel lands on the ground, the largest over a grid of image positions in every strip, see
+  :class:`OrientationProbe`), and Baarda's bias-to-noise ratio ``sqrt_lambda = delta0 sqrt((1 - r) / r)``:
+  no function ``f`` of the unknowns moves by more than ``sqrt_lambda * sigma_f`` (a priori).
+
+Everything comes from the factor of the last solution: one solve per row (in chunks), never a dense
+inverse. Rejected rows and pseudo-observations get NaN.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.stats
+
+from scangeo.adjustment.keys import Ground
+from scangeo.adjustment.separability import scaled_jacobian
+from scangeo.adjustment.solver import Solution
+from scangeo.adjustment.statistics import MIN_REDUNDANCY, Statistics
+
+#: Significance level of the w-test (two-sided) and power of the test, the MDB's definition.
+ALPHA0 = 0.001
+BETA = 0.80
+
+
+def delta0(alpha0: float = ALPHA0, beta: float = BETA) -> float:
+    """``sqrt(lambda0)``: the non-centrality (in sigmas of the w-test) found with power ``beta``."""
+    return float(scipy.stats.norm.ppf(1.0 - alpha0 / 2.0) + scipy.stats.norm.ppf(beta))
+
+
+@dataclass(frozen=True)
+class OrientationProbe:
+    """How the unknowns move the ground positions of one strip's pixels.
+
+    ``matrix`` (2 k x n, CSR) maps a change of the unknowns (unscaled, the layout's columns) to the
+    horizontal shift (x, y in m, project frame, at fixed height) of where k image positions of the
+    strip land on the ground: ``dG = -(dimage/dG_xy)^-1 dimage/dx`` per position.
+    """
+
+    strip: str
+    matrix: sp.csr_matrix
+
+
+@dataclass
+class Reliability:
+    """Per observation group, per row: redundancy number, MDB and external reliability.
+
+    ``ext_strip`` holds per strip the largest shift of its ground positions (m) any single undetected
+    MDB-sized blunder causes, and the row (group index, row) responsible.
+    """
+
+    groups: list
+    redundancy: list[np.ndarray]
+    mdb: list[np.ndarray]
+    sqrt_lambda: list[np.ndarray]
+    ext_point_m: list[np.ndarray]
+    ext_orientation_m: list[np.ndarray]
+    alpha0: float = ALPHA0
+    beta: float = BETA
+    ext_strip: dict[str, tuple[float, int, int]] = field(default_factory=dict)
+
+    @property
+    def delta0(self) -> float:
+        return delta0(self.alpha0, self.beta)
+
+
+def _ground_columns(solution: Solution, groups, rows_of_group: list[np.ndarray]) -> list[np.ndarray]:
+    """Per group, (rows, 3) columns of ``Ground(id)`` of each row (-1 where the id has no free point)."""
+    layout = solution.layout
+    cache: dict[str, np.ndarray] = {}
+    out = []
+    for g, rows in zip(groups, rows_of_group):
+        cols = np.full((rows.size, 3), -1, dtype=np.int64)
+        for k, i in enumerate(rows):
+            pid = str(g.ids[i])
+            if pid not in cache:
+                key = Ground(pid)
+                c = layout.columns(key) if key in layout.start else np.full(3, -1)
+                cache[pid] = c if c.size == 3 else np.full(3, -1)
+            cols[k] = cache[pid]
+        out.append(cols)
+    return out
+
+
+def compute_reliability(solution: Solution, statistics: Statistics, probes: Sequence[OrientationProbe] = (),
+                        alpha0: float = ALPHA0, beta: float = BETA, external: bool = True,
+                        chunk: int = 256) -> Reliability:
+    """Redundancy numbers, MDBs and external reliability of every active observation row.
+
+    Parameters
+    ----------
+    solution, statistics : a full solution and its statistics (``Adjustment.solution``, ``.statistics``).
+    probes : per strip, the map of the unknowns to its ground positions (``ext_orientation_m``); none:
+        NaN.
+    external : False skips the external reliability (no solves; MDBs only).
+    chunk : right-hand sides per solve.
+    """
+    d0 = delta0(alpha0, beta)
+    groups = solution.groups
+    slices = solution.system.row_slices
+    red_all = statistics.redundancy_numbers()
+    red, mdb, lam, ext_p, ext_o = [], [], [], [], []
+    for g, act, r in zip(groups, solution.active, red_all):
+        obs = np.full(g.n_rows, g.kind == "observation") & act
+        rr = np.where(obs, r, np.nan)
+        ok = obs & (rr >= MIN_REDUNDANCY)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            m = np.where(ok, g.sigma * d0 / np.sqrt(np.where(ok, rr, 1.0)), np.where(obs, np.inf, np.nan))
+            lam_g = np.where(ok, d0 * np.sqrt(np.clip(1.0 - rr, 0.0, None) / np.where(ok, rr, 1.0)),
+                             np.where(obs, np.inf, np.nan))
+        red.append(rr), mdb.append(m), lam.append(lam_g)
+        ext_p.append(np.where(obs, np.inf, np.nan)), ext_o.append(np.where(obs, np.inf, np.nan))
+    out = Reliability(list(groups), red, mdb, lam, ext_p, ext_o, alpha0, beta)
+    if not external:
+        out.ext_point_m = [np.full(g.n_rows, np.nan) for g in groups]
+        out.ext_orientation_m = [np.full(g.n_rows, np.nan) for g in groups]
+        return out
+    # the effects of an MDB-sized blunder in every controlled observation row
+    rows_of_group = [np.flatnonzero(np.isfinite(m)) for m in mdb]
+    gcols = _ground_columns(solution, groups, rows_of_group)
+    Js = scaled_jacobian(solution)
+    scale = solution.system.scale
+    if probes:
+        P = (sp.vstack([p.matrix for p in probes]).tocsr() @ sp.diags(1.0 / scale)).tocsr()
+        owner = np.concatenate([np.full(p.matrix.shape[0] // 2, k) for k, p in enumerate(probes)])
+    todo = [(gi, k, int(i)) for gi, rows in enumerate(rows_of_group) for k, i in enumerate(rows)]
+    strip_best: dict[str, tuple[float, int, int]] = {}
+    for start in range(0, len(todo), chunk):
+        part = todo[start:start + chunk]
+        glob = np.array([slices[gi].start + i for gi, _, i in part], dtype=np.int64)
+        size = np.array([d0 / np.sqrt(red[gi][i]) for gi, _, i in part])      # MDB in sigmas (whitened)
+        B = Js[glob].toarray().T
+        dx_s = np.asarray(solution.factor.solve(B)).reshape(B.shape) * size[None, :]   # scaled unknowns
+        for j, (gi, k, i) in enumerate(part):
+            c = gcols[gi][k]
+            ext_p[gi][i] = float(np.linalg.norm(dx_s[c, j] / scale[c])) if (c >= 0).all() else np.nan
+        if not probes:
+            for gi, _, i in part:
+                ext_o[gi][i] = np.nan
+            continue
+        shift = P @ dx_s                                            # (2 K, chunk) metres
+        length = np.hypot(shift[0::2], shift[1::2])                 # (K, chunk)
+        per_strip = np.zeros((len(probes), len(part)))
+        np.maximum.at(per_strip, owner, length)
+        for j, (gi, _, i) in enumerate(part):
+            ext_o[gi][i] = float(per_strip[:, j].max())
+            for s, probe in enumerate(probes):
+                if per_strip[s, j] > strip_best.get(probe.strip, (-1.0, 0, 0))[0]:
+                    strip_best[probe.strip] = (float(per_strip[s, j]), gi, i)
+    out.ext_strip = strip_best
+    return out
+
+
+__all__ = ["ALPHA0", "BETA", "OrientationProbe", "Reliability", "compute_reliability", "delta0"]
