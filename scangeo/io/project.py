@@ -200,9 +200,12 @@ class Project:
 
     def stream(self, strip_id: str):
         """The strip's GPS/IMU stream as measured."""
+        from scangeo.trajectory.checks import check_strip_trajectory, strip_times_of
         from scangeo.trajectory.readers import read_trajectory
 
-        return read_trajectory(self.strip(strip_id).trajectory, crs=self.trajectory_crs or self.crs)
+        stream = read_trajectory(self.strip(strip_id).trajectory, crs=self.trajectory_crs or self.crs)
+        check_strip_trajectory(stream, strip_times_of(self, strip_id))  # coverage, gaps: errors naming lines
+        return stream
 
     def timing(self, strip_id: str) -> LineTiming:
         s = self.strip(strip_id)
