@@ -51,6 +51,10 @@ class LidarError(ScangeoError):
     """A laser-scanner computation is given inconsistent input (geometry, errors, strips, budget)."""
 
 
+class OutputLockedError(ScangeoError):
+    """Another scangeo run is writing the same project (its lock file is held)."""
+
+
 def where(path: object, line: int | None = None, key: str | None = None) -> str:
     """Format a location prefix for messages: ``file line N`` or ``file [key]``."""
     text = str(path)

@@ -68,8 +68,16 @@ def main(argv: list[str] | None = None) -> int:
     level = logging.WARNING - 10 * min(getattr(args, "verbose", 0), 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     try:
+        if getattr(args, "writes_project", False):  # set by commands that write into PROJECT
+            from scangeo.atomic import OutputLock
+
+            with OutputLock(args.project, f"scangeo {args.command}"):
+                return int(args.func(args) or 0)
         return int(args.func(args) or 0)
     except ScangeoError as exc:
+        print(f"scangeo {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:  # a full disk, a folder without write permission: the system's words suffice
         print(f"scangeo {args.command}: error: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:

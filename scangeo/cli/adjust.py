@@ -20,7 +20,7 @@ def add_parser(subparsers, common) -> None:
     )
     p.add_argument("--variants", default=None, help="variants file (default PROJECT/variants.toml)")
     p.add_argument("--out", default=None, help="output folder (default PROJECT/results/NAME)")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, writes_project=True)  # one run at a time (scangeo.atomic.OutputLock)
 
 
 def run(args) -> int:

@@ -14,7 +14,7 @@ def add_parser(subparsers, common) -> None:
         description="Run every variant (docs/adjustment.md) on the project, write each one's results to "
                     "PROJECT/results/NAME/, the comparison table to PROJECT/results/comparison.{md,csv,json} and "
                     "the report (report.html, residuals.gpkg; docs/reports.md). Without PROJECT/variants.toml the "
-                    "default variants (data/variants.toml) are filled in and written there.",
+                    "default variants (shipped with scangeo; docs/reports.md) are filled in and written there.",
     )
     p.add_argument("project", help="the project folder")
     p.add_argument("--variants", default=None, help="variants file (default PROJECT/variants.toml)")
@@ -25,7 +25,7 @@ def add_parser(subparsers, common) -> None:
     p.add_argument("--breaks-lines", type=float, nargs="+", default=None, metavar="LINE",
                    help="for the default variants: the problem strip's break lines")
     p.add_argument("--no-report", dest="report", action="store_false", help="write the tables only")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, writes_project=True)  # one run at a time (scangeo.atomic.OutputLock)
 
 
 def run(args) -> int:

@@ -16,7 +16,7 @@ def add_parser(subparsers, common) -> None:
     p.add_argument("--out", default=None, help="output folder (default PROJECT/results)")
     p.add_argument("--no-geopackage", dest="geopackage", action="store_false",
                    help="do not write residuals.gpkg")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, writes_project=True)  # one run at a time (scangeo.atomic.OutputLock)
 
 
 def run(args) -> int:
