@@ -1,0 +1,439 @@
+"""Simultaneous georeferencing of laser strips with tie patches (Kager 2003) in the common engine.
+
+Set-up (:func:`build`): patch finding in every strip (in parallel with ``workers``), homologous tie
+patches, control and check patches from ground.csv, anchors (three per patch and strip, with their
+original observations recovered from the trajectory and the nominal calibration), GPS/IMU models
+(correction polynomials per strip, for the block, or split at breaks), priors (preventive
+regularisation: coefficients of degree >= 1, and optionally the constants, = 0 with a sigma), the
+calibration blocks, the observation groups of ``groups.py``. Then :func:`scangeo.adjustment.adjust`
+with data snooping. Two modes:
+
+- ``trajectory``: every strip has a trajectory; unknowns are the position and attitude correction
+  polynomials, boresight (and optionally lever arm, range offset, scan-angle index), the planes;
+- ``points`` (the paper's provisional solution): point clouds with GPS time only; per strip an XYZ
+  correction polynomial in time, added to the points, in the map CRS's units.
+
+``[adjustment]`` keys of project.toml (all optional) are the fields of :class:`LaserOptions`.
+"""
+from __future__ import annotations
+
+import logging
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+
+import numpy as np
+
+from scangeo.adjustment.engine import Adjustment, SnoopingOptions, adjust
+from scangeo.adjustment.keys import Boresight, LeverArm, RangeOffset, ScanIndex
+from scangeo.adjustment.parameters import Parameters
+from scangeo.adjustment.solver import SolverOptions
+from scangeo.errors import LidarError, ProjectFileError
+from scangeo.io.points import column_floats, read_rows
+from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, georeference, recover
+from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors
+from scangeo.lidar.lasio import StripCloud, read_strip
+from scangeo.lidar.patches import (
+    PatchOptions,
+    StripPatches,
+    TiePatch,
+    find_strip_patches,
+    fit_given_patches,
+    homologous,
+)
+from scangeo.lidar.planes import Planes, anchors
+from scangeo.lidar.project import LaserProject, LaserStrip
+from scangeo.models import GpsImuModel, ModelSet
+from scangeo.progress import ProgressCallback, no_progress
+
+log = logging.getLogger(__name__)
+
+MODES = ("auto", "trajectory", "points")
+CALIBRATE = ("boresight", "lever_arm", "range_offset", "scan_index")
+
+
+@dataclass(frozen=True)
+class LaserOptions:
+    """Options of ``scangeo lidar adjust`` (``[adjustment]`` in project.toml; lengths in metres)."""
+
+    mode: str = "auto"
+    patch_size: float = 6.0
+    min_patch_points: int = 13
+    max_patch_sigma: float = 0.05
+    max_angle_deg: float = 5.0
+    max_offset: float = 1.0
+    thin_cell: float = 40.0
+    models: str = "strip"
+    breaks: dict = field(default_factory=dict)
+    position_degree: int = 1
+    attitude_degree: int = 1
+    calibrate: tuple[str, ...] = ("boresight",)
+    coefficient_sigma_m: float = 0.5
+    coefficient_sigma_deg: float = 0.05
+    constant_sigma_m: float = 0.0
+    constant_sigma_deg: float = 0.01
+    snooping: bool = True
+    critical_value: float = 3.29
+    workers: int = 1
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise LidarError(f"mode must be one of {', '.join(MODES)}, not {self.mode!r}")
+        if self.models not in ("strip", "block"):
+            raise LidarError(f"models must be 'strip' or 'block', not {self.models!r}")
+        bad = sorted(set(self.calibrate) - set(CALIBRATE))
+        if bad:
+            raise LidarError(f"calibrate: unknown {', '.join(bad)} (known: {', '.join(CALIBRATE)})")
+
+    @property
+    def patches(self) -> PatchOptions:
+        return PatchOptions(self.patch_size, self.min_patch_points, self.max_patch_sigma, max_angle_deg=self.max_angle_deg,
+                            max_offset=self.max_offset, thin_cell=self.thin_cell)
+
+    @classmethod
+    def from_table(cls, table: dict, where: str, **overrides) -> LaserOptions:
+        known = {f.name for f in fields(cls)}
+        for key in table:
+            if key not in known:
+                raise ProjectFileError(f"{where} [adjustment] {key}: unknown key (known: {', '.join(sorted(known))})")
+        data = {k: (tuple(v) if k == "calibrate" else v) for k, v in table.items()}
+        data.update({k: v for k, v in overrides.items() if v is not None})
+        try:
+            return cls(**data)
+        except TypeError as exc:
+            raise ProjectFileError(f"{where} [adjustment]: {exc}") from exc
+
+
+@dataclass
+class GivenPatches:
+    """Control and check patches of ground.csv."""
+
+    ids: list[str]
+    role: list[str]
+    centre: np.ndarray     # (m, 2) map
+    radius: np.ndarray
+    point_ids: np.ndarray
+    point_patch: np.ndarray
+    xyz: np.ndarray        # (k, 3) map
+    sigma: np.ndarray
+
+
+def read_patch_ground(path: Path, margin: float = 0.5) -> GivenPatches:
+    """ground.csv of a laser project: ``point,patch,x,y,z,sigma_xy,sigma_z,role`` (role control or check)."""
+    header, body, numbers = read_rows(path, ["point", "patch", "x", "y", "z"], ["sigma_xy", "sigma_z", "role"])
+    xyz = np.column_stack([column_floats(path, header, body, numbers, c) for c in "xyz"])
+    sig = column_floats(path, header, body, numbers, "sigma_z", 0.01)
+    roles = [r[header.index("role")] if "role" in header else "control" for r in body]
+    for r, line in zip(roles, numbers):
+        if r not in ("control", "check"):
+            raise ProjectFileError(f"{path} line {line}: role {r!r}: expected control or check for a laser project")
+    pid = np.array([r[header.index("patch")] for r in body])
+    ids = list(dict.fromkeys(pid))
+    role, centre, radius = [], [], []
+    for p in ids:
+        sel = np.flatnonzero(pid == p)
+        if sel.size < 3:
+            raise ProjectFileError(f"{path} line {numbers[sel[0]]}: patch {p} has {sel.size} points (at least 3 needed)")
+        if len({roles[i] for i in sel}) > 1:
+            raise ProjectFileError(f"{path} line {numbers[sel[0]]}: patch {p} mixes the roles control and check")
+        role.append(roles[sel[0]])
+        c = xyz[sel, :2].mean(axis=0)
+        centre.append(c)
+        radius.append(np.max(np.hypot(*(xyz[sel, :2] - c).T)) + margin)
+    point_patch = np.array([ids.index(p) for p in pid])
+    return GivenPatches(ids, role, np.array(centre), np.array(radius), np.array([r[header.index("point")] for r in body]),
+                        point_patch, xyz, sig)
+
+
+@dataclass
+class StripFound:
+    """What pass 1 finds in one strip."""
+
+    id: str
+    count: int
+    t_start: float
+    t_end: float
+    patches: StripPatches
+    given: Planes | None
+    given_ok: np.ndarray | None
+
+
+def _pass1(args) -> StripFound:
+    strip, crs, options, prior, centres, radii = args
+    cloud = read_strip(strip.id, strip.las, strip.point_source_id, crs)
+    found = find_strip_patches(cloud, options, prior)
+    given, ok = (fit_given_patches(cloud, centres, radii, options, prior) if centres is not None and centres.size
+                 else (None, None))
+    return StripFound(strip.id, cloud.size, float(cloud.time.min()), float(cloud.time.max()), found, given, ok)
+
+
+def find_all(project: LaserProject, options: PatchOptions, prior: float, given: GivenPatches | None,
+             workers: int = 1, callback: ProgressCallback = no_progress) -> dict[str, StripFound]:
+    """Pass 1 over every strip (in parallel processes with ``workers > 1``)."""
+    tasks = [(s, project.crs, options, prior, None if given is None else given.centre,
+              None if given is None else given.radius) for s in project.strips]
+    out = {}
+    if workers > 1 and len(tasks) > 1:
+        with ProcessPoolExecutor(min(workers, len(tasks))) as pool:
+            for k, res in enumerate(pool.map(_pass1, tasks)):
+                out[res.id] = res
+                callback(k + 1, len(tasks), f"patches of strip {res.id}")
+    else:
+        for k, task in enumerate(tasks):
+            res = _pass1(task)
+            out[res.id] = res
+            callback(k + 1, len(tasks), f"patches of strip {res.id}")
+    return out
+
+
+@dataclass
+class LaserBlock:
+    """The adjustment problem and what is needed to apply its result."""
+
+    project: LaserProject
+    options: LaserOptions
+    mode: str
+    found: dict[str, StripFound]
+    ties: list[TiePatch]
+    given: GivenPatches | None
+    frames: PatchFrames
+    kinds: list[str]                   # per patch: tie, control, check
+    models: ModelSet
+    parameters: Parameters
+    groups: list
+    samplers: dict[str, TrajectorySampler]
+    nominal: Calibration
+    reference: np.ndarray              # work frame origin in map coordinates (points mode)
+    anchors: dict[str, dict]           # strip -> arrays of its anchors (all patches, check included)
+    notes: list[str] = field(default_factory=list)
+
+    def to_work(self, xyz: np.ndarray) -> np.ndarray:
+        if self.mode == "trajectory":
+            return self.project.map_frame.map_to_project(xyz[:, 0], xyz[:, 1], xyz[:, 2])
+        return xyz - self.reference
+
+    def to_map(self, p: np.ndarray) -> np.ndarray:
+        if self.mode == "trajectory":
+            return np.column_stack(self.project.map_frame.project_to_map(p))
+        return p + self.reference
+
+
+def _models(found: dict[str, StripFound], options: LaserOptions, mode: str) -> ModelSet:
+    adeg = options.attitude_degree if mode == "trajectory" else -1
+    pdeg = options.position_degree
+    if options.models == "block":
+        t0, t1 = min(f.t_start for f in found.values()), max(f.t_end for f in found.values())
+        return ModelSet([GpsImuModel("block", tuple(found), t0, t1 + 1e-6, pdeg, adeg, False, np.zeros(3), None,
+                                     {s: (-np.inf, np.inf) for s in found})])
+    models = []
+    for sid, f in found.items():
+        edges = [f.t_start] + sorted(float(b) for b in options.breaks.get(sid, [])) + [f.t_end + 1e-6]
+        if any(b <= a for a, b in zip(edges[:-1], edges[1:])):
+            raise LidarError(f"strip {sid}: breaks must lie inside its GPS time span {f.t_start:.3f}..{f.t_end:.3f} s")
+        n = len(edges) - 1
+        for k in range(n):
+            mid = sid if n == 1 else f"{sid}.{k + 1}"
+            lo, hi = (-np.inf if k == 0 else edges[k]), (np.inf if k == n - 1 else edges[k + 1])
+            models.append(GpsImuModel(mid, (sid,), edges[k], edges[k + 1], pdeg, adeg, False, np.zeros(3),
+                                      None if k == 0 else f"{sid}.{k}", {sid: (lo, hi)}))
+    return ModelSet(models)
+
+
+def _priors(params: Parameters, models: ModelSet, o: LaserOptions, unit: float) -> None:
+    for m in models:
+        names = m.names()
+        deg = np.array([int(n[-1]) for n in names])
+        angular = np.array([n[:-1] in ("roll", "pitch", "heading") for n in names])
+        coef = np.where(angular, np.radians(o.coefficient_sigma_deg), o.coefficient_sigma_m / unit)
+        const = np.where(angular, np.radians(o.constant_sigma_deg) if o.constant_sigma_deg > 0 else np.inf,
+                         o.constant_sigma_m / unit if o.constant_sigma_m > 0 else np.inf)
+        params.add(m.key, np.zeros(len(names)), True, prior_sigma=np.where(deg >= 1, coef, const),
+                   prior_values=np.zeros(len(names)), regularisation_sigma=np.where(angular, np.radians(0.01), 0.1 / unit),
+                   names=names, conditions=m.conditions)
+
+
+def _sampler(project: LaserProject, strip: LaserStrip, f: StripFound) -> TrajectorySampler:
+    sampler = TrajectorySampler(project.trajectory(strip), str(strip.trajectory))
+    lo, hi = sampler.span
+    if f.t_start < lo or f.t_end > hi:
+        raise LidarError(f"strip {strip.id}: the returns' GPS times {f.t_start:.3f}..{f.t_end:.3f} s are not covered by "
+                         f"its trajectory {strip.trajectory} ({lo:.3f}..{hi:.3f} s)")
+    return sampler
+
+
+def map_unit(crs) -> float:
+    """Metres per unit of the map CRS's first axis (1 for metres, 0.3048... for feet)."""
+    import pyproj
+
+    info = pyproj.CRS.from_user_input(crs).axis_info
+    return float(info[0].unit_conversion_factor) if info else 1.0
+
+
+def build(project: LaserProject, options: LaserOptions, ground: Path | None = None,
+          callback: ProgressCallback = no_progress) -> LaserBlock:
+    """Find patches, set up unknowns and observation groups."""
+    mode = options.mode
+    if mode == "auto":
+        mode = "trajectory" if project.has_trajectories else "points"
+    if mode == "trajectory" and not project.has_trajectories:
+        missing = [s.id for s in project.strips if s.trajectory is None]
+        raise LidarError(f"mode trajectory: strip {missing[0]} has no trajectory in project.toml")
+    unit = 1.0 if mode == "trajectory" else map_unit(project.crs)
+    popt = replace(options.patches, size=options.patch_size / unit, max_sigma=options.max_patch_sigma / unit,
+                   max_offset=options.max_offset / unit, thin_cell=options.thin_cell / unit)
+    prior = project.sensor.range_sigma_m / unit
+    given = read_patch_ground(ground) if ground is not None and Path(ground).exists() else None
+    if given is not None:  # a control patch's circle holds at least a patch's worth of returns
+        given.radius = np.maximum(given.radius, 0.5 * popt.size)
+    found = find_all(project, popt, prior, given, options.workers, callback)
+    ties = homologous({s: f.patches for s, f in found.items()}, popt)
+    notes = [f"{len(ties)} tie patches in {len(found)} strips ({', '.join(f'{s}: {len(f.patches.cells)} planar cells' for s, f in found.items())})"]
+    strips = {s.id: s for s in project.strips}
+    samplers = {sid: _sampler(project, strips[sid], f) for sid, f in found.items()} if mode == "trajectory" else {}
+    nominal = project.sensor.calibration()
+    ids, kinds, members = [], [], []
+    for tie in ties:
+        ids.append(tie.id), kinds.append("tie"), members.append([(s, "cells", i) for s, i in tie.members])
+    if given is not None:
+        for k, pid in enumerate(given.ids):
+            mem = [(s, "given", k) for s, f in found.items() if f.given_ok is not None and f.given_ok[k]]
+            if not mem:
+                notes.append(f"{given.role[k]} patch {pid}: no strip has a planar patch there; left out")
+                continue
+            ids.append(pid), kinds.append(given.role[k]), members.append(mem)
+    if not ids:
+        raise LidarError("no tie patch found: the strips do not overlap on planar surfaces (check patch_size and "
+                         "max_patch_sigma, and that the strips overlap)")
+    all_xyz = np.vstack([f.patches.planes.centroid for f in found.values()])
+    reference = np.round(np.median(all_xyz, axis=0), -1 if unit == 1.0 else 0)
+    # anchors of every member, per strip
+    per_strip: dict[str, list] = {s: [] for s in found}
+    for p, mem in enumerate(members):
+        for sid, src, i in mem:
+            per_strip[sid].append((p, src, i))
+    anchor_data: dict[str, dict] = {}
+    block = LaserBlock(project, options, mode, found, ties, given, None, kinds, None, None, [], samplers, nominal,  # type: ignore[arg-type]
+                       reference, anchor_data, notes)
+    for sid, items in per_strip.items():
+        if not items:
+            notes.append(f"strip {sid} has no patch shared with another strip or control")
+            continue
+        f = found[sid]
+        rows_cells = np.array([i for _, src, i in items if src == "cells"], int)
+        rows_given = np.array([i for _, src, i in items if src == "given"], int)
+        pts, times, sig = [], [], []
+        for planes, rows in ((f.patches.planes, rows_cells), (f.given, rows_given)):
+            if rows.size:
+                a, t, s = anchors(planes.take(rows))
+                pts.append(a), times.append(t), sig.append(np.maximum(s, 0.25 * prior * np.sqrt(3.0 / planes.count[rows])))
+        patch = np.array([p for p, src, _ in items if src == "cells"] + [p for p, src, _ in items if src == "given"])
+        a_map = np.concatenate(pts).reshape(-1, 3)
+        anchor_data[sid] = {"patch": np.repeat(patch, 3), "map": a_map, "work": block.to_work(a_map),
+                            "time": np.concatenate(times).ravel(), "sigma": np.repeat(np.concatenate(sig), 3)}
+    # patch frames from the best member's anchors
+    centre = np.zeros((len(ids), 3))
+    normal = np.zeros((len(ids), 3))
+    best = np.full(len(ids), np.inf)
+    for sid, a in anchor_data.items():
+        w = a["work"].reshape(-1, 3, 3)
+        pat = a["patch"][::3]
+        s = a["sigma"][::3]
+        n = np.cross(w[:, 1] - w[:, 0], w[:, 2] - w[:, 0])
+        n *= np.where(n[:, 2] < 0, -1.0, 1.0)[:, None]
+        for k, p in enumerate(pat):
+            if s[k] < best[p]:
+                best[p], centre[p], normal[p] = s[k], w[k].mean(axis=0), n[k]
+    block.frames = PatchFrames.from_points(ids, centre, normal)
+    block.models = _models(found, options, mode)
+    params = Parameters()
+    _priors(params, block.models, options, unit)
+    cal = set(options.calibrate) if mode == "trajectory" else set()
+    params.add(Boresight(), nominal.boresight, "boresight" in cal, regularisation_sigma=np.radians(0.01), names=["roll", "pitch", "heading"])
+    params.add(LeverArm(), nominal.lever_arm, "lever_arm" in cal, regularisation_sigma=0.1, names=["x", "y", "z"])
+    params.add(RangeOffset(), [nominal.range_offset], "range_offset" in cal, regularisation_sigma=0.05, names=["dr"])
+    params.add(ScanIndex(), [nominal.scan_index], "scan_index" in cal, regularisation_sigma=np.radians(0.01), names=["index"])
+    for key, kind in zip(block.frames.keys, kinds):
+        if kind == "check":
+            continue
+        params.add(key, np.zeros(3), True, regularisation_sigma=[0.01, 0.01, 1.0 / unit],
+                   names=["u", "v", "d"])
+    block.parameters = params
+    groups = []
+    for sid, a in anchor_data.items():
+        use = np.array([kinds[p] != "check" for p in a["patch"]])
+        if not use.any():
+            continue
+        patch, work, t, sig = a["patch"][use], a["work"][use], a["time"][use], a["sigma"][use]
+        polar = recover(work, t, samplers[sid], nominal, solve_time=True) if mode == "trajectory" else None
+        if polar is not None:
+            a["polar"] = polar
+        groups.append(StripAnchors(sid, patch, patch, sig, block.frames, block.models, work, t, polar, samplers.get(sid)))
+    if given is not None:
+        ctrl = [k for k, pid in enumerate(given.ids) if given.role[k] == "control" and pid in ids]
+        sel = np.flatnonzero(np.isin(given.point_patch, ctrl))
+        if sel.size:
+            patch = np.array([ids.index(given.ids[given.point_patch[i]]) for i in sel])
+            groups.append(ControlPatchPoints(given.point_ids[sel], patch, block.to_work(given.xyz[sel]),
+                                             given.sigma[sel] / unit, block.frames))
+        else:
+            notes.append("no control patch in the adjustment: the datum comes from the GPS/IMU and the priors alone")
+    else:
+        notes.append("no ground.csv: no control patches; the datum comes from the GPS/IMU and the priors alone")
+    block.groups = groups
+    for n in notes:
+        log.info("%s", n)
+    return block
+
+
+def run(block: LaserBlock, callback: ProgressCallback = no_progress) -> Adjustment:
+    """Adjust the block with data snooping."""
+    snooping = SnoopingOptions(enabled=block.options.snooping, critical_value=block.options.critical_value, per_round=4)
+    return adjust(block.parameters, block.groups, SolverOptions(), snooping, callback)
+
+
+def calibration_of(values) -> Calibration:
+    return Calibration(np.asarray(values[Boresight()], float), np.asarray(values[LeverArm()], float),
+                       float(values[RangeOffset()][0]), float(values[ScanIndex()][0]))
+
+
+def corrector(block: LaserBlock, strip: str, values):
+    """A function ``(xyz_map, t) -> corrected xyz_map`` of the strip's returns for the given unknowns."""
+    coefficients = {m.key: np.asarray(values[m.key], float) for m in block.models}
+    if block.mode == "trajectory":
+        sampler, cal = block.samplers[strip], calibration_of(values)
+
+        def correct(xyz: np.ndarray, t: np.ndarray) -> np.ndarray:
+            sampler.check_covers(t, f"strip {strip}")
+            p = block.to_work(xyz)
+            polar = recover(p, t, sampler, block.nominal)
+            pos, ang = sampler.at(t)
+            c = block.models.correction(strip, t, pos, coefficients)
+            return block.to_map(georeference(pos + c[:, :3], ang + c[:, 3:], polar, cal))
+    else:
+        def correct(xyz: np.ndarray, t: np.ndarray) -> np.ndarray:
+            c = block.models.correction(strip, t, xyz, coefficients)
+            return xyz + c[:, :3]
+    return correct
+
+
+def anchor_points(block: LaserBlock, strip: str, values) -> np.ndarray:
+    """All anchors of a strip (check patches included) in the work frame under ``values``."""
+    a = block.anchors[strip]
+    coefficients = {m.key: np.asarray(values[m.key], float) for m in block.models}
+    if block.mode == "trajectory":
+        polar = a.get("polar_all")
+        if polar is None:
+            polar = a["polar_all"] = recover(a["work"], a["time"], block.samplers[strip], block.nominal, solve_time=True)
+        pos, ang = block.samplers[strip].at(polar.time)
+        c = block.models.correction(strip, polar.time, pos, coefficients)
+        return georeference(pos + c[:, :3], ang + c[:, 3:], polar, calibration_of(values))
+    c = block.models.correction(strip, a["time"], a["work"], coefficients)
+    return a["work"] + c[:, :3]
+
+
+def read_cloud(block: LaserBlock, strip: str) -> StripCloud:
+    s = next(s for s in block.project.strips if s.id == strip)
+    return read_strip(s.id, s.las, s.point_source_id, block.project.crs)
+
+
+__all__ = ["LaserOptions", "LaserBlock", "build", "run", "corrector", "anchor_points", "read_cloud", "Polar"]

@@ -1,0 +1,99 @@
+"""Strip differences: height differences of overlapping strips on a grid, and patch discrepancies.
+
+For every grid cell that is planar (``patches.find_strip_patches``) in two or more strips, each pair
+of strips gives ``dz`` = height of the first strip's plane minus the second's at the cell centre
+(strips in project order). Before/after comparisons use the cells and pairs present in both states.
+The rms of ``dz`` is the block's overlap discrepancy; on sloped cells (roofs) it also shows
+planimetric errors (times the slope), as strip differences do.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from scangeo.lidar.patches import StripPatches, cell_centres
+
+
+@dataclass
+class Differences:
+    """One row per (cell, strip pair)."""
+
+    cell: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    dz: np.ndarray
+    flat: np.ndarray
+    size: float
+
+    def key(self) -> np.ndarray:
+        return np.array([f"{c}:{a}:{b}" for c, a, b in zip(self.cell, self.a, self.b)])
+
+    def take(self, sel) -> Differences:
+        return Differences(self.cell[sel], self.a[sel], self.b[sel], self.dz[sel], self.flat[sel], self.size)
+
+    def rms(self, flat_only: bool = False) -> float:
+        d = self.dz[self.flat] if flat_only else self.dz
+        return float(np.sqrt(np.mean(d**2))) if d.size else float("nan")
+
+    def per_pair(self) -> dict[str, dict]:
+        out = {}
+        for a, b in sorted(set(zip(self.a, self.b))):
+            sel = (self.a == a) & (self.b == b)
+            out[f"{a}-{b}"] = {"cells": int(sel.sum()), "rms": float(np.sqrt(np.mean(self.dz[sel] ** 2))),
+                               "mean": float(np.mean(self.dz[sel]))}
+        return out
+
+
+def _height(found: StripPatches, rows: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    p = found.planes
+    n, c = p.normal[rows], p.centroid[rows]
+    return c[:, 2] - (n[:, 0] * (xy[:, 0] - c[:, 0]) + n[:, 1] * (xy[:, 1] - c[:, 1])) / n[:, 2]
+
+
+def strip_differences(found: dict[str, StripPatches], size: float, flat_deg: float = 8.0) -> Differences:
+    """Differences of every pair of strips on every cell planar in both."""
+    strips = list(found)
+    cells, a_, b_, dz, flat = [], [], [], [], []
+    lookup = {s: dict(zip(found[s].cells.tolist(), range(found[s].cells.size))) for s in strips}
+    for i, sa in enumerate(strips):
+        for sb in strips[i + 1:]:
+            common = np.intersect1d(found[sa].cells, found[sb].cells)
+            if not common.size:
+                continue
+            ra = np.array([lookup[sa][c] for c in common.tolist()])
+            rb = np.array([lookup[sb][c] for c in common.tolist()])
+            xy = cell_centres(common, size)
+            cells.append(common), a_.append(np.full(common.size, sa, object)), b_.append(np.full(common.size, sb, object))
+            dz.append(_height(found[sa], ra, xy) - _height(found[sb], rb, xy))
+            nz = np.minimum(found[sa].planes.normal[ra, 2], found[sb].planes.normal[rb, 2])
+            flat.append(nz > np.cos(np.radians(flat_deg)))
+    if not cells:
+        e = np.zeros(0)
+        return Differences(e.astype(np.int64), e.astype(object), e.astype(object), e, e.astype(bool), size)
+    return Differences(np.concatenate(cells), np.concatenate(a_), np.concatenate(b_), np.concatenate(dz),
+                       np.concatenate(flat), size)
+
+
+def common_rows(before: Differences, after: Differences) -> tuple[Differences, Differences]:
+    """The rows (cell and pair) present in both, in the same order."""
+    kb, ka = before.key(), after.key()
+    both = np.intersect1d(kb, ka)
+    ib = np.flatnonzero(np.isin(kb, both))
+    ia = np.flatnonzero(np.isin(ka, both))
+    ib = ib[np.argsort(kb[ib])]
+    ia = ia[np.argsort(ka[ia])]
+    return before.take(ib), after.take(ia)
+
+
+def mosaic(diffs: Differences) -> tuple[np.ndarray, tuple[float, float], int, int]:
+    """A raster (rows north first) of dz per cell (the first pair of a cell), its upper-left corner."""
+    xy = cell_centres(diffs.cell, diffs.size)
+    s = diffs.size
+    x0, y1 = xy[:, 0].min() - s / 2, xy[:, 1].max() + s / 2
+    col = np.round((xy[:, 0] - s / 2 - x0) / s).astype(int)
+    row = np.round((y1 - xy[:, 1] - s / 2) / s).astype(int)
+    grid = np.full((row.max() + 1, col.max() + 1), np.nan, np.float32)
+    order = np.arange(diffs.dz.size)[::-1]  # the first pair wins
+    grid[row[order], col[order]] = diffs.dz[order]
+    return grid, (x0, y1), row.max() + 1, col.max() + 1

@@ -1,0 +1,190 @@
+"""Observation groups of the laser strip adjustment (Kager 2003, section 3), for the common engine.
+
+Planes: ``Plane(patch)`` holds ``(u, v, d)``; with the patch's fixed reference point ``c0``, normal
+``n0`` and in-plane unit vectors ``e1, e2``, the plane is ``n . (p - c0) = d`` with
+``n = m / |m|``, ``m = n0 + u e1 + v e2``.
+
+- :class:`StripAnchors`: the anchor points of one strip's patches. Each anchor is georeferenced
+  from its original observations (time, range, scan angle) through the laser equation with the
+  strip's GPS/IMU, the correction functions of its GPS/IMU models and the calibration
+  (``Boresight``, ``LeverArm``, ``RangeOffset``, ``ScanIndex``); without a trajectory, the anchor's
+  given point plus the position correction function. Observation: its normal distance to the
+  patch's plane is 0, sigma the anchor's (from the strip's plane fit). The anchors of one patch in
+  one strip form one observation unit (data snooping removes them together).
+- :class:`ControlPatchPoints`: surveyed points on control patches lie in their plane.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from scangeo.adjustment.keys import Boresight, LeverArm, Plane, RangeOffset, ScanIndex
+from scangeo.adjustment.observations import Linearisation, ObservationGroup
+from scangeo.adjustment.parameters import JacobianPart
+from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, derivatives
+from scangeo.models import ModelSet
+
+CALIBRATION_KEYS = (Boresight(), LeverArm(), RangeOffset(), ScanIndex())
+
+
+@dataclass
+class PatchFrames:
+    """Reference point, normal and in-plane axes of every patch (rows), and its key."""
+
+    ids: list[str]
+    c0: np.ndarray
+    n0: np.ndarray
+    e1: np.ndarray
+    e2: np.ndarray
+
+    @classmethod
+    def from_points(cls, ids: list[str], centres: np.ndarray, normals: np.ndarray) -> PatchFrames:
+        n0 = normals / np.linalg.norm(normals, axis=1)[:, None]
+        helper = np.where(np.abs(n0[:, [0]]) < 0.9, [[1.0, 0, 0]], [[0.0, 1, 0]])
+        e1 = np.cross(n0, helper)
+        e1 /= np.linalg.norm(e1, axis=1)[:, None]
+        return cls(list(ids), np.asarray(centres, float), n0, e1, np.cross(n0, e1))
+
+    @property
+    def keys(self) -> list[Plane]:
+        return [Plane(i) for i in self.ids]
+
+    def normals(self, planes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Unit normals (k, 3) and |m| (k,) for plane values (k, 3)."""
+        return self._normals(np.arange(len(self.ids)), planes)
+
+    def _normals(self, idx: np.ndarray, uvd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        m = self.n0[idx] + uvd[:, [0]] * self.e1[idx] + uvd[:, [1]] * self.e2[idx]
+        norm = np.linalg.norm(m, axis=1)
+        return m / norm[:, None], norm
+
+    def distance(self, idx: np.ndarray, p: np.ndarray, uvd: np.ndarray):
+        """Signed distances of points p (k, 3) to their planes, the unit normals and d/d(u, v, d)."""
+        n, norm = self._normals(idx, uvd)
+        q = p - self.c0[idx]
+        nq = np.einsum("ij,ij->i", n, q)
+        dd = np.empty((idx.size, 3))
+        for k, e in enumerate((self.e1[idx], self.e2[idx])):
+            dd[:, k] = (np.einsum("ij,ij->i", e, q) - nq * np.einsum("ij,ij->i", n, e)) / norm
+        dd[:, 2] = -1.0
+        return nq - uvd[:, 2], n, dd
+
+
+def _plane_values(frames: PatchFrames, values, patch: np.ndarray, local: list[Plane]) -> np.ndarray:
+    table = np.array([values[k] for k in local], float).reshape(len(local), 3)
+    return table[patch]
+
+
+class StripAnchors(ObservationGroup):
+    """The anchors of one strip's patches; see the module docstring.
+
+    Parameters
+    ----------
+    strip : strip id.
+    patch : (k,) index of each anchor's patch in ``frames``.
+    unit_id : (k,) observation unit (patch id within the strip) of each anchor.
+    sigma : (k,) sigma of each anchor's normal distance (m).
+    frames : the patches.
+    models : GPS/IMU models (correction functions).
+    points : (k, 3) anchor points in the work frame (used directly without a trajectory).
+    polar, sampler, nominal : with a trajectory: the anchors' original observations, the strip's GPS/IMU
+        and the nominal calibration (the observations were recovered with it).
+    """
+
+    def __init__(self, strip: str, patch: np.ndarray, unit_id: np.ndarray, sigma: np.ndarray, frames: PatchFrames,
+                 models: ModelSet, points: np.ndarray, times: np.ndarray, polar: Polar | None = None,
+                 sampler: TrajectorySampler | None = None) -> None:
+        self.name = f"anchors {strip}"
+        self.strip = strip
+        self.frames = frames
+        self.sigma = np.asarray(sigma, float)
+        uniq, self._local = np.unique(patch, return_inverse=True)
+        self._plane_keys = [Plane(frames.ids[i]) for i in uniq]
+        self._patch = np.asarray(patch)
+        units, row_unit = np.unique(unit_id, return_inverse=True)
+        self._describe([frames.ids[i] for i in patch], "normal distance", "m", row_unit)
+        self.points = np.asarray(points, float)
+        self.polar = polar
+        self.trajectory = polar is not None
+        if self.trajectory:
+            assert sampler is not None
+            self.pos0, self.ang0 = sampler.at(polar.time)
+            times = polar.time
+        else:
+            self.pos0 = self.points
+        self._design = models.design(strip, np.asarray(times, float), self.pos0)
+        self._keys = [k for k, _, _ in self._design]
+
+    def keys(self):
+        extra = list(CALIBRATION_KEYS) if self.trajectory else []
+        return list(dict.fromkeys(self._keys + extra + self._plane_keys))
+
+    def _corrections(self, values) -> np.ndarray:
+        c = np.zeros((self.n_rows, 6))
+        for key, rows, D in self._design:
+            c[rows] += D @ np.asarray(values[key], float)
+        return c
+
+    def _evaluate(self, values, jacobian: bool):
+        c = self._corrections(values)
+        if self.trajectory:
+            cal = Calibration(np.asarray(values[Boresight()], float), np.asarray(values[LeverArm()], float),
+                              float(values[RangeOffset()][0]), float(values[ScanIndex()][0]))
+            d = derivatives(self.pos0 + c[:, :3], self.ang0 + c[:, 3:], self.polar, cal)
+            p = d.points
+        else:
+            d, p = None, self.pos0 + c[:, :3]
+        uvd = _plane_values(self.frames, values, self._local, self._plane_keys)
+        f, n, dd = self.frames.distance(self._patch, p, uvd)
+        return f / self.sigma, d, n, dd
+
+    def residuals(self, values) -> np.ndarray:
+        return self._evaluate(values, False)[0]
+
+    def linearise(self, values) -> Linearisation:
+        r, d, n, dd = self._evaluate(values, True)
+        w = 1.0 / self.sigma
+        rows = np.arange(self.n_rows)
+        g = np.zeros((self.n_rows, 6))
+        g[:, :3] = n
+        if d is not None:
+            g[:, 3:] = np.einsum("ni,nik->nk", n, d.attitude)
+        parts = []
+        for key, rr, D in self._design:
+            J = np.einsum("ri,rik->rk", g[rr], D) * w[rr, None]
+            parts.append(JacobianPart([key], np.repeat(rr, D.shape[2]), np.tile(np.arange(D.shape[2]), rr.size), J.ravel()))
+        if d is not None:
+            for key, M in ((Boresight(), d.boresight), (LeverArm(), d.lever_arm)):
+                J = np.einsum("ni,nik->nk", n, M) * w[:, None]
+                parts.append(JacobianPart([key], np.repeat(rows, 3), np.tile(np.arange(3), self.n_rows), J.ravel()))
+            for key, v in ((RangeOffset(), d.range), (ScanIndex(), d.index)):
+                parts.append(JacobianPart([key], rows, np.zeros(self.n_rows, np.int64), np.einsum("ni,ni->n", n, v) * w))
+        parts.append(JacobianPart(self._plane_keys, np.repeat(rows, 3), np.tile(np.arange(3), self.n_rows),
+                                  (dd * w[:, None]).ravel(), np.repeat(self._local, 3)))
+        return Linearisation(r, parts)
+
+
+class ControlPatchPoints(ObservationGroup):
+    """Surveyed points on control patches: normal distance to the patch's plane = 0 (sigma given)."""
+
+    def __init__(self, ids: np.ndarray, patch: np.ndarray, points: np.ndarray, sigma: np.ndarray,
+                 frames: PatchFrames) -> None:
+        self.name = "control patches"
+        self.frames = frames
+        self.sigma = np.asarray(sigma, float)
+        self.points = np.asarray(points, float)
+        self._patch = np.asarray(patch)
+        uniq, self._local = np.unique(patch, return_inverse=True)
+        self._plane_keys = [Plane(frames.ids[i]) for i in uniq]
+        self._describe(list(ids), "normal distance", "m")
+
+    def keys(self):
+        return list(self._plane_keys)
+
+    def linearise(self, values) -> Linearisation:
+        uvd = _plane_values(self.frames, values, self._local, self._plane_keys)
+        f, _, dd = self.frames.distance(self._patch, self.points, uvd)
+        rows = np.arange(self.n_rows)
+        return Linearisation(f / self.sigma, [JacobianPart(self._plane_keys, np.repeat(rows, 3), np.tile(np.arange(3), self.n_rows),
+                                                           (dd / self.sigma[:, None]).ravel(), np.repeat(self._local, 3))])

@@ -1,0 +1,124 @@
+"""LAS/LAZ strips: streamed reading of coordinates and GPS time, and corrected copies.
+
+Reading goes chunk by chunk (``laspy.open(...).chunk_iterator``) and keeps only x, y, z and GPS
+time (float64) of the strip's returns (``point_source_id`` selects one flight line of a file that
+holds several). A file without GPS time, or whose CRS differs from the project's, is an error naming
+the file. Corrected copies keep the point format, header, CRS and extra dimensions; only the
+coordinates change; they are written under a temporary name and renamed when complete, so an
+interrupted run leaves no file under a final name.
+"""
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from scangeo.errors import InputFileError
+
+log = logging.getLogger(__name__)
+
+CHUNK = 1_000_000
+
+
+@dataclass
+class StripCloud:
+    """The returns of one strip: map coordinates (n, 3) and GPS times (n,)."""
+
+    id: str
+    xyz: np.ndarray
+    time: np.ndarray
+
+    @property
+    def size(self) -> int:
+        return int(self.time.size)
+
+
+def _open(path: Path):
+    import laspy
+
+    try:
+        return laspy.open(str(path))
+    except (OSError, laspy.errors.LaspyException) as exc:
+        raise InputFileError(f"{path}: cannot read as LAS/LAZ ({exc})") from exc
+
+
+def bounds(path: Path) -> tuple[float, float, float, float]:
+    with _open(path) as f:
+        h = f.header
+        return float(h.mins[0]), float(h.mins[1]), float(h.maxs[0]), float(h.maxs[1])
+
+
+def check_header(path: Path, header, crs) -> None:
+    """GPS time present; the CRS, when the file has one, equal to the project's."""
+    if "gps_time" not in header.point_format.dimension_names:
+        raise InputFileError(f"{path}: point format {header.point_format.id} has no GPS time; "
+                             "lidar adjust needs the GPS time of every return")
+    try:
+        file_crs = header.parse_crs()
+    except Exception as exc:  # laspy raises several kinds for broken VLRs
+        raise InputFileError(f"{path}: cannot parse the CRS in the header ({exc})") from exc
+    if file_crs is not None and crs is not None:
+        import pyproj
+
+        want = pyproj.CRS.from_user_input(crs)
+        got = file_crs.sub_crs_list[0] if file_crs.is_compound else file_crs
+        if not got.equals(want, ignore_axis_order=True):
+            raise InputFileError(f"{path}: CRS {got.name} differs from the project's {want.name}; reproject the "
+                                 "strip (e.g. pdal translate with filters.reprojection) or set [project] crs")
+
+
+def read_strip(strip_id: str, files, point_source_id: int | None = None, crs=None) -> StripCloud:
+    """Coordinates and GPS times of a strip's returns from one or more LAS/LAZ files, in chunks."""
+    xyz, t = [], []
+    for path in map(Path, files):
+        with _open(path) as f:
+            check_header(path, f.header, crs)
+            for chunk in f.chunk_iterator(CHUNK):
+                sel = slice(None) if point_source_id is None else np.asarray(chunk.point_source_id) == point_source_id
+                xyz.append(np.column_stack([np.asarray(chunk.x)[sel], np.asarray(chunk.y)[sel], np.asarray(chunk.z)[sel]]))
+                t.append(np.asarray(chunk.gps_time, float)[sel])
+    if not t or sum(a.size for a in t) == 0:
+        which = "" if point_source_id is None else f" with point_source_id {point_source_id}"
+        raise InputFileError(f"{', '.join(map(str, files))}: no returns{which} for strip {strip_id}")
+    return StripCloud(strip_id, np.concatenate(xyz), np.concatenate(t))
+
+
+def write_corrected(files, point_source_id: int | None, out: Path,
+                    correct: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> int:
+    """Write the strip's returns to ``out`` with coordinates ``correct(xyz, t)``; returns the count.
+
+    The first input file's header (point format, version, scales, VLRs with the CRS, extra
+    dimensions) is kept; bounds and counts are updated by the writer.
+    """
+    import laspy
+
+    out = Path(out)
+    tmp = out.with_name(out.name + ".part")
+    count = 0
+    files = list(map(Path, files))
+    try:
+        with _open(files[0]) as first:
+            header = first.header
+        with laspy.open(str(tmp), mode="w", header=header, do_compress=out.suffix.lower() == ".laz") as writer:
+            for path in files:
+                with _open(path) as f:
+                    for chunk in f.chunk_iterator(CHUNK):
+                        if point_source_id is not None:
+                            chunk = chunk[np.asarray(chunk.point_source_id) == point_source_id]
+                        if len(chunk) == 0:
+                            continue
+                        xyz = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
+                        new = correct(xyz, np.asarray(chunk.gps_time, float))
+                        chunk.x, chunk.y, chunk.z = new[:, 0], new[:, 1], new[:, 2]
+                        writer.write_points(chunk)
+                        count += len(chunk)
+        os.replace(tmp, out)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    log.info("wrote %s (%d returns)", out, count)
+    return count
