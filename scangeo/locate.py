@@ -128,7 +128,8 @@ def read_image_points(path) -> tuple[list[str], np.ndarray, np.ndarray]:
     if not body:
         raise ProjectFileError(f"{path}: no points after the header")
     points = [r[header.index("point")] for r in body]
-    return points, column_floats(path, header, body, numbers, "line"), column_floats(path, header, body, numbers, "pixel")
+    lines = column_floats(path, header, body, numbers, "line")
+    return points, lines, column_floats(path, header, body, numbers, "pixel")
 
 
 def read_map_points(path) -> tuple[list[str], np.ndarray]:

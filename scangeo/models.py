@@ -107,7 +107,7 @@ class GpsImuModel:
         out = np.zeros((n, 6, self.size))
         col = 0
         d0 = self.first_degree()
-        for comps, degree, offset in ((POSITION, self.position_degree, 0), (ATTITUDE, self.attitude_degree, 3)):
+        for _comps, degree, offset in ((POSITION, self.position_degree, 0), (ATTITUDE, self.attitude_degree, 3)):
             for d in range(d0, degree + 1):
                 basis = tau**d - (-1.0) ** d if self.follows is not None else tau**d
                 for c in range(3):

@@ -151,7 +151,9 @@ def build_block(project: Project, variant: Variant, points: ImagePoints, ground:
     if scan_errors and not isinstance(sensor, Whiskbroom):
         raise AdjustmentError(f"variant {variant.name}: calibrate {', '.join(scan_errors)} is a whiskbroom (scan "
                               f"mirror) parameter, but the project's sensor is a {project.sensor.kind}")
-    params.add(Boresight(), mount.boresight, "boresight" in cal, regularisation_sigma=0.01, names=["roll", "pitch", "heading"])
+    params.add(
+        Boresight(), mount.boresight, "boresight" in cal, regularisation_sigma=0.01, names=["roll", "pitch", "heading"]
+    )
     params.add(LeverArm(), mount.lever_arm_B, "lever_arm" in cal, regularisation_sigma=0.5, names=["x", "y", "z"])
     params.add(TimeOffset(), [mount.time_offset], "time_offset" in cal, regularisation_sigma=0.01, names=["dt"])
     params.add(
@@ -188,7 +190,6 @@ def build_block(project: Project, variant: Variant, points: ImagePoints, ground:
         if role in CONTROL_COMPONENTS and p not in given:
             raise AdjustmentError(f"point {p} has role {role} but no coordinates in ground.csv")
         used.append(p)
-    used_set = set(used)
     # start values: rays of the direct georeferencing onto the DTM, control from their coordinates
     dtm = project.dtm
     start = {p: [] for p in used}

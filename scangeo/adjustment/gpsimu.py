@@ -51,7 +51,6 @@ class GpsImuSamples(ObservationGroup):
         self.sigma = np.tile(sig6, n)
         self._describe(np.repeat([f"{strip}@{t:.3f}" for t in self.times], 6), np.tile(COMPONENTS, n),
                        np.tile(UNITS, n), np.repeat(np.arange(n), 6))
-        rows6 = (np.arange(n)[:, None] * 6 + np.arange(6)).ravel()
         B = spline.basis_matrix(self.times).tocoo()  # (n, K)
         # knots: coefficient (k, c) is component k*6 + c of Knots(strip)
         r = (B.row[:, None] * 6 + np.arange(6)).ravel()

@@ -170,7 +170,8 @@ class ImageObservations(ObservationGroup):
         def add(keys, dline, dpix, cols, block=None):
             vals = np.stack([dline, dpix], 1) / sig[:, :, None]          # (n, 2, m)
             r = np.broadcast_to(rows2[:, :, None], vals.shape)
-            c = np.broadcast_to(np.asarray(cols)[:, None, :] if np.ndim(cols) == 2 else np.asarray(cols)[None, None, :], vals.shape)
+            cols_a = np.asarray(cols)
+            c = np.broadcast_to(cols_a[:, None, :] if cols_a.ndim == 2 else cols_a[None, None, :], vals.shape)
             b = None if block is None else np.broadcast_to(np.asarray(block)[:, None, None], vals.shape)
             parts.append(JacobianPart(keys, r.ravel(), c.ravel(), vals.ravel(), None if b is None else b.ravel()))
 

@@ -181,7 +181,9 @@ class Layout:
         try:
             starts = np.array([self.start[k] for k in keys], dtype=np.int64)
         except KeyError as exc:
-            raise AdjustmentError(f"an observation refers to {exc.args[0].label}, which has no parameter block") from None
+            raise AdjustmentError(
+                f"an observation refers to {exc.args[0].label}, which has no parameter block"
+            ) from None
         base = starts[0] if block is None else starts[block]
         return base + cols
 

@@ -15,12 +15,14 @@ import numpy as np
 from scangeo.adjustment.block import Block, build_block
 from scangeo.adjustment.engine import Adjustment, SnoopingOptions, adjust
 from scangeo.adjustment.image import ImageObservations
-from scangeo.adjustment.keys import Boresight, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.keys import Boresight, Key, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.orientation import DIRECT, Orientation, StripOrientation, map_reference
 from scangeo.adjustment.solver import SolverOptions
 from scangeo.adjustment.variants import Variant, find_variant
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
 from scangeo.progress import ProgressCallback, no_progress
+from scangeo.sensors.models import Whiskbroom
 from scangeo.sensors.strip import Mounting, StripGeometry
 from scangeo.trajectory.spline import OrientationSpline
 
@@ -48,6 +50,7 @@ class VariantResult:
     checks: CheckResiduals
     seconds: float
     notes: list[str] = field(default_factory=list)
+    _orientation: Orientation | None = field(default=None, repr=False)
 
     @property
     def variant(self) -> Variant:
@@ -61,15 +64,28 @@ class VariantResult:
         p = self.adjustment.parameters
         return Mounting(p[LeverArm()].values.copy(), p[Boresight()].values.copy(), float(p[TimeOffset()].values[0]))
 
+    def orientation(self) -> Orientation:
+        """The adjusted orientation: splines, GPS/IMU corrections, mounting, scanner calibration
+        (what ``orientation.json`` holds; built once)."""
+        if self._orientation is None:
+            project, p = self.block.project, self.adjustment.parameters
+            sensor = project.sensor.model
+            if isinstance(sensor, Whiskbroom):
+                sensor = sensor.with_calibration(index_error=float(p[ScanIndex()].values[0]),
+                                                 scale_error=float(p[ScanScale()].values[0]))
+            strips = {sid: StripOrientation(sid, s.geometry.n_lines, s.geometry.timing, self.spline(sid))
+                      for sid, s in self.block.strips.items()}
+            calibrated = tuple(name for key, name in _CALIBRATION if p[key].free.any())
+            models = tuple(self.block.models)
+            self._orientation = Orientation(
+                self.variant.name, self.variant.strategy != DIRECT, sensor, self.mounting(), strips,
+                map_reference(project), models, {m.id: p[m.key].values.copy() for m in models}, calibrated,
+                self.adjustment.statistics.sigma0)
+        return self._orientation
+
     def geometry(self, strip: str) -> StripGeometry:
-        """The strip's adjusted geometry (spline, mounting, scanner calibration)."""
-        sensor = self.block.project.sensor.model
-        p = self.adjustment.parameters
-        if hasattr(sensor, "with_calibration"):
-            sensor = sensor.with_calibration(index_error=float(p[ScanIndex()].values[0]),
-                                             scale_error=float(p[ScanScale()].values[0]))
-        base = self.block.strips[strip].geometry
-        return StripGeometry(sensor, self.spline(strip), base.timing, base.n_lines, self.mounting(), strip)
+        """The strip's adjusted geometry (``Orientation.geometry`` of :meth:`orientation`)."""
+        return self.orientation().geometry(strip)
 
     def image_residuals(self, roles=("control", "height", "planimetric", "tie")):
         """(point, strip, line residual, pixel residual, active) of the adjusted image measurements."""
@@ -100,6 +116,13 @@ class VariantResult:
             entry["check"] = _rms(c.line[ok], c.pixel[ok])
             out[sid] = entry
         return out
+
+
+#: calibration blocks -> their names in orientation.json's ``calibrated``
+_CALIBRATION: tuple[tuple[Key, str], ...] = (
+    (Boresight(), "boresight"), (LeverArm(), "lever_arm"), (TimeOffset(), "time_offset"),
+    (ScanIndex(), "index_error"), (ScanScale(), "scale_error"),
+)
 
 
 def _rms(dl: np.ndarray, dp: np.ndarray) -> dict:
@@ -144,7 +167,8 @@ def run_variant(project_root, variant: str | Variant, variants_file=None,
     points = ImagePoints.read(project.root / "points.csv")
     ground_file = project.root / "ground.csv"
     ground = GroundPoints.read(ground_file) if ground_file.exists() else GroundPoints(
-        *(np.zeros(0, dtype=object),), np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=object), np.zeros(0, int))
+        *(np.zeros(0, dtype=object),), np.zeros((0, 3)), np.zeros(0), np.zeros(0),
+        np.zeros(0, dtype=object), np.zeros(0, int))
     callback(0.0, 1.0, f"{v.name}: setting up")
     block = build_block(project, v, points, ground)
     adj = adjust(

@@ -197,7 +197,10 @@ class Solver:
                 if bad.size == 0:  # the Cholesky failed, the LDL^T pivots are all just above the tolerance
                     bad = np.array([int(np.argmin(pivots))])
                 empty = bad
-                reason = "singular or nearly singular normal equations (scaled pivot below %g)" % self.options.pivot_tolerance
+                reason = (
+                    "singular or nearly singular normal equations "
+                    f"(scaled pivot below {self.options.pivot_tolerance:g})"
+                )
             tighten = 1.0
             fresh = np.array([c for c in empty if int(c) not in self._regularised], dtype=np.int64)
             if fresh.size == 0:  # already regularised, still undetermined: a pseudo-observation 100x tighter

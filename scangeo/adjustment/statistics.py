@@ -179,5 +179,6 @@ class Statistics:
         out = []
         for i in np.flatnonzero(block.free):
             t = abs(block.values[i]) / sig[i] if sig[i] > 0 else float("inf")
-            out.append(Coefficient(key, block.names[i], float(block.values[i]), float(sig[i]), float(t), bool(t > crit)))
+            value = float(block.values[i])
+            out.append(Coefficient(key, block.names[i], value, float(sig[i]), float(t), bool(t > crit)))
         return out

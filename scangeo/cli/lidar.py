@@ -158,7 +158,10 @@ def run_budget(args: argparse.Namespace) -> int:
         print()
         print(f"{'scenario':<40} {'points':>7} {'alpha':>6} {'total cm':>9} {'cost':>6}")
         for row in table:
-            print(f"{row['name']:<40} {row['points']:7d} {row['alpha']:6.3f} {row['total_cm']:9.3f} {row['relative_cost']:6.2f}")
+            print(
+                f"{row['name']:<40} {row['points']:7d} {row['alpha']:6.3f} "
+                f"{row['total_cm']:9.3f} {row['relative_cost']:6.2f}"
+            )
     return 0
 
 
@@ -250,7 +253,8 @@ def run_check(args: argparse.Namespace) -> int:
     e, n, u = r["rms_enu_m"]
     print(f"{r['returns']} returns, mean range {r['mean_range_m']:.1f} m, heading = {r['heading']}")
     print(
-        f"recomputed - given, configured boresight: rms east {e:.3f} north {n:.3f} up {u:.3f} m, 3D {r['rms_3d_m']:.3f} m"
+        f"recomputed - given, configured boresight: rms east {e:.3f} north {n:.3f} up {u:.3f} m, "
+        f"3D {r['rms_3d_m']:.3f} m"
     )
     f = r["fit_deg"]
     print(
@@ -341,6 +345,9 @@ def add_parser(subparsers, common) -> None:
     _add_network(sub, common)
     _add_forward_reverse(sub, common)
     _add_check(sub, common)
+    from scangeo.cli.lidar_adjust import add_adjust
+
+    add_adjust(sub, common)
     parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
 
 

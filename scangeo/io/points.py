@@ -97,7 +97,8 @@ class ImagePoints:
         for i, key in enumerate(zip(point, strip)):
             if key in seen:
                 raise ProjectFileError(
-                    f"{path} line {numbers[i]}: point {key[0]} in strip {key[1]} was already measured on line {seen[key]}"
+                    f"{path} line {numbers[i]}: point {key[0]} in strip {key[1]} "
+                    f"was already measured on line {seen[key]}"
                 )
             seen[key] = numbers[i]
         return pts

@@ -161,7 +161,7 @@ def adjust_strips(
     The covariance is the a priori one, ``(A^T P A)^-1`` with the given sigmas; multiply by
     ``sigma0**2`` for the a posteriori one.
     """
-    A, l, sigma = design_matrix(strips, ties, controls, tilts)
+    A, l, sigma = design_matrix(strips, ties, controls, tilts)  # noqa: E741 (l: observations, as in the literature)
     N, Q = _normal_inverse(A, sigma)
     x = Q @ (A.T @ (l / sigma**2))
     v = A @ x - l

@@ -155,7 +155,9 @@ def height_correction_plot(strip_id: str, series: dict[str, Series], height: Ser
     ax.plot(height.time, h - h.mean(), color="#bbbbbb", lw=2.5,
             label=f"GPS/IMU height - mean flight height ({h.mean():.0f} m)")
     if truth is not None:
-        ax.plot(truth.time, -truth.values[:, 2], color="k", lw=1.0, ls="--", label="- injected GPS height error (truth)")
+        ax.plot(
+            truth.time, -truth.values[:, 2], color="k", lw=1.0, ls="--", label="- injected GPS height error (truth)"
+        )
     for i, (variant, s) in enumerate(series.items()):
         ax.plot(
             s.time,

@@ -103,18 +103,19 @@ def ground_jacobian(geometry, dtm, line: np.ndarray, pixel: np.ndarray) -> np.nd
 def check_vectors(project: Project, variant: str, geometry_of=None) -> ResidualVectors:
     """The check-point residual vectors of ``variant`` (its results in PROJECT/results/NAME).
 
-    ``geometry_of(strip_id)`` gives the variant's adjusted strip geometry (default: read from the
-    results folder with :func:`scangeo.rectify.orientation.core_geometry`).
+    ``geometry_of(strip_id)`` gives the variant's adjusted strip geometry (default: from the
+    results folder's ``orientation.json``, :func:`scangeo.adjustment.orientation.load_orientation`).
     """
     folder = project.root / "results" / variant
     rows = read_check_rows(folder / "residuals.csv")
     points = ImagePoints.read(project.root / "points.csv")
     ground = GroundPoints.read(project.root / "ground.csv")
     where = {str(p): i for i, p in enumerate(ground.point)}
-    meas = {(str(p), str(s)): (l, q) for p, s, l, q in zip(points.point, points.strip, points.line, points.pixel)}
+    meas = {(str(p), str(s)): (ln, q) for p, s, ln, q in zip(points.point, points.strip, points.line, points.pixel)}
     keys = [k for k in rows if k[0] in where and k in meas]
     n = len(keys)
-    pick = (lambda comp, i: np.array([rows[k].get(comp, (np.nan, np.nan, False))[i] for k in keys], dtype=float))
+    def pick(comp, i):
+        return np.array([rows[k].get(comp, (np.nan, np.nan, False))[i] for k in keys], dtype=float)
     xyz = ground.xyz[[where[k[0]] for k in keys]] if n else np.zeros((0, 3))
     line = np.array([meas[k][0] for k in keys], float)
     pixel = np.array([meas[k][1] for k in keys], float)
@@ -123,10 +124,9 @@ def check_vectors(project: Project, variant: str, geometry_of=None) -> ResidualV
     strip = np.array([k[1] for k in keys], dtype=object)
     dx, dy = np.full(n, np.nan), np.full(n, np.nan)
     if geometry_of is None:
-        from scangeo.rectify.orientation import core_geometry, orientation_source
+        from scangeo.adjustment.orientation import load_orientation
 
-        source = orientation_source(project, variant)
-        geometry_of = (lambda sid: core_geometry(project, source, sid))
+        geometry_of = load_orientation(project, variant).geometry
     for sid in dict.fromkeys(strip):
         sel = np.flatnonzero(strip == sid)
         J = ground_jacobian(geometry_of(sid), project.dtm, line[sel], pixel[sel])

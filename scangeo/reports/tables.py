@@ -83,7 +83,8 @@ def text_table(head: list[str], rows: list[list[str]]) -> str:
 
 
 def _md_table(head: list[str], rows: list[list[str]]) -> str:
-    esc = (lambda s: str(s).replace("|", "\\|"))
+    def esc(s):
+        return str(s).replace("|", "\\|")
     lines = ["| " + " | ".join(map(esc, head)) + " |", "|" + "---|" * len(head)]
     lines += ["| " + " | ".join(map(esc, r)) + " |" for r in rows]
     return "\n".join(lines)
@@ -119,7 +120,8 @@ def csv_text(c: Comparison) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(CSV_FIELDS)
-    g = (lambda x: "" if x is None else (f"{x:.6g}" if isinstance(x, float) else str(x)))
+    def g(x):
+        return "" if x is None else (f"{x:.6g}" if isinstance(x, float) else str(x))
     for v in c.variants:
         for sid in c.strips:
             e = v.strips.get(sid, {})

@@ -103,7 +103,8 @@ class Truth:
         p_adj, st = geometry.image_to_ground(line, pixel, self.terrain)
         ok_gnd = (st == 0) & np.isfinite(p_adj).all(axis=1)
         d = np.hypot(*(p_adj[ok_gnd, :2] - p_true[ok_gnd, :2]).T)
-        rms = (lambda v: float(np.sqrt(np.mean(v**2))) if v.size else float("nan"))
+        def rms(v):
+            return float(np.sqrt(np.mean(v**2))) if v.size else float("nan")
         return TrueError(int(ok_img.sum()), rms(dl), rms(dp), rms(d), float(d.max()) if d.size else float("nan"))
 
 

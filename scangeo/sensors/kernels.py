@@ -395,7 +395,7 @@ def _solve_in(k, P, tan_a, tan_c, ctimes, cA, cC, t0, dt, coef, lever, R_BS, tof
             return np.nan, np.nan
     sa = fa >= 0
     t = a - fa * (b - a) / (fb - fa)
-    for it in range(60):
+    for _ in range(60):
         f, df = _condition(t, P, tan_a, t0, dt, coef, lever, R_BS, toff, R, p, dR, dp)
         if (f >= 0) == sa:
             a = t

@@ -149,7 +149,8 @@ class Pushbroom:
                 raise SensorError("[sensor] a pushbroom needs look-angle tables (along, across) or focal_length")
             if len(self.along) != self.pixels or len(self.across) != self.pixels:
                 raise SensorError(
-                    f"[sensor] look-angle tables have {len(self.along)}/{len(self.across)} entries, expected {self.pixels}"
+                    f"[sensor] look-angle tables have {len(self.along)}/{len(self.across)} entries, "
+                    f"expected {self.pixels}"
                 )
             tan_x = np.tan(np.asarray(self.across, dtype=float))
             if not (np.all(np.diff(tan_x) > 0) or np.all(np.diff(tan_x) < 0)):

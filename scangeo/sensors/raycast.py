@@ -173,7 +173,7 @@ def _cast_one(q, o, d, coef, exps, centre, scale, values, inv, h_min, h_max, ste
                 fa, fb = max(fa, 1e-12) if ca == 0 else 1e-12, min(fb, -1e-12) if cb == 0 else -1e-12
             side = 0
             lam_r = b
-            for it in range(100):
+            for _ in range(100):
                 lam_r = (a * fb - b * fa) / (fb - fa)
                 fr, cr = _exact_f(o, d, lam_r, coef, exps, centre, scale, values, inv, buf, work)
                 if cr != 0:

@@ -108,8 +108,8 @@ def write_points(
 ) -> None:
     """points.csv, ground.csv and truth/points.csv, truth/measurements.csv."""
     rows = [
-        (points.id[i], strip_ids[k], f"{l:.4f}", f"{p:.4f}", f"{sigma_px:g}")
-        for i, k, l, p in zip(points.m_point, points.m_strip, points.line, points.pixel)
+        (points.id[i], strip_ids[k], f"{ln:.4f}", f"{p:.4f}", f"{sigma_px:g}")
+        for i, k, ln, p in zip(points.m_point, points.m_strip, points.line, points.pixel)
     ]
     write_csv(root / "points.csv", ["point", "strip", "line", "pixel", "sigma_px"], rows)
     ground = []
@@ -136,8 +136,8 @@ def write_points(
         truth,
     )
     meas = [
-        (points.id[i], strip_ids[k], f"{lt:.6f}", f"{pt:.6f}", f"{l:.4f}", f"{p:.4f}", int(b))
-        for i, k, lt, pt, l, p, b in zip(
+        (points.id[i], strip_ids[k], f"{lt:.6f}", f"{pt:.6f}", f"{ln:.4f}", f"{p:.4f}", int(b))
+        for i, k, lt, pt, ln, p, b in zip(
             points.m_point,
             points.m_strip,
             points.line_true,

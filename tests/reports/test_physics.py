@@ -85,7 +85,8 @@ def test_corrections_halve_the_problem_strips_across_track_error(vienna, name):
     c, problem, _ = vienna
     assert c.check_percent(c.variant(name), problem, "across") <= 50.0
     # the true error of the orientation says the same, without the check points' noise
-    true = (lambda v: c.variant(v).strips[problem]["true"]["rms_across_px"])
+    def true(v):
+        return c.variant(v).strips[problem]["true"]["rms_across_px"]
     assert true(name) <= 0.5 * true("SE")
 
 

@@ -30,7 +30,7 @@ def test_block_with_an_orthophoto_texture(tmp_path):
     texture = shared_file("ortho/autzen.jpg")
     config = load_preset("small", {"flight": {"lines": 120}, "output": {"truth_ortho": False},
                                    "scene": {"texture_pixel_m": 0.3048}})
-    block = simulate(tmp_path / "autzen", config, texture=str(texture))
+    simulate(tmp_path / "autzen", config, texture=str(texture))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
         with rasterio.open(tmp_path / "autzen" / "images" / "01.tif") as src:
