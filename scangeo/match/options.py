@@ -1,0 +1,116 @@
+"""Settings of automatic point measurement: a typed frozen dataclass, readable from a TOML table.
+
+A ``[match]`` table (in a separate settings file given with ``--config``) holds the keys of
+:class:`MatchOptions`; an unknown key is an error naming it.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+from scangeo.errors import ProjectFileError, ScangeoError
+
+#: wavelength range of the default matching bands, nm (visible and red edge: never thermal)
+DEFAULT_BAND_RANGE_NM = (400.0, 760.0)
+
+
+@dataclass(frozen=True)
+class MatchOptions:
+    """How points are measured (docs/match.md).
+
+    Parameters
+    ----------
+    per_overlap : target number of tie points per overlap of two strips.
+    per_cell : target number of points per cell; the overlap is cut into ``per_overlap / per_cell``
+        cells of equal area, so points spread evenly.
+    control_per_strip : target number of control (and check) points per strip.
+    check_share : share of the control points held back as role ``check`` (every n-th point).
+    template_px : side of the matching template, chip cells (odd).
+    search_px : search radius around the predicted position, chip cells (the DG orientation's
+        relative error between strips must stay inside it).
+    min_correlation : smallest accepted normalised cross-correlation peak.
+    max_second_peak : largest accepted ratio of the second-best peak (away from the best) to the best.
+    max_sigma_px : largest accepted least-squares matching sigma, chip cells.
+    ransac_px : inlier threshold of the local affine consistency test, chip cells.
+    neighbours : points per local affine fit of the consistency test.
+    min_sigma_px : smallest ``sigma_px`` written for a measurement, image pixels.
+    smooth_cells : Gaussian sigma applied to every chip before matching, cells (0: none); damps
+        aliasing of images sampled without an optical blur.
+    bands : 1-based strip bands averaged into the matching image (empty: the project's bands
+        between 400 and 760 nm, else all bands but a thermal one).
+    reference_bands : 1-based bands of the reference orthoimage (empty: all, at most the first 3).
+    resolution : chip cell size, map units (None: the strips' nadir ground pixel).
+    id_prefix : first letter(s) of matched point ids (``<prefix>T_`` ties, ``<prefix>C_`` control
+        and check).
+    seed : seed of the choice of check points.
+    """
+
+    per_overlap: int = 60
+    per_cell: int = 2
+    control_per_strip: int = 30
+    check_share: float = 0.3
+    template_px: int = 25
+    search_px: int = 16
+    min_correlation: float = 0.7
+    max_second_peak: float = 0.99
+    max_sigma_px: float = 0.5
+    ransac_px: float = 1.0
+    neighbours: int = 12
+    min_sigma_px: float = 0.1
+    smooth_cells: float = 1.0
+    bands: tuple[int, ...] = ()
+    reference_bands: tuple[int, ...] = ()
+    resolution: float | None = None
+    id_prefix: str = "M"
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        checks = [
+            (self.per_overlap >= 1, "per_overlap", "at least 1"),
+            (self.per_cell >= 1, "per_cell", "at least 1"),
+            (self.control_per_strip >= 0, "control_per_strip", "0 or more"),
+            (0.0 <= self.check_share < 1.0, "check_share", "in [0, 1)"),
+            (self.template_px >= 7 and self.template_px % 2 == 1, "template_px", "an odd number >= 7"),
+            (self.search_px >= 1, "search_px", "at least 1"),
+            (-1.0 < self.min_correlation < 1.0, "min_correlation", "in (-1, 1)"),
+            (0.0 < self.max_second_peak <= 1.0, "max_second_peak", "in (0, 1]"),
+            (self.max_sigma_px > 0, "max_sigma_px", "positive"),
+            (self.ransac_px > 0, "ransac_px", "positive"),
+            (self.neighbours >= 4, "neighbours", "at least 4"),
+            (self.min_sigma_px > 0, "min_sigma_px", "positive"),
+            (0.0 <= self.smooth_cells <= 5.0, "smooth_cells", "in [0, 5]"),
+            (all(int(b) >= 1 for b in self.bands), "bands", "1-based band numbers"),
+            (all(int(b) >= 1 for b in self.reference_bands), "reference_bands", "1-based band numbers"),
+            (self.resolution is None or (self.resolution > 0 and math.isfinite(self.resolution)), "resolution",
+             "a positive number"),
+            (bool(self.id_prefix) and self.id_prefix.isalnum(), "id_prefix", "letters or digits"),
+        ]
+        for ok, key, expected in checks:
+            if not ok:
+                raise ScangeoError(f"match: {key} must be {expected}, got {getattr(self, key)!r}")
+        object.__setattr__(self, "bands", tuple(int(b) for b in self.bands))
+        object.__setattr__(self, "reference_bands", tuple(int(b) for b in self.reference_bands))
+
+    @property
+    def tie_prefix(self) -> str:
+        return f"{self.id_prefix}T_"
+
+    @property
+    def control_prefix(self) -> str:
+        return f"{self.id_prefix}C_"
+
+    def replace(self, **changes) -> MatchOptions:
+        return dataclasses.replace(self, **changes)
+
+    @classmethod
+    def from_dict(cls, table: dict, source: str = "[match]") -> MatchOptions:
+        """Options from a TOML table; unknown keys are errors naming ``source`` and the key."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        for key in table:
+            if key not in names:
+                raise ProjectFileError(f"{source}: unknown key {key!r} (expected one of {', '.join(sorted(names))})")
+        try:
+            return cls(**table)
+        except (ScangeoError, TypeError, ValueError) as exc:
+            raise ProjectFileError(f"{source}: {exc}") from exc
