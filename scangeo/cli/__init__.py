@@ -21,6 +21,7 @@ COMMANDS = [
     "locate",
     "lidar",
     "simulate",
+    "match",
     "adjust",
     "rectify",
     "compare",
