@@ -8,11 +8,14 @@ from __future__ import annotations
 def add_parser(subparsers, common) -> None:
     p = subparsers.add_parser(
         "demo", parents=[common], help="all of it on a built-in block: simulate, compare, rectify, report",
-        description="Simulate the vienna2000 block (DESIGN section 7) into OUT, compare the default strategies, "
-                    "rectify the strips with the best one and write the report (docs/reports.md).",
+        description="Simulate the vienna2000 block (three strips of 7,000 lines, the middle one a problem strip) "
+                    "into OUT, compare the default strategies, rectify the strips with the best one and write the "
+                    "report (docs/reports.md). --quick runs the same on the small 'quick' preset in seconds.",
     )
     p.add_argument("out", nargs="?", default="demo", help="folder to create (default ./demo)")
     p.add_argument("--preset", default="vienna2000", help="simulation preset or TOML file (default vienna2000)")
+    p.add_argument("--quick", action="store_true",
+                   help="reduced size: the 'quick' preset (2 strips x 600 lines) instead of --preset")
     p.add_argument("--seed", type=int, default=None, help="random seed (default: the preset's)")
     p.add_argument("--no-rectify", dest="rectify", action="store_false", help="skip the rectification")
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
@@ -24,7 +27,8 @@ def run(args) -> int:
     from scangeo.reports.demo import run_demo
     from scangeo.reports.tables import markdown_tables, text_table
 
-    result = run_demo(args.out, args.preset, seed=args.seed, rectify=args.rectify, overwrite=args.overwrite,
+    preset = "quick" if args.quick else args.preset
+    result = run_demo(args.out, preset, seed=args.seed, rectify=args.rectify, overwrite=args.overwrite,
                       callback=progress_of(args))
     print(text_table(*markdown_tables(result.comparison)["check points"]))
     print(f"best variant: {result.best}")

@@ -1,7 +1,7 @@
 """``scangeo simulate OUT --preset NAME``: a simulated block with known truth.
 
-A thin shell over :func:`scangeo.simulate.block.simulate`: read the preset (a name from
-data/presets or a TOML file), apply ``--set`` overrides, simulate, print a summary.
+A thin shell over :func:`scangeo.simulate.block.simulate`: read the preset (a name of the
+presets shipped in scangeo/data/presets or a TOML file), apply ``--set`` overrides, simulate, print a summary.
 """
 from __future__ import annotations
 
@@ -35,7 +35,7 @@ def add_parser(subparsers, common) -> None:
         description="Write a simulated project folder with a truth/ folder (docs/simulate.md).",
     )
     p.add_argument("out", nargs="?", help="the project folder to create")
-    p.add_argument("--preset", default="small", help="preset name (small, vienna2000, block24) or a TOML file")
+    p.add_argument("--preset", default="small", help="preset name (see --list-presets) or a TOML file")
     p.add_argument("--seed", type=int, default=None, help="random seed (default: the preset's)")
     p.add_argument("--dtm", default=None, help="a real DTM file for the true terrain (any GDAL raster with a CRS)")
     p.add_argument("--texture", default=None, help="an RGB orthophoto for the scene instead of procedural land cover")
@@ -44,17 +44,22 @@ def add_parser(subparsers, common) -> None:
     p.add_argument("--no-images", action="store_true", help="skip rendering the images and the truth orthoimage")
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
     p.add_argument("--list-presets", action="store_true", help="list the shipped presets and exit")
+    p.add_argument("--show-preset", metavar="NAME", default=None,
+                   help="print a shipped preset's TOML (to copy and edit: --show-preset small > my.toml) and exit")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from scangeo.cli import progress_of
     from scangeo.simulate.block import simulate
-    from scangeo.simulate.config import available_presets, load_preset, merge
+    from scangeo.simulate.config import available_presets, load_preset, merge, preset_path
 
     if args.list_presets:
         for name in available_presets():
             print(name)
+        return 0
+    if args.show_preset:
+        print(preset_path(args.show_preset).read_text(encoding="utf-8"), end="")
         return 0
     if not args.out:
         raise ProjectFileError("simulate: give the output folder OUT")
@@ -63,6 +68,10 @@ def run(args: argparse.Namespace) -> int:
         overrides = merge(overrides, o)
     if args.no_images:
         overrides = merge(overrides, {"output": {"images": False, "truth_ortho": False}})
+    from scangeo.simulate.laser import is_laser_preset
+
+    if is_laser_preset(preset_path(args.preset)):
+        return _run_laser(args, overrides)
     config = load_preset(args.preset, overrides)
     block = simulate(args.out, config, seed=args.seed, dtm_file=args.dtm, texture=args.texture,
                      overwrite=args.overwrite, progress=progress_of(args))
@@ -75,4 +84,23 @@ def run(args: argparse.Namespace) -> int:
           f"{config.sensor.pixels} pixels")
     print(f"  points: {counts['E']} control, {counts['B']} break-band, {counts['K']} check, {counts['H']} height, "
           f"{counts['T']} tie; {len(pts.m_point)} measurements ({int(pts.blunder.sum())} blunders)")
+    return 0
+
+
+def _run_laser(args: argparse.Namespace, overrides: dict) -> int:
+    """A laser block (preset with a [laser] table) for ``scangeo lidar adjust``."""
+    from scangeo.simulate.config import preset_path
+    from scangeo.simulate.laser import load_laser_config, simulate_laser
+
+    laser = dict(overrides.pop("laser", {}))
+    if overrides:
+        raise ProjectFileError(f"a laser preset has only [laser] keys; cannot set {', '.join(overrides)}")
+    if args.seed is not None:
+        laser["seed"] = args.seed
+    config = load_laser_config(preset_path(args.preset), laser)
+    summary = simulate_laser(args.out, config)
+    strips = summary["truth"]["strips"]
+    print(f"simulated laser block (seed {config.seed}) into {args.out}: {len(strips)} strips, "
+          f"{sum(s['returns'] for s in strips.values())} returns, {summary['buildings']} buildings, "
+          f"{config.control_patches} control and {config.check_patches} check patches; truth in truth.json")
     return 0

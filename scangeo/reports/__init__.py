@@ -1,6 +1,6 @@
 """Strategy comparison and residual reports (docs/reports.md).
 
-* :mod:`scangeo.reports.default_variants`: the default strategies (``data/variants.toml``) for a project;
+* :mod:`scangeo.reports.default_variants`: the default strategies (``scangeo/data/variants.toml``) for a project;
 * :mod:`scangeo.reports.comparison`: every variant adjusted and summarised against the reference;
 * :mod:`scangeo.reports.true_error`: the true error of an orientation on a simulated project;
 * :mod:`scangeo.reports.tables`: the comparison as Markdown, CSV and JSON;

@@ -188,7 +188,7 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
     ----------
     project_root : the project folder.
     variants_file : the variants (default ``PROJECT/variants.toml``; when it does not exist, the default
-        variants ``data/variants.toml`` filled in with ``problem_strip`` and ``breaks_lines`` or, on a
+        variants ``scangeo/data/variants.toml`` filled in with ``problem_strip`` and ``breaks_lines`` or, on a
         simulated project, with the problem strip and breaks of ``truth/errors.json``).
     reference : the variant that is 100 %.
     names : the variants to run (default all, in the file's order).

@@ -1,4 +1,4 @@
-"""The default variants of a comparison: ``data/variants.toml`` filled in for one project.
+"""The default variants of a comparison: ``scangeo/data/variants.toml`` filled in for one project.
 
 The data file holds the strategies of DESIGN section 7 (DG, BE, SE, P2, P4, S2, S4) with two
 placeholders for facts of the project: ``"@PROBLEM_STRIP@"`` (the strip whose GPS/IMU needs more
@@ -13,15 +13,14 @@ import json
 import logging
 import os
 from dataclasses import dataclass
+from importlib.resources.abc import Traversable
 from pathlib import Path
 
-import scangeo
 from scangeo.errors import ProjectFileError
+from scangeo.resources import DEFAULT_VARIANTS
 
 log = logging.getLogger(__name__)
 
-#: The data file with the default strategies (top-level ``data/`` of the source tree).
-DEFAULT_VARIANTS = Path(scangeo.__file__).resolve().parents[1] / "data" / "variants.toml"
 PROBLEM_STRIP = '"@PROBLEM_STRIP@"'
 BREAKS_LINES = '"@BREAKS_LINES@"'
 
@@ -52,7 +51,7 @@ def problem_strip_from_truth(project_root) -> ProblemStrip | None:
     return ProblemStrip(str(strip), tuple(float(b) for b in breaks), str(path))
 
 
-def render_default_variants(problem: ProblemStrip, template: Path = DEFAULT_VARIANTS) -> str:
+def render_default_variants(problem: ProblemStrip, template: Path | Traversable = DEFAULT_VARIANTS) -> str:
     """The text of the default variants file with the placeholders filled in."""
     if not problem.breaks_lines:
         raise ProjectFileError(f"{template}: the split variants need break lines of strip {problem.strip} "

@@ -42,7 +42,7 @@ def run_demo(out="demo", preset: str = "vienna2000", *, seed: int | None = None,
     Parameters
     ----------
     out : the project folder to create (refused when it exists and is not empty, unless ``overwrite``).
-    preset : a simulation preset (``data/presets``) or TOML file.
+    preset : a simulation preset (``scangeo simulate --list-presets``) or TOML file.
     seed : overrides the preset's seed.
     rectify : rectify the strips with the best variant (needs the images).
     overrides : nested preset overrides (``scangeo.simulate.config.load_preset``).

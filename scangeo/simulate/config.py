@@ -1,8 +1,8 @@
 """Configuration of a simulated block: typed frozen dataclasses read from a preset TOML file.
 
-Presets are data: ``data/presets/NAME.toml`` at the top of the source tree (``small``,
-``vienna2000``, ``block24``); a user's own TOML file works the same way. Every key is documented in
-docs/simulate.md; an unknown key is an error naming it. Angles are in degrees in the file and
+Presets are package data: ``scangeo/data/presets/NAME.toml`` (``quick``, ``small``,
+``vienna2000``, ``block24``; :mod:`scangeo.resources`); a user's own TOML file works the same way.
+Every key is documented in docs/simulate.md; an unknown key is an error naming it. Angles are in degrees in the file and
 stay so in these dataclasses (the simulator converts at use); lengths in metres, times in seconds.
 """
 from __future__ import annotations
@@ -11,12 +11,11 @@ import dataclasses
 import tomllib
 import typing
 from dataclasses import dataclass, field
+from importlib.resources.abc import Traversable
 from pathlib import Path
 
-import scangeo
 from scangeo.errors import ProjectFileError
-
-PRESET_DIR = Path(scangeo.__file__).resolve().parents[1] / "data" / "presets"
+from scangeo.resources import preset_file, preset_names
 
 
 @dataclass(frozen=True)
@@ -283,23 +282,23 @@ def config_from_dict(data: dict, source: str = "<config>") -> SimulationConfig:
     return config
 
 
-def preset_path(name: str | Path) -> Path:
+def preset_path(name: str | Path) -> Path | Traversable:
     """The TOML file of a preset name (``small``) or a user's file path."""
     candidate = Path(name)
     if candidate.suffix == ".toml" or candidate.exists():
         if not candidate.is_file():
             raise ProjectFileError(f"{candidate}: preset file not found")
         return candidate
-    path = PRESET_DIR / f"{name}.toml"
-    if not path.is_file():
+    path = preset_file(str(name))
+    if path is None:
         known = ", ".join(available_presets()) or "none"
         raise ProjectFileError(f"unknown preset {name!r} (known presets: {known}; or give a .toml file)")
     return path
 
 
 def available_presets() -> list[str]:
-    """Names of the presets shipped in data/presets."""
-    return sorted(p.stem for p in PRESET_DIR.glob("*.toml"))
+    """Names of the presets shipped with the package (scangeo/data/presets)."""
+    return preset_names()
 
 
 def load_preset(name: str | Path, overrides: dict | None = None) -> SimulationConfig:

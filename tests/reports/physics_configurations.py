@@ -9,7 +9,7 @@ the default variants changed as each named set-up says, printing one Markdown ta
 Set-ups, combined with ``+`` (``old`` is the default file before the fair comparison):
 ``old`` DTM heights only in P/S, snooping on; ``dtm`` also BE/SE carry them; ``nosnoop`` no automatic
 rejection in any variant; ``bprob`` the 4-band variants' break-band control only for the B* points
-measured in the problem strip. ``default`` is data/variants.toml as it is.
+measured in the problem strip. ``default`` is scangeo/data/variants.toml as it is.
 """
 from __future__ import annotations
 

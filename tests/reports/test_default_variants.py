@@ -1,4 +1,4 @@
-"""The default variants (data/variants.toml) filled in for a project."""
+"""The default variants (scangeo/data/variants.toml) filled in for a project."""
 from __future__ import annotations
 
 import json

@@ -4,7 +4,8 @@ from __future__ import annotations
 import pytest
 
 from scangeo.errors import ProjectFileError
-from scangeo.simulate.config import PRESET_DIR, available_presets, load_preset
+from scangeo.resources import PRESETS
+from scangeo.simulate.config import available_presets, load_preset
 
 
 def test_shipped_presets_load():
@@ -21,7 +22,7 @@ def test_shipped_presets_load():
 
 def test_a_users_file_and_overrides(tmp_path):
     path = tmp_path / "mine.toml"
-    path.write_text((PRESET_DIR / "small.toml").read_text().replace("lines = 600", "lines = 321"))
+    path.write_text((PRESETS / "small.toml").read_text().replace("lines = 600", "lines = 321"))
     config = load_preset(path, {"points": {"blunders": 3}})
     assert config.flight.lines == 321 and config.points.blunders == 3
     assert config.source == str(path)
