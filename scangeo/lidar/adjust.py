@@ -70,7 +70,9 @@ class LaserOptions:
     calibrate: tuple[str, ...] = ("boresight",)
     coefficient_sigma_m: float = 0.5
     coefficient_sigma_deg: float = 0.05
-    constant_sigma_m: float = 0.0
+    #: prior sigma of the constant position terms; None: none with a trajectory, 0.3 m without one (flat
+    #: patches do not determine horizontal shifts: the provisional solution keeps them near 0 unless tied)
+    constant_sigma_m: float | None = None
     constant_sigma_deg: float = 0.01
     snooping: bool = True
     critical_value: float = 3.29
@@ -239,14 +241,15 @@ def _models(found: dict[str, StripFound], options: LaserOptions, mode: str) -> M
     return ModelSet(models)
 
 
-def _priors(params: Parameters, models: ModelSet, o: LaserOptions, unit: float) -> None:
+def _priors(params: Parameters, models: ModelSet, o: LaserOptions, unit: float, mode: str) -> None:
+    const_m = o.constant_sigma_m if o.constant_sigma_m is not None else (0.0 if mode == "trajectory" else 0.3)
     for m in models:
         names = m.names()
         deg = np.array([int(n[-1]) for n in names])
         angular = np.array([n[:-1] in ("roll", "pitch", "heading") for n in names])
         coef = np.where(angular, np.radians(o.coefficient_sigma_deg), o.coefficient_sigma_m / unit)
         const = np.where(angular, np.radians(o.constant_sigma_deg) if o.constant_sigma_deg > 0 else np.inf,
-                         o.constant_sigma_m / unit if o.constant_sigma_m > 0 else np.inf)
+                         const_m / unit if const_m > 0 else np.inf)
         params.add(m.key, np.zeros(len(names)), True, prior_sigma=np.where(deg >= 1, coef, const),
                    prior_values=np.zeros(len(names)), regularisation_sigma=np.where(angular, np.radians(0.01), 0.1 / unit),
                    names=names, conditions=m.conditions)
@@ -346,7 +349,7 @@ def build(project: LaserProject, options: LaserOptions, ground: Path | None = No
     block.frames = PatchFrames.from_points(ids, centre, normal)
     block.models = _models(found, options, mode)
     params = Parameters()
-    _priors(params, block.models, options, unit)
+    _priors(params, block.models, options, unit, mode)
     cal = set(options.calibrate) if mode == "trajectory" else set()
     params.add(Boresight(), nominal.boresight, "boresight" in cal, regularisation_sigma=np.radians(0.01), names=["roll", "pitch", "heading"])
     params.add(LeverArm(), nominal.lever_arm, "lever_arm" in cal, regularisation_sigma=0.1, names=["x", "y", "z"])

@@ -51,8 +51,11 @@ def _height(found: StripPatches, rows: np.ndarray, xy: np.ndarray) -> np.ndarray
     return c[:, 2] - (n[:, 0] * (xy[:, 0] - c[:, 0]) + n[:, 1] * (xy[:, 1] - c[:, 1])) / n[:, 2]
 
 
-def strip_differences(found: dict[str, StripPatches], size: float, flat_deg: float = 8.0) -> Differences:
-    """Differences of every pair of strips on every cell planar in both."""
+def strip_differences(found: dict[str, StripPatches], size: float, flat_deg: float = 8.0, max_angle_deg: float = 5.0,
+                      max_dz: float = 1.0) -> Differences:
+    """Differences of every pair of strips on every cell planar in both, with normals within
+    ``max_angle_deg`` and ``|dz| <= max_dz`` (a cell where the strips see different surfaces, e.g. a
+    roof and the ground beside it through an occlusion, is not a strip difference)."""
     strips = list(found)
     cells, a_, b_, dz, flat = [], [], [], [], []
     lookup = {s: dict(zip(found[s].cells.tolist(), range(found[s].cells.size))) for s in strips}
@@ -64,10 +67,12 @@ def strip_differences(found: dict[str, StripPatches], size: float, flat_deg: flo
             ra = np.array([lookup[sa][c] for c in common.tolist()])
             rb = np.array([lookup[sb][c] for c in common.tolist()])
             xy = cell_centres(common, size)
-            cells.append(common), a_.append(np.full(common.size, sa, object)), b_.append(np.full(common.size, sb, object))
-            dz.append(_height(found[sa], ra, xy) - _height(found[sb], rb, xy))
-            nz = np.minimum(found[sa].planes.normal[ra, 2], found[sb].planes.normal[rb, 2])
-            flat.append(nz > np.cos(np.radians(flat_deg)))
+            d = _height(found[sa], ra, xy) - _height(found[sb], rb, xy)
+            na, nb = found[sa].planes.normal[ra], found[sb].planes.normal[rb]
+            ok = (np.einsum("ij,ij->i", na, nb) >= np.cos(np.radians(max_angle_deg))) & (np.abs(d) <= max_dz)
+            cells.append(common[ok]), a_.append(np.full(int(ok.sum()), sa, object))
+            b_.append(np.full(int(ok.sum()), sb, object)), dz.append(d[ok])
+            flat.append((np.minimum(na[:, 2], nb[:, 2]) > np.cos(np.radians(flat_deg)))[ok])
     if not cells:
         e = np.zeros(0)
         return Differences(e.astype(np.int64), e.astype(object), e.astype(object), e, e.astype(bool), size)

@@ -27,7 +27,8 @@ def _options(block: LaserBlock):
 
     unit = block_unit(block)
     o = block.options
-    return replace(o.patches, size=o.patch_size / unit, max_sigma=o.max_patch_sigma / unit), block.project.sensor.range_sigma_m / unit
+    popt = replace(o.patches, size=o.patch_size / unit, max_sigma=o.max_patch_sigma / unit, max_offset=o.max_offset / unit)
+    return popt, block.project.sensor.range_sigma_m / unit
 
 
 def block_unit(block: LaserBlock) -> float:
@@ -123,9 +124,10 @@ class Evaluation:
 def evaluate(block: LaserBlock, result: Adjustment, after: dict[str, StripPatches]) -> Evaluation:
     initial = block.parameters.values()
     final = result.parameters.values()
-    size = _options(block)[0].size
-    before, after_d = common_rows(strip_differences({s: f.patches for s, f in block.found.items()}, size),
-                                  strip_differences(after, size))
+    popt = _options(block)[0]
+    args = (popt.size, popt.flat_deg, popt.max_angle_deg, popt.max_offset)
+    before, after_d = common_rows(strip_differences({s: f.patches for s, f in block.found.items()}, *args),
+                                  strip_differences(after, *args))
     return Evaluation(before, after_d, check_patches(block, initial), check_patches(block, final),
                       tie_discrepancies(block, initial), tie_discrepancies(block, final), block_unit(block))
 
@@ -174,3 +176,40 @@ def write_results(path: Path, data: dict) -> None:
     tmp = path.with_name(path.name + ".part")
     tmp.write_text(json.dumps(data, indent=1, default=float))
     os.replace(tmp, path)
+
+
+def adjust_project(project_path, out: Path | None, ground: Path | None = None, callback: ProgressCallback = no_progress,
+                   write_strips: bool = True, **overrides) -> dict:
+    """The whole of ``scangeo lidar adjust``: set up, adjust, correct the strips, evaluate, report.
+
+    ``ground`` defaults to the project's ``ground.csv`` when present; ``overrides`` replace
+    ``[adjustment]`` options. Returns the results (also written to ``out/results.json``).
+    """
+    from scangeo.lidar.adjust import LaserOptions, build, run
+    from scangeo.lidar.project import LaserProject
+    from scangeo.lidar.report import write_difference_figure, write_difference_grid, write_html
+    from scangeo.progress import scaled
+
+    project = LaserProject.load(project_path)
+    options = LaserOptions.from_table(project.adjustment, str(project.root / "project.toml"), **overrides)
+    if ground is None and (project.root / "ground.csv").exists():
+        ground = project.root / "ground.csv"
+    block = build(project, options, ground, scaled(callback, 0.0, 0.4))
+    result = run(block, scaled(callback, 0.4, 0.7))
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+    after = apply(block, result.parameters.values(), out if (out is not None and write_strips) else None,
+                  scaled(callback, 0.7, 0.95))
+    evaluation = evaluate(block, result, after)
+    results = results_dict(block, result, evaluation)
+    if out is not None:
+        unit_name = "m" if block_unit(block) == 1.0 else "map units"
+        figure = None
+        if evaluation.before.dz.size:
+            write_difference_grid(out / "differences.tif", evaluation.before, evaluation.after, project.crs)
+            write_difference_figure(out / "differences.png", evaluation.before, evaluation.after, unit_name)
+            figure = "differences.png"
+        write_results(out / "results.json", results)
+        write_html(out / "report.html", results, figure)
+    callback(1.0, 1.0, "lidar adjust done")
+    return results

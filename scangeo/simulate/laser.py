@@ -73,9 +73,8 @@ class LaserTruth:
     moved_roof: dict | None = None
 
 
-def load_laser_config(path: str | Path, overrides: dict | None = None) -> LaserBlockConfig:
-    """Read the ``[laser]`` table of a preset file; unknown keys are errors naming them."""
-    path = Path(path)
+def load_laser_config(path, overrides: dict | None = None) -> LaserBlockConfig:
+    """Read the ``[laser]`` table of a preset file (a Path or package resource); unknown keys are errors."""
     try:
         data = tomllib.loads(path.read_text())
     except (OSError, tomllib.TOMLDecodeError) as exc:
@@ -88,12 +87,17 @@ def load_laser_config(path: str | Path, overrides: dict | None = None) -> LaserB
             raise ProjectFileError(f"{path} [laser] {key}: unknown key")
         if isinstance(value, list):
             table[key] = tuple(float(v) for v in value)
+        default = known[key].default
+        if isinstance(default, float) and isinstance(value, int):
+            table[key] = float(value)
+        elif not isinstance(table[key], type(default)):
+            raise ProjectFileError(f"{path} [laser] {key}: expected {type(default).__name__}, found {value!r}")
     return LaserBlockConfig(**table)
 
 
-def is_laser_preset(path: str | Path) -> bool:
+def is_laser_preset(path) -> bool:
     try:
-        return "laser" in tomllib.loads(Path(path).read_text())
+        return "laser" in tomllib.loads(path.read_text())
     except (OSError, tomllib.TOMLDecodeError):
         return False
 
