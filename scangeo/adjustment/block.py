@@ -21,6 +21,7 @@ from scangeo.adjustment.observations import ObservationGroup
 from scangeo.adjustment.parameters import Parameters
 from scangeo.adjustment.variants import Variant
 from scangeo.errors import AdjustmentError
+from scangeo.io.point_checks import check_points
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
 from scangeo.models import GpsImuModel, ModelSet
@@ -134,7 +135,7 @@ def _correction_block(params: Parameters, m: GpsImuModel, v: Variant) -> None:
 
 def build_block(project: Project, variant: Variant, points: ImagePoints, ground: GroundPoints) -> Block:
     """The parameters and observation groups of ``variant`` on ``project``."""
-    points.check_strips([s.id for s in project.strips])
+    check_points(project, points, ground)  # strips, inside the images, tie points in 2+ strips, near the DTM
     notes: list[str] = []
     strips = {s.id: strip_data(project, s.id) for s in project.strips}
     models = build_models(project, variant, strips)
