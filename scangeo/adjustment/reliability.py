@@ -169,4 +169,16 @@ def compute_reliability(solution: Solution, statistics: Statistics, probes: Sequ
     return out
 
 
-__all__ = ["ALPHA0", "BETA", "OrientationProbe", "Reliability", "compute_reliability", "delta0"]
+def blunder_effect(solution: Solution, group_index: int, row: int, size: float) -> np.ndarray:
+    """The change of the unknowns (unscaled, the layout's columns) caused by a blunder of ``size``
+    (the observation's unit) in row ``row`` of group ``group_index``, to first order:
+    ``dx = N^-1 j^T size / sigma`` with ``j`` the row's whitened Jacobian: the adjusted unknowns move
+    by ``dx`` when the observation is ``size`` too large."""
+    s = solution.system
+    g = solution.groups[group_index]
+    Js = scaled_jacobian(solution)
+    j = Js[s.row_slices[group_index].start + row].toarray().ravel()
+    return np.asarray(solution.factor.solve(j)).ravel() * (size / g.sigma[row]) / s.scale
+
+
+__all__ = ["ALPHA0", "BETA", "OrientationProbe", "Reliability", "blunder_effect", "compute_reliability", "delta0"]
