@@ -381,6 +381,10 @@ def open_strip_image(image: Path, geometry: MapStripGeometry) -> Iterator[raster
                 f"{image}: image has {src.height} lines x {src.width} pixels, the strip's geometry "
                 f"{geometry.lines} x {geometry.pixels}"
             )
+        try:  # the last line is the first casualty of a truncated file (an interrupted copy)
+            src.read(window=Window(0, src.height - 1, src.width, 1))
+        except rasterio.errors.RasterioIOError as exc:
+            raise InputFileError(f"{image}: cannot read line {src.height - 1}; a truncated file? ({exc})") from exc
         yield src
 
 
