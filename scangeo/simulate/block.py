@@ -20,7 +20,7 @@ import pyproj
 
 from scangeo.dtm import DTM
 from scangeo.errors import ProjectFileError
-from scangeo.frames import Geoid, MapFrame
+from scangeo.frames import Geoid, MapFrame, parse_crs
 from scangeo.progress import no_progress, scaled
 from scangeo.sensors import Mounting, StripGeometry, Whiskbroom
 from scangeo.simulate import writer
@@ -84,6 +84,8 @@ def resolve_location(config: SimulationConfig, dtm_file: str | None) -> tuple[st
     for the place, else in the UTM zone of the centre.
     """
     b = config.block
+    if b.crs != "auto":
+        parse_crs(b.crs, f"{config.source} [block] crs")
     if dtm_file:
         lon, lat = dtm_centre_lonlat(dtm_file)
         crs = b.crs
