@@ -9,16 +9,23 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from scangeo.adjustment import (Ground, JacobianPart, Linearisation, ObservationGroup, Parameters,
-                                SnoopingOptions, Unknown, adjust)
+from scangeo.adjustment import (
+    Ground,
+    JacobianPart,
+    Linearisation,
+    ObservationGroup,
+    Parameters,
+    SnoopingOptions,
+    Unknown,
+    adjust,
+)
 from scangeo.adjustment.reliability import blunder_effect, compute_reliability, delta0
 from scangeo.adjustment.reliability_summary import strip_probes, variant_reliability
 from scangeo.adjustment.results import run_variant
 from scangeo.adjustment.variants import Variant
-from scangeo.simulate.block import simulate
-from scangeo.simulate.config import load_preset
 
 from .problems import HeightDifferences
+from .test_block import SHIFT_ONLY, _simulate
 
 NO_SNOOPING = SnoopingOptions(enabled=False)
 D0 = delta0()
@@ -136,22 +143,12 @@ def test_single_ray_with_control_blunder_is_not_separable():
 
 
 # ------------------------------------------------------------------------------ simulated blocks
-SHIFT_ONLY = {"sensor": {"boresight_error_deg": [0.0, 0.0, 0.0]}, "gpsimu_errors": {"defaults": {
-    "drift_m": 0.0, "drift_deg": 0.0, "random_walk_m": 0.0, "random_walk_deg": 0.0, "attitude_offset_deg": 0.0,
-    "white_noise_m": 0.0, "white_noise_deg": 0.0, "height_wander_m": 0.0, "rotation_deg": 0.0}}}
 VARIANT = Variant("SHIFT", "SE", attitude_degree=-1, dtm_heights=True)
-
-
-def _simulate(root, overrides):
-    simulate(root, load_preset("small", {"output": {"images": False, "truth_ortho": False}, **SHIFT_ONLY, **overrides}))
-    ground = root / "ground.csv"   # the reader rejects sigma_xy = 0 of height points (see test_block.py)
-    ground.write_text(ground.read_text().replace(",0,0.1,height", ",1,0.1,height"))
-    return root
 
 
 @pytest.fixture(scope="module")
 def block(tmp_path_factory):
-    return _simulate(tmp_path_factory.mktemp("rel") / "small", {})
+    return _simulate(tmp_path_factory.mktemp("rel") / "small", SHIFT_ONLY)
 
 
 @pytest.fixture(scope="module")
@@ -243,7 +240,8 @@ def test_injected_blunders_are_rejected_or_flagged_never_blamed_on_a_good_measur
         result = run_variant(tmp_path / f"b{seed}", VARIANT)
         for p, s in _detectable(clean, blunders):
             detectable += 1
-            caught += any(r.id == p and (not r.separable or r.group == f"image {s}") for r in result.adjustment.rejections)
+            caught += any(r.id == p and (not r.separable or r.group == f"image {s}")
+                          for r in result.adjustment.rejections)
         bad_points = {p for p, _ in blunders}
         for r in result.adjustment.rejections:
             if r.separable and not (r.group.startswith("image ") and (r.id, r.group[6:]) in blunders):
