@@ -24,6 +24,7 @@ COMMANDS = [
     "match",
     "adjust",
     "rectify",
+    "diagnose",
     "compare",
     "report",
     "demo",

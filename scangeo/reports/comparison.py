@@ -188,8 +188,9 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
     ----------
     project_root : the project folder.
     variants_file : the variants (default ``PROJECT/variants.toml``; when it does not exist, the default
-        variants ``scangeo/data/variants.toml`` filled in with ``problem_strip`` and ``breaks_lines`` or, on a
-        simulated project, with the problem strip and breaks of ``truth/errors.json``).
+        variants ``scangeo/data/variants.toml`` filled in with ``problem_strip`` and ``breaks_lines`` or, without
+        them, with the problem strips and breaks the diagnosis finds (``scangeo diagnose``; a simulation's
+        truth is never used to build variants, only for the true-error table)).
     reference : the variant that is 100 %.
     names : the variants to run (default all, in the file's order).
     callback : progress ``callback(done, total, message)``.
@@ -203,7 +204,7 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
     root = Path(project_root)
     project = Project.load(root)
     if variants_file is None:
-        path = ensure_variants_file(root, problem_strip, breaks_lines)
+        path = ensure_variants_file(root, problem_strip, breaks_lines, callback=callback)
     else:
         path = Path(variants_file)
         if not path.exists():

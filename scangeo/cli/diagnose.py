@@ -1,0 +1,54 @@
+"""``scangeo diagnose PROJECT``: problem strips and their breaks from an SE adjustment, and variants for them.
+
+A thin shell over :func:`scangeo.adjustment.diagnosis.diagnose`,
+:func:`scangeo.adjustment.diagnosis_output.write_diagnosis` and
+:func:`scangeo.reports.default_variants.write_variants_file`.
+"""
+from __future__ import annotations
+
+import sys
+
+
+def add_parser(subparsers, common) -> None:
+    p = subparsers.add_parser(
+        "diagnose", parents=[common], help="find problem strips and breaks; write variants.toml for them",
+        description="Adjust the project with strip models of degree 0 (SE, no DTM heights), fit C0 piecewise-linear "
+                    "error functions to the tie points' DTM misclosures and the control points' image residuals along "
+                    "each strip, choose breaks by BIC (docs/adjustment.md, 'Diagnosis'), write "
+                    "PROJECT/results/diagnosis.{json,md} and PROJECT/variants.toml with P and S variants for the "
+                    "problem strips found. Check points are not used.",
+    )
+    p.add_argument("project", help="the project folder")
+    p.add_argument("--dtm-height-points", nargs="+", default=["*"], metavar="PATTERN",
+                   help="glob patterns of the tie points on open terrain (default: all)")
+    p.add_argument("--max-breaks", type=int, default=4, help="most breaks per strip (default 4)")
+    p.add_argument("--no-variants", dest="variants", action="store_false",
+                   help="do not write PROJECT/variants.toml")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing PROJECT/variants.toml")
+    p.set_defaults(func=run, writes_project=True)  # one run at a time (scangeo.atomic.OutputLock)
+
+
+def run(args) -> int:
+    from pathlib import Path
+
+    from scangeo.adjustment.diagnosis import diagnose
+    from scangeo.adjustment.diagnosis_output import summary_lines, write_diagnosis
+    from scangeo.adjustment.diagnosis_patterns import SelectionOptions
+    from scangeo.cli import progress_of
+    from scangeo.errors import ProjectFileError
+    from scangeo.reports.default_variants import ProblemStrip, write_variants_file
+
+    if args.max_breaks < 0:
+        raise ProjectFileError(f"--max-breaks: expected 0 or more, found {args.max_breaks}")
+    target = Path(args.project) / "variants.toml"
+    if args.variants and target.exists() and not args.overwrite:
+        raise ProjectFileError(f"{target} exists: pass --overwrite to replace it, or --no-variants")
+    d = diagnose(args.project, dtm_height_points=tuple(args.dtm_height_points),
+                 options=SelectionOptions(max_breaks=args.max_breaks), callback=progress_of(args))
+    print("\n".join(summary_lines(d)))
+    files = write_diagnosis(d)
+    if args.variants:
+        problems = [ProblemStrip(s, d.breaks_of(s), "scangeo diagnose") for s in d.problem_strips]
+        files.append(write_variants_file(args.project, problems))
+    print("written: " + ", ".join(str(f) for f in files), file=sys.stderr)
+    return 0
