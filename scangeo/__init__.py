@@ -15,7 +15,7 @@ import os
 import numba
 
 if "NUMBA_THREADING_LAYER" not in os.environ:
-    numba.config.THREADING_LAYER = "workqueue"
+    numba.config.THREADING_LAYER = "workqueue"  # type: ignore[attr-defined]
 
 from scangeo.errors import ScangeoError  # noqa: E402
 

@@ -44,6 +44,7 @@ class DTM:
         self.h_min = float(finite.min())
         self.h_max = float(finite.max())
         self._local_maps: dict[tuple, LocalPolynomialMap] = {}
+        self._max_maps: dict[tuple, np.ndarray] = {}
 
     @classmethod
     def open(cls, path, map_frame: MapFrame, band: int = 1) -> DTM:
@@ -155,7 +156,7 @@ class DTM:
         """Highest height within each ``block`` x ``block`` cell block and its 8 neighbours (+inf
         where nodata is near): lets ray casting jump over terrain it cannot touch. Cached."""
         key = ("block_max", block)
-        if key not in self._local_maps:
+        if key not in self._max_maps:
             v = self.grid.values
             rows, cols = v.shape
             nbr, nbc = -(-rows // block), -(-cols // block)
@@ -171,8 +172,8 @@ class DTM:
             m = np.maximum(m, padded[block::block, block::block])
             dil = np.pad(m, 1, constant_values=-np.inf)
             out = np.max([dil[1 + a:1 + a + nbr, 1 + b:1 + b + nbc] for a in (-1, 0, 1) for b in (-1, 0, 1)], axis=0)
-            self._local_maps[key] = out
-        return self._local_maps[key]
+            self._max_maps[key] = out
+        return self._max_maps[key]
 
     def cell_size(self) -> float:
         """The DTM's pixel size in map units (the smaller of the two)."""

@@ -170,6 +170,7 @@ class Geoid:
         lat = np.asarray(lat, dtype=float)
         if self.grid is None:
             return np.full(lat.shape, self.constant)
+        assert self._to_grid is not None  # set together with self.grid
         gx, gy = self._to_grid.transform(np.degrees(lon), np.degrees(lat))
         return self.grid.sample(np.asarray(gx), np.asarray(gy))
 

@@ -29,7 +29,7 @@ class RasterGrid:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self.values.shape  # type: ignore[return-value]
+        return (int(self.values.shape[0]), int(self.values.shape[1]))
 
     def map_to_index(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Fractional (col, row) of map points, pixel centres at integers."""

@@ -91,6 +91,7 @@ class LocalPolynomialMap:
             best = cls(coef, exps, centre, scale, box, float(err))
             if err < tolerance:
                 return best
+        assert best is not None  # max_degree >= 1: at least one fit was tried
         raise ScangeoError(
             f"no polynomial up to degree {max_degree} reproduces the map conversion over the block to "
             f"{tolerance * 1000:.2f} mm (best {best.max_error * 1000:.2f} mm); the block is too large"
@@ -112,5 +113,5 @@ def _design(u: np.ndarray, exps: np.ndarray) -> np.ndarray:
     pw = [np.ones_like(u)]
     for _ in range(deg):
         pw.append(pw[-1] * u)
-    pw = np.stack(pw)  # (deg+1, n, 3)
-    return pw[exps[:, 0], :, 0].T * pw[exps[:, 1], :, 1].T * pw[exps[:, 2], :, 2].T
+    stacked = np.stack(pw)  # (deg+1, n, 3)
+    return stacked[exps[:, 0], :, 0].T * stacked[exps[:, 1], :, 1].T * stacked[exps[:, 2], :, 2].T

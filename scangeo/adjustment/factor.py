@@ -157,6 +157,7 @@ class Factorizer:
             self._symbolic = _cholmod_analyze(A, mode="supernodal", ordering_method="amd")
             self._pattern = (A.indptr.copy(), A.indices.copy())
         try:
+            assert self._symbolic is not None
             return CholmodFactor(self._symbolic.cholesky(A))
         except CholmodNotPositiveDefiniteError:
             pass

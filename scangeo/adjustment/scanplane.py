@@ -91,7 +91,8 @@ class PushbroomPlane:
         """Pixel of ``tan(across)`` and ``dpixel / dtan(across)``."""
         sen = self.sensor
         pixel = sen.pixel_of(np.column_stack([np.zeros_like(tx), tx, np.ones_like(tx)]))
-        if sen.is_pinhole:  # x_u = x_d (1 + k1 r^2 + k2 r^4) = f tan(across), pixel = x_d / pitch + pp
+        if sen.focal_length is not None:  # pinhole: x_u = x_d (1 + k1 r^2 + k2 r^4) = f tan(across), pixel = x_d / pitch + pp
+            assert sen.principal_point is not None
             xd = (pixel - sen.principal_point) * sen.pitch
             r2 = xd * xd + sen.line_offset**2
             dxu_dxd = 1 + sen.k1 * (r2 + 2 * xd * xd) + sen.k2 * (r2 * r2 + 4 * xd * xd * r2)
@@ -102,7 +103,7 @@ class PushbroomPlane:
     def _tan_along_of(self, pixel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``tan(along)`` of a pixel and its derivative per pixel."""
         sen = self.sensor
-        if sen.is_pinhole:
+        if sen.focal_length is not None:  # pinhole
             return np.full_like(pixel, sen.line_offset / sen.focal_length), np.zeros_like(pixel)
         j, u = self._segment(pixel)
         slope = self._tan_along[j + 1] - self._tan_along[j]

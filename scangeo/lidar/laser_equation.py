@@ -108,7 +108,7 @@ class SystematicErrors:
         for f in fields(self):
             v = getattr(self, f.name)
             values[f.name] = tuple(factor * x for x in v) if isinstance(v, tuple) else factor * v
-        return SystematicErrors(**values)
+        return SystematicErrors(**values)  # type: ignore[arg-type]  # same fields, scaled
 
 
 NO_ERRORS = SystematicErrors()

@@ -73,7 +73,7 @@ def build_block(
     ctl: list[ControlArea] = []
     for x, y in controls:
         for s, strip in enumerate(strips):
-            u, v = strip.along_across(x, y)
+            u, v = strip.along_across(np.asarray(x), np.asarray(y))
             half_length = (layout.width if s >= layout.n_strips else layout.length) / 2
             if abs(v) <= layout.swath / 2 and abs(u) <= half_length + 1e-6:
                 ctl.append(ControlArea(s, x, y, sigma=layout.sigma_control))

@@ -68,7 +68,7 @@ def read_leeward_config(path: str | Path) -> LeewardConfig:
         b = data["boresight"]
         return LeewardConfig(
             (float(b["roll"]), float(b["pitch"]), float(b["yaw"])),
-            tuple(float(v) for v in data["lever_arm"]),
+            (float(data["lever_arm"][0]), float(data["lever_arm"][1]), float(data["lever_arm"][2])),
             int(data["utm_zone"]),
         )
     except (KeyError, ValueError, TypeError, tomllib.TOMLDecodeError) as exc:

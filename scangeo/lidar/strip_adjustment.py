@@ -99,7 +99,7 @@ def design_matrix(
             raise LidarError(f"strip index {s} in an area, expected 0..{n - 1}")
         terms = [1.0]
         if tilts:
-            u, v = strips[s].along_across(x, y)
+            u, v = strips[s].along_across(np.asarray(x), np.asarray(y))
             terms += [float(u), float(v)]
         for t, value in enumerate(terms):
             rows.append(r)

@@ -111,7 +111,7 @@ class Whiskbroom:
     def with_calibration(self, **values: float) -> Whiskbroom:
         import dataclasses
 
-        return dataclasses.replace(self, **values)
+        return dataclasses.replace(self, **values)  # type: ignore[arg-type]  # calibration fields are floats
 
 
 @dataclass(frozen=True)
@@ -167,7 +167,8 @@ class Pushbroom:
 
     def _tangents(self, pixel) -> tuple[np.ndarray, np.ndarray]:
         j = np.asarray(pixel, dtype=float)
-        if self.is_pinhole:
+        if self.focal_length is not None:  # pinhole
+            assert self.principal_point is not None
             xd = (j - self.principal_point) * self.pitch
             r2 = xd * xd + self.line_offset**2
             xu = xd * (1 + self.k1 * r2 + self.k2 * r2 * r2)

@@ -9,6 +9,7 @@ import csv
 import json
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -62,7 +63,7 @@ def strip_figure(project_dir: str | Path, strip_id: str, path: str | Path, step:
     for kind, (marker, colour, label) in KIND_STYLE.items():
         sel = [r for r in pts if kinds.get(r["point"]) == kind]
         if sel:
-            style = dict(c=colour) if marker == "+" else dict(facecolors="none", edgecolors=colour)
+            style: dict[str, Any] = dict(c=colour) if marker == "+" else dict(facecolors="none", edgecolors=colour)
             ax_img.scatter([float(r["pixel"]) for r in sel], [float(r["line"]) for r in sel], marker=marker,
                            s=18, linewidths=1.0, label=label, **style)
     ax_img.set_xlabel("pixel")

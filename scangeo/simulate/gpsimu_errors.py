@@ -50,11 +50,11 @@ class StripErrors:
 
     @property
     def position_total(self) -> np.ndarray:
-        return sum(self.position.values())
+        return np.sum(list(self.position.values()), axis=0)
 
     @property
     def attitude_total(self) -> np.ndarray:
-        return sum(self.attitude.values())
+        return np.sum(list(self.attitude.values()), axis=0)
 
 
 def piecewise_excursion(t: np.ndarray, t_knots: np.ndarray, values: tuple, bulges: tuple,
@@ -105,7 +105,7 @@ def draw_errors(config: StripErrorConfig, time: np.ndarray, first_line_time: flo
 
     direction = rng.standard_normal(3)
     direction /= np.linalg.norm(direction)
-    shift = direction * rng.uniform(*config.shift_m)
+    shift = direction * rng.uniform(config.shift_m[0], config.shift_m[1])
     pos["shift"] = np.tile(shift, (n, 1))
     params["shift_m"] = shift.tolist()
 

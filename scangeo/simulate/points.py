@@ -188,7 +188,7 @@ def measure_points(ids, kinds, x, y, geometries: list[StripGeometry], map_frame:
     blunder = np.zeros(line.size, dtype=bool)
     if config.blunders:
         chosen = rng.choice(line.size, size=min(config.blunders, line.size), replace=False)
-        size = rng.uniform(*config.blunder_px, chosen.size)
+        size = rng.uniform(config.blunder_px[0], config.blunder_px[1], chosen.size)
         angle = rng.uniform(0, 2 * np.pi, chosen.size)
         dl, dp = size * np.sin(angle), size * np.cos(angle)
         n_lines = np.array([g.n_lines for g in geometries])[m_strip[chosen]]

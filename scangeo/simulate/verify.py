@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import csv
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -64,7 +65,7 @@ def correction_basis(tau: np.ndarray, strategy: str, tau_breaks: list[float]) ->
 
 
 def fit_strategy(project: Project, strip_id: str, p_P: np.ndarray, line: np.ndarray, pixel: np.ndarray,
-                 strategy: str, breaks_lines: list[float] = ()) -> tuple[np.ndarray, np.ndarray]:
+                 strategy: str, breaks_lines: Sequence[float] = ()) -> tuple[np.ndarray, np.ndarray]:
     """Residuals (measured - projected) along (lines) and across (pixels) after the best correction."""
     base = project.geometry(strip_id)
     spline = base.spline

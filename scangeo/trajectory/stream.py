@@ -82,10 +82,10 @@ class GpsImuStream:
 
     def select(self, mask: np.ndarray) -> GpsImuStream:
         """The samples where ``mask`` is true."""
-        return GpsImuStream(
-            *(np.asarray(getattr(self, k))[mask] for k in ("time", "lat", "lon", "h", "roll", "pitch", "heading")),
-            source=self.source,
+        time, lat, lon, h, roll, pitch, heading = (
+            np.asarray(getattr(self, k))[mask] for k in ("time", "lat", "lon", "h", "roll", "pitch", "heading")
         )
+        return GpsImuStream(time, lat, lon, h, roll, pitch, heading, source=self.source)
 
     def between(self, t0: float, t1: float) -> GpsImuStream:
         """The samples with t0 <= time <= t1."""
