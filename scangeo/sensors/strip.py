@@ -16,6 +16,7 @@ import numpy as np
 from scangeo.dtm import DTM
 from scangeo.rotation import small_rotation
 from scangeo.sensors import kernels as K
+from scangeo.sensors.ground_to_image_kernels import whiskbroom_ground_to_image, whiskbroom_tables
 from scangeo.sensors.models import SensorModel
 from scangeo.sensors.raycast import ray_cast_kernel
 from scangeo.timing import LineTiming
@@ -189,16 +190,30 @@ class StripGeometry:
                     window = max(window, b - first)
         return window + 3 if window else 0
 
+    @cached_property
+    def _whiskbroom_tables(self):
+        """Interpolation tables of ``ground_to_image_kernels`` (epochs aligned with the knots)."""
+        times = self._coarse[0]
+        t, tab, err = whiskbroom_tables(lambda tt: self.pose(tt, derivatives=True), self.spline.t0,
+                                        self.spline.spacing, float(self.mounting.time_offset),
+                                        self.timing.mean_rate, float(times[0]), float(times[-1]))
+        return t, tab, err, np.ascontiguousarray(tab[:, 0, :3]), np.ascontiguousarray(tab[:, 0, 3])
+
     def ground_to_image(self, p_P: np.ndarray, tol_line: float = 1e-6):
         """(line, pixel) that saw project-frame points (n, 3), and status codes.
 
-        Bracketing on a line-spaced grid of sensor poses (warm-started from the previous point),
-        then safeguarded Newton on time to ``tol_line`` lines.
+        Whiskbroom: the scan-plane condition and the look direction interpolated between
+        knot-aligned epochs, to ``tol_line`` by a per-point bound, exact Newton on time where the bound
+        is larger (``ground_to_image_kernels``). Pushbroom: bracketing on a line-spaced grid of
+        sensor poses (warm-started from the previous point), then safeguarded Newton on time to
+        ``tol_line`` lines.
         """
         p_P = np.ascontiguousarray(np.atleast_2d(np.asarray(p_P, dtype=float)))
         n = len(p_P)
-        times, R, p, _, _ = self._coarse
         kind, sp, table = self.sensor.kernel_params()
+        if kind == 0:
+            return self._whiskbroom_ground_to_image(p_P, sp, tol_line)[:3]
+        times, R, p, _, _ = self._coarse
         tan_c = float(np.tan(self.sensor.along_angle(np.array([0.5 * (self.sensor.pixels - 1)]))[0]))
         cA = np.ascontiguousarray(R[:, :, 0] - tan_c * R[:, :, 2])
         cC = np.einsum("ki,ki->k", cA, p)
@@ -212,6 +227,19 @@ class StripGeometry:
             tol_line / self.timing.mean_rate, max(1, min(n, 256)), line, pixel, status,
         )
         return line, pixel, status
+
+    def _whiskbroom_ground_to_image(self, p_P: np.ndarray, sp: np.ndarray, tol_line: float):
+        """line, pixel, status and the exact-solution flag per point (whiskbroom)."""
+        n = len(p_P)
+        times, tab, err, cA, cC = self._whiskbroom_tables
+        line, pixel = np.empty(n), np.empty(n)
+        status, exact = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.uint8)
+        whiskbroom_ground_to_image(
+            p_P, times, tab, err, cA, cC, self.overscan_window(p_P), *self._mount_args(), sp,
+            *self._timing_args(), float(self.n_lines), float(tol_line), tol_line / self.timing.mean_rate,
+            max(1, min(n, 256)), line, pixel, status, exact,
+        )
+        return line, pixel, status, exact
 
     def ground_to_image_near(self, p_P: np.ndarray, line0: np.ndarray, pixel0: np.ndarray,
                              tol_line: float = 1e-4, max_step_lines: float = 64.0, max_iter: int = 8):
