@@ -108,19 +108,21 @@ class LaserOptions:
 
 @dataclass
 class GivenPatches:
-    """Control and check patches of ground.csv."""
+    """Control and check patches of ground.csv; each patch's footprint is the box around its surveyed
+    points (principal axes of their x, y) grown by a margin."""
 
     ids: list[str]
     role: list[str]
     centre: np.ndarray     # (m, 2) map
-    radius: np.ndarray
+    axes: np.ndarray       # (m, 2, 2) unit axes (rows) of the footprint box
+    half: np.ndarray       # (m, 2) half extents along them
     point_ids: np.ndarray
     point_patch: np.ndarray
     xyz: np.ndarray        # (k, 3) map
     sigma: np.ndarray
 
 
-def read_patch_ground(path: Path, margin: float = 0.5) -> GivenPatches:
+def read_patch_ground(path: Path, margin: float = 1.0) -> GivenPatches:
     """ground.csv of a laser project: ``point,patch,x,y,z,sigma_xy,sigma_z,role`` (role control or check)."""
     header, body, numbers = read_rows(path, ["point", "patch", "x", "y", "z"], ["sigma_xy", "sigma_z", "role"])
     xyz = np.column_stack([column_floats(path, header, body, numbers, c) for c in "xyz"])
@@ -131,7 +133,7 @@ def read_patch_ground(path: Path, margin: float = 0.5) -> GivenPatches:
             raise ProjectFileError(f"{path} line {line}: role {r!r}: expected control or check for a laser project")
     pid = np.array([r[header.index("patch")] for r in body])
     ids = list(dict.fromkeys(pid))
-    role, centre, radius = [], [], []
+    role, centre, axes, half = [], [], [], []
     for p in ids:
         sel = np.flatnonzero(pid == p)
         if sel.size < 3:
@@ -140,11 +142,13 @@ def read_patch_ground(path: Path, margin: float = 0.5) -> GivenPatches:
             raise ProjectFileError(f"{path} line {numbers[sel[0]]}: patch {p} mixes the roles control and check")
         role.append(roles[sel[0]])
         c = xyz[sel, :2].mean(axis=0)
-        centre.append(c)
-        radius.append(np.max(np.hypot(*(xyz[sel, :2] - c).T)) + margin)
+        _, vec = np.linalg.eigh(np.cov((xyz[sel, :2] - c).T))
+        ax = vec.T[::-1]
+        centre.append(c), axes.append(ax)
+        half.append(np.abs((xyz[sel, :2] - c) @ ax.T).max(axis=0) + margin)
     point_patch = np.array([ids.index(p) for p in pid])
-    return GivenPatches(ids, role, np.array(centre), np.array(radius), np.array([r[header.index("point")] for r in body]),
-                        point_patch, xyz, sig)
+    return GivenPatches(ids, role, np.array(centre), np.array(axes), np.array(half),
+                        np.array([r[header.index("point")] for r in body]), point_patch, xyz, sig)
 
 
 @dataclass
@@ -161,19 +165,18 @@ class StripFound:
 
 
 def _pass1(args) -> StripFound:
-    strip, crs, options, prior, centres, radii = args
+    strip, crs, options, prior, given = args
     cloud = read_strip(strip.id, strip.las, strip.point_source_id, crs)
     found = find_strip_patches(cloud, options, prior)
-    given, ok = (fit_given_patches(cloud, centres, radii, options, prior) if centres is not None and centres.size
-                 else (None, None))
-    return StripFound(strip.id, cloud.size, float(cloud.time.min()), float(cloud.time.max()), found, given, ok)
+    planes, ok = (fit_given_patches(cloud, given.centre, given.axes, given.half, options, prior) if given is not None
+                  else (None, None))
+    return StripFound(strip.id, cloud.size, float(cloud.time.min()), float(cloud.time.max()), found, planes, ok)
 
 
 def find_all(project: LaserProject, options: PatchOptions, prior: float, given: GivenPatches | None,
              workers: int = 1, callback: ProgressCallback = no_progress) -> dict[str, StripFound]:
     """Pass 1 over every strip (in parallel processes with ``workers > 1``)."""
-    tasks = [(s, project.crs, options, prior, None if given is None else given.centre,
-              None if given is None else given.radius) for s in project.strips]
+    tasks = [(s, project.crs, options, prior, given) for s in project.strips]
     out = {}
     if workers > 1 and len(tasks) > 1:
         with ProcessPoolExecutor(min(workers, len(tasks))) as pool:
@@ -273,8 +276,8 @@ def map_unit(crs) -> float:
 
 
 def build(project: LaserProject, options: LaserOptions, ground: Path | None = None,
-          callback: ProgressCallback = no_progress) -> LaserBlock:
-    """Find patches, set up unknowns and observation groups."""
+          callback: ProgressCallback = no_progress, found: dict[str, StripFound] | None = None) -> LaserBlock:
+    """Find patches (or reuse ``found`` of an earlier set-up), set up unknowns and observation groups."""
     mode = options.mode
     if mode == "auto":
         mode = "trajectory" if project.has_trajectories else "points"
@@ -286,9 +289,8 @@ def build(project: LaserProject, options: LaserOptions, ground: Path | None = No
                    max_offset=options.max_offset / unit, thin_cell=options.thin_cell / unit)
     prior = project.sensor.range_sigma_m / unit
     given = read_patch_ground(ground) if ground is not None and Path(ground).exists() else None
-    if given is not None:  # a control patch's circle holds at least a patch's worth of returns
-        given.radius = np.maximum(given.radius, 0.5 * popt.size)
-    found = find_all(project, popt, prior, given, options.workers, callback)
+    if found is None:
+        found = find_all(project, popt, prior, given, options.workers, callback)
     ties = homologous({s: f.patches for s, f in found.items()}, popt)
     notes = [f"{len(ties)} tie patches in {len(found)} strips ({', '.join(f'{s}: {len(f.patches.cells)} planar cells' for s, f in found.items())})"]
     strips = {s.id: s for s in project.strips}

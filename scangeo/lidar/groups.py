@@ -22,7 +22,7 @@ import numpy as np
 from scangeo.adjustment.keys import Boresight, LeverArm, Plane, RangeOffset, ScanIndex
 from scangeo.adjustment.observations import Linearisation, ObservationGroup
 from scangeo.adjustment.parameters import JacobianPart
-from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, derivatives
+from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, derivatives, georeference
 from scangeo.models import ModelSet
 
 CALIBRATION_KEYS = (Boresight(), LeverArm(), RangeOffset(), ScanIndex())
@@ -128,13 +128,17 @@ class StripAnchors(ObservationGroup):
 
     def _evaluate(self, values, jacobian: bool):
         c = self._corrections(values)
+        d = None
         if self.trajectory:
             cal = Calibration(np.asarray(values[Boresight()], float), np.asarray(values[LeverArm()], float),
                               float(values[RangeOffset()][0]), float(values[ScanIndex()][0]))
-            d = derivatives(self.pos0 + c[:, :3], self.ang0 + c[:, 3:], self.polar, cal)
-            p = d.points
+            if jacobian:
+                d = derivatives(self.pos0 + c[:, :3], self.ang0 + c[:, 3:], self.polar, cal)
+                p = d.points
+            else:
+                p = georeference(self.pos0 + c[:, :3], self.ang0 + c[:, 3:], self.polar, cal)
         else:
-            d, p = None, self.pos0 + c[:, :3]
+            p = self.pos0 + c[:, :3]
         uvd = _plane_values(self.frames, values, self._local, self._plane_keys)
         f, n, dd = self.frames.distance(self._patch, p, uvd)
         return f / self.sigma, d, n, dd

@@ -146,15 +146,17 @@ def homologous(found: dict[str, StripPatches], options: PatchOptions, thin: bool
     return out
 
 
-def fit_given_patches(cloud: StripCloud, centres: np.ndarray, radius: np.ndarray, options: PatchOptions,
-                      prior_sigma: float) -> tuple[Planes, np.ndarray]:
-    """Planes of the strip's returns within ``radius`` of each of the given centres (control patches)."""
+def fit_given_patches(cloud: StripCloud, centres: np.ndarray, axes: np.ndarray, half: np.ndarray,
+                      options: PatchOptions, prior_sigma: float) -> tuple[Planes, np.ndarray]:
+    """Planes of the strip's returns inside each given box (centre, unit axes (2, 2), half extents)."""
     m = centres.shape[0]
     groups, pts = [], []
     for k in range(m):
-        lo, hi = centres[k] - radius[k], centres[k] + radius[k]
+        r = float(np.hypot(*half[k]))
+        lo, hi = centres[k] - r, centres[k] + r
         box = np.flatnonzero(np.all((cloud.xyz[:, :2] >= lo) & (cloud.xyz[:, :2] <= hi), axis=1))
-        inside = box[np.hypot(*(cloud.xyz[box, :2] - centres[k]).T) <= radius[k]]
+        local = (cloud.xyz[box, :2] - centres[k]) @ axes[k].T
+        inside = box[np.all(np.abs(local) <= half[k], axis=1)]
         groups.append(np.full(inside.size, k)), pts.append(inside)
     g, sel = np.concatenate(groups), np.concatenate(pts)
     ref = np.column_stack([centres, np.zeros(m)])

@@ -19,13 +19,13 @@ from scangeo.lidar.differences import Differences, mosaic
 
 def write_difference_grid(path: Path, before: Differences, after: Differences, crs) -> None:
     import rasterio
-    from rasterio.transform import from_origin
+    from affine import Affine
 
     gb, (x0, y1), rows, cols = mosaic(before)
     ga, *_ = mosaic(after)
     tmp = path.with_name(path.name + ".part.tif")
     profile = dict(driver="GTiff", width=cols, height=rows, count=2, dtype="float32", nodata=np.nan, crs=crs,
-                   transform=from_origin(x0, y1, before.size, before.size), compress="deflate")
+                   transform=Affine(before.size, 0.0, x0, 0.0, -before.size, y1), compress="deflate")
     with rasterio.open(tmp, "w", **profile) as dst:
         dst.write(gb, 1)
         dst.write(ga, 2)

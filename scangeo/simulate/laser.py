@@ -235,31 +235,37 @@ def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = 
 
 
 def _write_ground(out: Path, scene: LaserScene, frame: MapFrame, cfg: LaserBlockConfig, rng) -> None:
-    """Control and check patches: four surveyed points (2 m around a centre) on ground or roof faces."""
+    """Control and check patches: four surveyed points (a 5 m x 4 m rectangle) on ground or roof faces."""
     b = scene.buildings
     half = 0.5 * cfg.strip_length - 30.0
     total = cfg.control_patches + cfg.check_patches
     inside = np.flatnonzero((np.abs(b.x) < half) & (np.abs(b.y) < half))
     rng.shuffle(inside)
+    # roof patches on distinct buildings, cycling through the ridge directions (roofs of one direction
+    # alone leave the block's shift along the ridges free)
+    by_azimuth = [list(inside[b.azimuth[inside] == a]) for a in np.unique(b.azimuth[inside])]
+    roofs = [group[k] for k in range(max(map(len, by_azimuth), default=0)) for group in by_azimuth if k < len(group)]
     rows = []
+    ring = 8.0 * np.array([[np.cos(a), np.sin(a)] for a in np.linspace(0, 2 * np.pi, 13)] + [[0.0, 0.0]])
+    n_roof = 0
     for i in range(total):
-        if i % 3 == 2 or i // 2 >= inside.size:   # every third patch on flat ground
-            ring = 8.0 * np.array([[np.cos(a), np.sin(a)] for a in np.linspace(0, 2 * np.pi, 13)] + [[0.0, 0.0]])
+        if i % 3 == 2 or n_roof >= len(roofs):   # every third patch on flat ground
             for _ in range(1000):
                 c = rng.uniform(-half, half, 2)
                 if np.all(scene.building_at(c[0] + ring[:, 0], c[1] + ring[:, 1])[0] < 0):
                     break
             e1, e2 = np.array([1.0, 0.0]), np.array([0.0, 1.0])
         else:
-            k = int(inside[i // 2 % inside.size])
-            centre, _ = scene.roof_face(k, 1 if i % 2 == 0 else -1)
+            k = int(roofs[n_roof])
+            centre, _ = scene.roof_face(k, 1 if n_roof % 2 == 0 else -1)
+            n_roof += 1
             c = centre[:2]
             a = b.azimuth[k]
             e1, e2 = np.array([np.cos(a), np.sin(a)]), np.array([-np.sin(a), np.cos(a)])
         role = "control" if i < cfg.control_patches else "check"
         pid = f"{'C' if role == 'control' else 'K'}{i + 1}"
         for j, (su, sv) in enumerate(((1, 1), (-1, 1), (-1, -1), (1, -1))):
-            xy = c + 1.5 * su * e1 + 1.2 * sv * e2
+            xy = c + 2.5 * su * e1 + 2.0 * sv * e2
             z = scene.height(np.array([xy[0]]), np.array([xy[1]]))[0] + rng.normal(0, cfg.control_sigma)
             X, Y, Z = frame.project_to_map(np.array([[xy[0], xy[1], z]]))
             rows.append(f"{pid}.{j + 1},{pid},{X[0]:.4f},{Y[0]:.4f},{Z[0]:.4f},{cfg.control_sigma},{cfg.control_sigma},{role}")
