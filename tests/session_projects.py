@@ -56,3 +56,19 @@ def copy_project(source: Path, target: Path, truth: bool = False) -> Path:
     ignore = None if truth else shutil.ignore_patterns("truth")
     shutil.copytree(source, target, ignore=ignore)
     return target
+
+
+#: Two variants for ``scangeo compare`` on a project without a problem strip (no default variants needed).
+TWO_VARIANTS = '[variants.DG]\nstrategy = "DG"\nsnooping = false\n\n[variants.SE]\nstrategy = "SE"\n'
+
+
+@pytest.fixture(scope="session")
+def compared_block(tmp_path_factory, small_block) -> Path:
+    """A copy of ``small_block`` compared with DG and SE (results/, no report): read-only."""
+    from scangeo.reports.comparison import compare_project
+    from scangeo.reports.tables import write_comparison
+
+    root = copy_project(small_block, tmp_path_factory.mktemp("session") / "compared", truth=True)
+    (root / "variants.toml").write_text(TWO_VARIANTS, encoding="utf-8")
+    write_comparison(compare_project(root))
+    return root

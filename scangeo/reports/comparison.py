@@ -18,7 +18,7 @@ from pathlib import Path
 from scangeo.adjustment.block import CONTROL_COMPONENTS
 from scangeo.adjustment.ground import DtmHeights
 from scangeo.adjustment.results import VariantResult
-from scangeo.errors import InputFileError, ProjectFileError, ScangeoError
+from scangeo.errors import DTMError, InputFileError, ProjectFileError, ScangeoError
 from scangeo.progress import ProgressCallback, no_progress, scaled
 from scangeo.reports.true_error import Truth
 
@@ -223,7 +223,7 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
             result = run_variant(root, variants[name], path, lambda d, t, m="": sub(d, t, f"{name}: {m}"))
             write_results(result)
             summaries.append(summarise(result, truth))
-        except InputFileError:
+        except (InputFileError, DTMError):
             raise  # a defect of the project's files fails every variant alike: stop with its message
         except ScangeoError as exc:
             log.warning("variant %s failed: %s", name, exc)

@@ -16,6 +16,7 @@ import numpy as np
 import pyproj
 
 from scangeo.errors import TrajectoryError
+from scangeo.frames import parse_crs
 from scangeo.trajectory.stream import GpsImuStream, check_times
 
 ALIASES = {
@@ -140,7 +141,7 @@ def read_trajectory_csv(path, crs=None) -> GpsImuStream:
                 f"{path}: x,y,z columns need the CRS of x and y (trajectory_crs or crs in project.toml; "
                 "--crs for scangeo info)"
             )
-        to_geo = pyproj.Transformer.from_crs(pyproj.CRS.from_user_input(crs), "EPSG:4326", always_xy=True)
+        to_geo = pyproj.Transformer.from_crs(parse_crs(crs, f"{path}: the CRS of x, y"), "EPSG:4326", always_xy=True)
         lon_deg, lat_deg = to_geo.transform(data[:, 1], data[:, 2])
         lat, lon, h = np.radians(lat_deg), np.radians(lon_deg), data[:, 3]
     roll, pitch, heading = (np.radians(data[:, k]) for k in (4, 5, 6))

@@ -10,7 +10,18 @@ import numpy as np
 import pytest
 
 from tests.badinput.defects import (
-    case, chain, dtm_edit, lines, random_bytes, raster, remove, replace, sbet_edit, sbet_of, set_field, truncate,
+    case,
+    chain,
+    dtm_edit,
+    lines,
+    random_bytes,
+    raster,
+    remove,
+    replace,
+    sbet_edit,
+    sbet_of,
+    set_field,
+    truncate,
     write,
 )
 from tests.badinput.runner import run_bad
@@ -47,7 +58,7 @@ def _radians_in_file(rows):
 #: Defects of project.toml (TOML: missing/unknown key, wrong type, bad CRS, paths), read by every command.
 TOML = [
     case("toml-syntax", replace(PT, 'kind = "whiskbroom"', 'kind = "whiskbroom'), "project.toml", "line"),
-    case("toml-missing-crs", replace(PT, 'crs = "EPSG:32633"\n', ""), "project.toml", "[project] crs", "missing"),
+    case("toml-missing-crs", replace(PT, 'crs = "EPSG:32633"\n', ""), "project.toml", "crs", "missing"),
     case("toml-unknown-key", replace(PT, "dtm_sigma_m = 1.5", "dtm_sigma_m = 1.5\ncolour = 3"), "project.toml",
          "colour"),
     case("toml-unknown-table", lambda r: (r / PT).open("a").write("\n[extra]\na = 1\n"), "project.toml", "[extra]"),
@@ -65,8 +76,9 @@ TOML = [
     case("toml-no-strips", lambda r: (r / PT).write_text((r / PT).read_text().split("[[strips]]")[0]),
          "project.toml", "[[strips]]"),
     case("toml-duplicate-strip", replace(PT, 'id = "02"', 'id = "01"'), "project.toml", "'01'"),
-    case("toml-two-timings", replace(PT, "first_line_time = 300000.0", 'first_line_time = 300000.0\nline_times = "t.csv"'),
-         "project.toml", "first_line_time", "line_times"),
+    case("toml-two-timings",
+         replace(PT, "first_line_time = 300000.0", 'first_line_time = 300000.0\nline_times = "t.csv"'), "project.toml",
+         "first_line_time", "line_times"),
     case("toml-strip-missing-trajectory", replace(PT, 'trajectory = "nav/02.csv"\n', ""), "project.toml",
          "trajectory", "missing"),
 ]
