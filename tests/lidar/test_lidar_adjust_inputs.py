@@ -1,0 +1,108 @@
+"""scangeo lidar adjust: bad input gives clear errors, interrupted runs leave no final files, real data."""
+from __future__ import annotations
+
+import json
+
+import laspy
+import numpy as np
+import pytest
+
+from scangeo.cli import main
+from scangeo.errors import InputFileError, LidarError
+from scangeo.lidar import lasio
+from scangeo.lidar.outputs import adjust_project
+from scangeo.simulate.laser import LaserBlockConfig, simulate_laser
+from tests.conftest import shared_file
+
+TINY = LaserBlockConfig(strips=2, cross_strip=False, strip_length=240.0, pulse_rate_hz=12000.0, control_patches=3,
+                        check_patches=0)
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    out = tmp_path_factory.mktemp("tiny-laser")
+    simulate_laser(out, TINY)
+    return out
+
+
+def _copy(src, dst):
+    import shutil
+
+    shutil.copytree(src, dst)
+    return dst
+
+
+def test_las_without_gps_time_is_an_error_naming_the_file(tiny, tmp_path):
+    project = _copy(tiny, tmp_path / "p")
+    las = laspy.read(project / "strips" / "1.las")
+    old = laspy.LasData(laspy.LasHeader(point_format=0, version="1.2"))
+    old.header.offsets, old.header.scales = las.header.offsets, las.header.scales
+    old.x, old.y, old.z = las.x, las.y, las.z
+    old.write(project / "strips" / "1.las")
+    with pytest.raises(InputFileError, match=r"1\.las: point format 0 has no GPS time"):
+        adjust_project(project, tmp_path / "out")
+    assert main(["lidar", "adjust", str(project), "--out", str(tmp_path / "out")]) == 1
+
+
+def test_trajectory_not_covering_a_strip_is_an_error(tiny, tmp_path):
+    project = _copy(tiny, tmp_path / "p")
+    nav = project / "nav" / "2.csv"
+    lines = nav.read_text().splitlines()
+    nav.write_text("\n".join(lines[: len(lines) // 2]) + "\n")
+    with pytest.raises(LidarError, match=r"strip 2: the returns' GPS times .* not covered by its trajectory .*2\.csv"):
+        adjust_project(project, tmp_path / "out")
+
+
+def test_crs_differing_from_the_project_is_an_error(tiny, tmp_path):
+    project = _copy(tiny, tmp_path / "p")
+    text = (project / "project.toml").read_text().replace('crs = "EPSG:32633"', 'crs = "EPSG:32632"')
+    (project / "project.toml").write_text(text)
+    with pytest.raises(InputFileError, match=r"1\.las: CRS .*33N differs from the project's .*32N"):
+        adjust_project(project, tmp_path / "out")
+
+
+def test_interrupted_run_leaves_no_las_under_a_final_name(tiny, tmp_path, monkeypatch):
+    calls = {"n": 0}
+    original = lasio.write_corrected
+
+    def failing(files, psid, out, correct):
+        def boom(xyz, t):
+            calls["n"] += 1
+            raise KeyboardInterrupt
+        return original(files, psid, out, boom)
+
+    monkeypatch.setattr("scangeo.lidar.outputs.write_corrected", failing)
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        adjust_project(tiny, out)
+    assert calls["n"] == 1
+    assert not list((out / "strips").glob("*.las")) and not list(out.rglob("*.part*"))
+    assert not (out / "results.json").exists()
+
+
+def test_trajectory_free_mode_on_the_tiny_block(tiny, tmp_path):
+    results = adjust_project(tiny, tmp_path / "out", write_strips=False, mode="points", patch_size=8.0)
+    assert results["mode"] == "points"
+    ev = results["evaluation"]["strip_differences_flat_rms_m"]
+    assert ev["after"] < ev["before"]
+
+
+def test_autzen_trajectory_free_mode_reports_strip_differences(tmp_path):
+    """Real data: Autzen thin-1/thin-2 (nine flight lines, GPS time, no trajectory; NAD83(HARN) Oregon
+    Lambert, international feet). At ~1 return per 1000 m^2 patches must be 60 m wide."""
+    files = [shared_file("lidar/thin-1.las"), shared_file("lidar/thin-2.las")]
+    strips = "".join(f'[[strips]]\nid = "{i}"\nlas = ["{files[0]}", "{files[1]}"]\npoint_source_id = {i}\n'
+                     for i in range(7326, 7335))
+    (tmp_path / "project.toml").write_text(
+        '[project]\ncrs = "EPSG:2994"\n[sensor]\nkind = "laser"\nrange_sigma_m = 0.05\n'
+        "[adjustment]\npatch_size = 60.0\nmax_patch_sigma = 0.15\nmin_patch_points = 8\n" + strips)
+    results = adjust_project(tmp_path, tmp_path / "out", write_strips=False)
+    assert results["mode"] == "points" and results["patches"]["tie"] >= 20
+    ev = results["evaluation"]["strip_differences_rms_m"]
+    assert ev["cells"] >= 20 and 0.02 < ev["before"] < 0.2
+    # no horizontal shift beyond the prior: flat patches do not determine them
+    shifts = [abs(p["value"]) for p in results["parameters"] if p["component"] in ("x0", "y0")]
+    assert max(shifts) < 1.0
+    saved = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert saved["evaluation"]["strip_differences_rms_m"]["after"] == pytest.approx(ev["after"])
+    assert np.isfinite(ev["after"])
