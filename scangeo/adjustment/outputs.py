@@ -2,7 +2,9 @@
 
 - ``trajectory_<strip>.csv``: the adjusted orientation of the navigation reference point at the
   GPS/IMU sample times, ``time,lat,lon,h,roll,pitch,heading`` (degrees; as the input trajectories);
-- ``spline_<strip>.json``: the adjusted spline (t0, spacing, coefficients in m and rad, project frame);
+- ``orientation.json``: the adjusted orientation, machine-readable (splines, GPS/IMU corrections,
+  mounting, scanner calibration, project frame; SI units; ``scangeo.adjustment.orientation``,
+  docs/formats.md). Everything that rebuilds the variant's geometry reads this file;
 - ``residuals.csv``: every observation row with its residual, w-test, redundancy number and flag;
 - ``report.json``: sigma0, accounting, iterations, rms per strip, coefficients, notes.
 
@@ -20,6 +22,8 @@ from pathlib import Path
 from scangeo.adjustment.factor import available_backends
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.orientation import FILE_NAME as ORIENTATION_FILE
+from scangeo.adjustment.orientation import write_orientation
 from scangeo.adjustment.results import VariantResult
 from scangeo.trajectory.readers import write_trajectory_csv
 from scangeo.trajectory.stream import GpsImuStream, ProjectTrajectory
@@ -183,19 +187,7 @@ def write_results(result: VariantResult, out_dir=None) -> Path:
         vals = spline.evaluate(t)
         traj = ProjectTrajectory(t, vals[:, :3], vals[:, 3:], f"adjusted {sid}")
         write_trajectory_csv(tmp / f"trajectory_{sid}.csv", GpsImuStream.from_project(traj, frame))
-        (tmp / f"spline_{sid}.json").write_text(
-            json.dumps(
-                {
-                    "strip": sid,
-                    "t0": spline.t0,
-                    "spacing": spline.spacing,
-                    "components": ["x", "y", "z", "roll", "pitch", "heading"],
-                    "units": "m, rad; project frame (positions of the navigation reference point)",
-                    "project_origin": frame.to_dict(),
-                    "coef": spline.coef.tolist(),
-                }
-            )
-        )
+    write_orientation(result.orientation(), tmp / ORIENTATION_FILE)
     with open(tmp / "residuals.csv", "w", newline="") as f:
         csv.writer(f).writerows(residual_rows(result))
     (tmp / "report.json").write_text(json.dumps(report_dict(result), indent=1))

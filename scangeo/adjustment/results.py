@@ -142,16 +142,16 @@ def evaluate_checks(result_block: Block, geometry_of) -> CheckResiduals:
                if str(s) == sid and b.role(str(p)) == "check" and str(p) in given]
         if not sel:
             continue
-        sel = np.array(sel)
-        xyz = b.ground.xyz[[given[str(p)] for p in b.points.point[sel]]]
+        rows = np.array(sel)
+        xyz = b.ground.xyz[[given[str(p)] for p in b.points.point[rows]]]
         p_P = b.project.map_frame.map_to_project(xyz[:, 0], xyz[:, 1], xyz[:, 2])
         line, pixel, status = geometry_of(sid).ground_to_image(p_P)
-        pts.append(b.points.point[sel].astype(str))
-        strips.append(np.full(sel.size, sid, dtype=object))
-        dl.append(line - b.points.line[sel])
-        dp.append(pixel - b.points.pixel[sel])
+        pts.append(b.points.point[rows].astype(str))
+        strips.append(np.full(rows.size, sid, dtype=object))
+        dl.append(line - b.points.line[rows])
+        dp.append(pixel - b.points.pixel[rows])
         st.append(status & ~16)  # over-scanning flag: the first sighting is a valid answer
-        sig.append(b.points.sigma_px[sel])
+        sig.append(b.points.sigma_px[rows])
     if not pts:
         e = np.zeros(0)
         return CheckResiduals(e.astype(object), e.astype(object), e, e, e.astype(int), e)

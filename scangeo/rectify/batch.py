@@ -26,6 +26,7 @@ import rasterio
 from rasterio.windows import Window
 
 from scangeo import __version__
+from scangeo.adjustment.orientation import Orientation, load_orientation, results_folder
 from scangeo.errors import ProjectFileError, ScangeoError
 from scangeo.io.project import Project
 from scangeo.progress import ProgressCallback, no_progress
@@ -34,7 +35,6 @@ from scangeo.rectify.geolocation import write_igm
 from scangeo.rectify.geometry import nadir_ground_pixel
 from scangeo.rectify.geotiff import BandInfo, remove_partials
 from scangeo.rectify.options import RectifyOptions
-from scangeo.rectify.orientation import OrientationSource, core_geometry, orientation_source, results_folder
 from scangeo.rectify.output_grid import OutputGrid, nice_resolution
 from scangeo.rectify.strip import rectify_strip
 
@@ -76,12 +76,12 @@ def _file_stamp(path: Path) -> list:
         return [str(path), None, None]
 
 
-def fingerprint(project: Project, source: OrientationSource, strip_id: str, options: RectifyOptions) -> str:
+def fingerprint(project: Project, source: Orientation, strip_id: str, options: RectifyOptions) -> str:
     """A hash of everything a strip's outputs depend on (inputs' sizes and times, settings, version)."""
     s = project.strip(strip_id)
     files = [project.root / "project.toml", project.dtm_path, s.trajectory, s.image]
     files += [s.line_times] if s.line_times else []
-    files += source.files(strip_id)
+    files += [source.path] if source.path is not None else []
     data = {
         "version": __version__,
         "variant": source.variant,
@@ -127,8 +127,8 @@ def run_strip_task(task: StripTask, progress: ProgressCallback = no_progress) ->
         cv2.setNumThreads(task.threads)
         numba.set_num_threads(min(task.threads, numba.config.NUMBA_NUM_THREADS))
     project = Project.load(task.project)
-    source = orientation_source(project, task.variant)
-    geometry = CoreStripGeometry(core_geometry(project, source, task.strip), project.dtm)
+    source = load_orientation(project, task.variant)
+    geometry = CoreStripGeometry(source.geometry(task.strip), project.dtm)
     cfg = project.strip(task.strip)
     if cfg.image is None:
         raise ProjectFileError(f"{project.root / 'project.toml'} [strips id={task.strip}]: no image to rectify")
@@ -155,9 +155,9 @@ def run_strip_task(task: StripTask, progress: ProgressCallback = no_progress) ->
     return {"strip": task.strip, "status": "done", **result.summary()}
 
 
-def project_resolution(project: Project, source: OrientationSource, strip_ids: list[str]) -> float:
+def project_resolution(project: Project, source: Orientation, strip_ids: list[str]) -> float:
     """The common resolution of a run: the nadir ground pixel of the first strip, two digits."""
-    geometry = CoreStripGeometry(core_geometry(project, source, strip_ids[0]), project.dtm)
+    geometry = CoreStripGeometry(source.geometry(strip_ids[0]), project.dtm)
     return nice_resolution(nadir_ground_pixel(geometry))
 
 
@@ -188,7 +188,7 @@ def rectify_project(
     ids = [s.id for s in project.strips if s.image is not None] if strips is None else [project.strip(s).id for s in strips]
     if not ids:
         raise ProjectFileError(f"{project.root / 'project.toml'}: no strip has an image to rectify")
-    source = orientation_source(project, variant)
+    source = load_orientation(project, variant)
     if options.resolution is None:
         options = options.replace(resolution=project_resolution(project, source, ids))
     folder = output_folder(project, variant)

@@ -19,7 +19,7 @@ import shutil
 import tempfile
 import time
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -325,7 +325,7 @@ class Resampled:
     tags: dict[str, object]
 
 
-def resample(run: StripRun, bands: list[BandInfo], tags: dict[str, object] | None = None,
+def resample(run: StripRun, bands: list[BandInfo], tags: Mapping[str, object] | None = None,
              progress: ProgressCallback = no_progress) -> Resampled:
     """Pass 2: every tile's visible cells resampled from the image lines it needs into a working
     GeoTIFF; the optional layers and the GLT beside it."""
@@ -404,7 +404,7 @@ def rectify_strip(
     output: str | Path,
     options: RectifyOptions | None = None,
     grid: OutputGrid | None = None,
-    tags: dict[str, object] | None = None,
+    tags: Mapping[str, object] | None = None,
     bands: list[BandInfo] | None = None,
     progress: ProgressCallback = no_progress,
 ) -> StripResult:
@@ -450,7 +450,7 @@ def rectify_strip(
     return result
 
 
-def _tags(tags, options: RectifyOptions, result: StripResult) -> dict[str, object]:
+def _tags(tags: Mapping[str, object] | None, options: RectifyOptions, result: StripResult) -> dict[str, object]:
     out: dict[str, object] = {
         "TIFFTAG_SOFTWARE": f"scangeo {__version__}",
         "scangeo_version": __version__,

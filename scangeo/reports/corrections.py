@@ -7,15 +7,15 @@
 * :func:`gpsimu_series`: the measured GPS/IMU of a strip over the image time span, in map
   coordinates and degrees, and its flight direction.
 * :func:`problem_strips`: the strips a comparison corrects with more than a constant (a degree
-  above 0 or a split) in some variant, from the variants' ``report.json``.
+  above 0 or a split) in some variant, from the variants' ``orientation.json``.
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 
 import numpy as np
 
+from scangeo.adjustment.orientation import FILE_NAME, Orientation, load_orientation, read_orientation
 from scangeo.io.project import Project
 
 
@@ -43,9 +43,8 @@ def correction_series(project: Project, variant: str, strip_id: str) -> Series:
     """The applied correction of a strip over its image, at the adjustment's GPS/IMU epochs: the
     adjusted spline minus the GPS/IMU observed there: x, y, z (m, P), roll, pitch, heading (rad)."""
     from scangeo.adjustment.block import strip_data
-    from scangeo.rectify.orientation import core_geometry, orientation_source
 
-    adjusted = core_geometry(project, orientation_source(project, variant), strip_id).spline
+    adjusted = load_orientation(project, variant).strip(strip_id).spline
     data = strip_data(project, strip_id)
     t0, t1 = image_window(project, strip_id)
     sel = (data.epochs >= t0) & (data.epochs <= t1) & adjusted.covers(data.epochs)
@@ -67,29 +66,29 @@ def gpsimu_series(project: Project, strip_id: str) -> tuple[Series, str]:
     return Series(stream.time - t0, values), f"{word} (grid course {course:.1f} deg)"
 
 
+def _written(project: Project, variant: str) -> Orientation | None:
+    path = project.root / "results" / variant / FILE_NAME
+    return read_orientation(path) if path.exists() else None
+
+
 def problem_strips(project: Project, variants: list[str]) -> list[str]:
     """Strips that some variant corrects with a polynomial (degree > 0) or a split model."""
-    found: list[str] = []
+    found: set[str] = set()
     for v in variants:
-        path = project.root / "results" / v / "report.json"
-        if not path.exists():
-            continue
-        models = json.loads(path.read_text()).get("models", [])
-        for m in models:
-            if (m.get("follows") or max(m.get("position_degree", 0), m.get("attitude_degree", 0)) > 0) \
-                    and len(m.get("strips", [])) == 1 and m["strips"][0] not in found:
-                found.append(m["strips"][0])
+        doc = _written(project, v)
+        for m in doc.models if doc is not None else ():
+            if (m.follows or max(m.position_degree, m.attitude_degree) > 0) and len(m.strips) == 1:
+                found.add(m.strips[0])
     return [s.id for s in project.strips if s.id in found]
 
 
 def breaks_of(project: Project, variant: str, strip_id: str) -> list[float]:
     """Break epochs (s since the strip's first line) of a variant's split models of a strip."""
-    path = project.root / "results" / variant / "report.json"
-    if not path.exists():
+    doc = _written(project, variant)
+    if doc is None:
         return []
     t0, _ = image_window(project, strip_id)
-    models = json.loads(path.read_text()).get("models", [])
-    return [float(m["t_start"]) - t0 for m in models if m.get("follows") and m.get("strips") == [strip_id]]
+    return [t - t0 for t in doc.breaks(strip_id)]
 
 
 def true_gps_error(project: Project, strip_id: str) -> Series | None:

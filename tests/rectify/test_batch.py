@@ -12,7 +12,7 @@ import pytest
 import rasterio
 
 from scangeo.cli import main
-from scangeo.errors import ProjectFileError
+from scangeo.errors import OrientationFileError
 from scangeo.rectify.batch import is_complete, rectify_project
 from scangeo.rectify.options import RectifyOptions
 
@@ -149,7 +149,8 @@ def test_cli_rectify_and_its_errors(project, tmp_path, capsys):
     out = capsys.readouterr().out
     assert "strip 02:" in out and "1 strips" in out
     folder = root / "results/DG/ortho"
-    assert {p.name for p in folder.iterdir()} == {"02.tif", "02.layers.tif", "02.glt", "02.glt.hdr", "02.igm", "02.igm.hdr"}
+    assert {p.name for p in folder.iterdir()} == {"02.tif", "02.layers.tif", "02.glt", "02.glt.hdr", "02.igm",
+                                                  "02.igm.hdr"}
     with rasterio.open(folder / "02.tif") as d:
         assert d.tags()["resampling"] == "nearest" and d.tags()["variant"] == "DG"
         assert d.descriptions[0] == "ch1_blue" and float(d.tags(1)["wavelength"]) == 435.0
@@ -179,11 +180,11 @@ def test_cli_rectify_and_its_errors(project, tmp_path, capsys):
     assert main(["rectify", str(root), "--variant", "DG", "--config", str(cfg), "--no-progress"]) == 1
     assert "unknown key 'inverse_map_method'" in capsys.readouterr().err
     assert main(["rectify", str(root), "--variant", "P4", "--no-progress"]) == 1
-    assert "no adjusted trajectories for variant 'P4'" in capsys.readouterr().err
+    assert "no orientation for variant 'P4'" in capsys.readouterr().err
     assert main(["rectify", str(root), "--variant", "DG", "--strips", "99", "--no-progress"]) == 1
     assert "no strip '99'" in capsys.readouterr().err
     cfg.write_text("[rectify]\nresolutoin = 3\n")
     assert main(["rectify", str(root), "--variant", "DG", "--config", str(cfg), "--no-progress"]) == 1
     assert "unknown key 'resolutoin'" in capsys.readouterr().err
-    with pytest.raises(ProjectFileError):
+    with pytest.raises(OrientationFileError, match="no orientation for variant 'S2'"):
         rectify_project(root, "S2", options=OPTS)

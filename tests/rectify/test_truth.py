@@ -3,8 +3,8 @@
 The simulator renders the strip through the geometry core from the true trajectory, the true
 boresight and the true terrain, and writes the truth orthoimage on the 2.5 m grid and the true
 image position of every point. Here the truth is handed to rectification as the result of a
-variant ``TRUTH`` (results/TRUTH/trajectory_01.csv and the true boresight in report.json) with the
-true terrain as DTM.
+variant ``TRUTH`` (results/TRUTH/orientation.json written here, as another tool would: the true
+trajectory and the true boresight) with the true terrain as DTM.
 
 Two measures: check points (the true ground points, looked up in the product's inverse-map layers
 ``image_line``/``image_pixel`` and compared with their true image positions), and the shift of the
@@ -15,8 +15,8 @@ tenths of a pixel in either direction while the geometry is exact (the analytic 
 texture of test_strip.py shows windows agreeing to 0.01 px).
 """
 import csv
+import dataclasses
 import json
-import shutil
 import warnings
 
 import cv2
@@ -25,11 +25,15 @@ import pytest
 import rasterio
 from rasterio.windows import from_bounds
 
+from scangeo.adjustment.orientation import direct_orientation, load_adjusted_geometry, write_orientation
+from scangeo.io.project import Project
 from scangeo.rectify.batch import grid_of, rectify_project
 from scangeo.rectify.core_geometry import CoreStripGeometry
 from scangeo.rectify.gdal_route import corner_geolocation, warp_with_geolocation
 from scangeo.rectify.options import RectifyOptions
-from scangeo.rectify.orientation import core_geometry, orientation_source
+from scangeo.sensors import Mounting
+from scangeo.trajectory import OrientationSpline
+from scangeo.trajectory.readers import read_trajectory
 from tests.conftest import shared_file
 
 
@@ -42,14 +46,20 @@ def simulate_truth_project(root, terrain):
         warnings.simplefilter("ignore")
         simulate(root, load_preset("small", over))
     errors = json.loads((root / "truth" / "errors.json").read_text())
-    res = root / "results" / "TRUTH"
-    res.mkdir(parents=True)
-    shutil.copy(root / "truth" / "trajectory_01.csv", res / "trajectory_01.csv")
-    (res / "report.json").write_text(json.dumps({"sigma0": 1.0, "coefficients": [
-        {"block": "Boresight()", "name": n, "value": v}
-        for n, v in zip(("roll", "pitch", "heading"), errors["true_boresight_deg"])]}))
     toml = (root / "project.toml").read_text().replace('dtm = "dtm.tif"', 'dtm = "truth/terrain.tif"')
     (root / "project.toml").write_text(toml)
+    project = Project.load(root)
+    res = root / "results" / "TRUTH"
+    res.mkdir(parents=True)
+    truth = read_trajectory(root / "truth" / "trajectory_01.csv", crs=project.trajectory_crs or project.crs)
+    spline = OrientationSpline.from_trajectory(truth.to_project(project.map_frame.frame), project.knot_spacing)
+    doc = direct_orientation(project)
+    m = doc.mounting
+    doc = dataclasses.replace(
+        doc, variant="TRUTH", adjusted=True, sigma0=1.0,
+        mounting=Mounting(m.lever_arm_B, np.radians(errors["true_boresight_deg"]), m.time_offset),
+        strips={"01": dataclasses.replace(doc.strips["01"], spline=spline)})
+    write_orientation(doc, res / "orientation.json")
     return root
 
 
@@ -150,10 +160,8 @@ def test_true_orientation_reproduces_the_truth_orthoimage(rectified):
 def test_the_gdal_route_on_the_same_grid_agrees_geometrically(rectified):
     """rasterio reproject with geolocation arrays (pixel corners) vs scangeo, same grid and input."""
     root, result = rectified
-    from scangeo.io.project import Project
-
     project = Project.load(root)
-    geometry = CoreStripGeometry(core_geometry(project, orientation_source(project, "TRUTH"), "01"), project.dtm)
+    geometry = CoreStripGeometry(load_adjusted_geometry(project, "TRUTH", "01"), project.dtm)
     x, y = corner_geolocation(geometry)
     ours_path = root / "results/TRUTH/ortho/01.tif"
     grid = grid_of(ours_path)
