@@ -24,7 +24,7 @@ from scangeo.errors import AdjustmentError
 from scangeo.io.point_checks import check_points
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
-from scangeo.models import GpsImuModel, ModelSet
+from scangeo.adjustment.models import GpsImuModel, ModelSet
 from scangeo.sensors.models import Whiskbroom
 from scangeo.sensors.strip import StripGeometry
 from scangeo.trajectory.spline import COMPONENTS, OrientationSpline
@@ -178,8 +178,8 @@ def build_block(project: Project, variant: Variant, points: ImagePoints, ground:
         roles.setdefault(p, variant.role_of(p, "tie"))
     # which points enter the adjustment
     meas_strips: dict[str, set] = {}
-    for p, s in zip(map(str, points.point), map(str, points.strip)):
-        meas_strips.setdefault(p, set()).add(s)
+    for p, sid in zip(map(str, points.point), map(str, points.strip)):
+        meas_strips.setdefault(p, set()).add(sid)
     used = []
     for p, ss in meas_strips.items():
         role = roles[p]
@@ -193,7 +193,7 @@ def build_block(project: Project, variant: Variant, points: ImagePoints, ground:
         used.append(p)
     # start values: rays of the direct georeferencing onto the DTM, control from their coordinates
     dtm = project.dtm
-    start = {p: [] for p in used}
+    start: dict[str, list] = {p: [] for p in used}
     for sid, s in strips.items():
         sel = np.flatnonzero((points.strip.astype(str) == sid) & np.isin(points.point.astype(str), used))
         if sel.size:

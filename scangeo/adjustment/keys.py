@@ -32,7 +32,7 @@ class Knots(Key):
 
 @dataclass(frozen=True, slots=True)
 class Correction(Key):
-    """Coefficients of the correction function of one GPS/IMU model (see ``scangeo.models``)."""
+    """Coefficients of the correction function of one GPS/IMU model (see ``scangeo.adjustment.models``)."""
 
     model: str
 

@@ -43,7 +43,7 @@ from scangeo.lidar.patches import (
 )
 from scangeo.lidar.planes import Planes, anchors
 from scangeo.lidar.project import LaserProject, LaserStrip
-from scangeo.models import GpsImuModel, ModelSet
+from scangeo.adjustment.models import GpsImuModel, ModelSet
 from scangeo.progress import ProgressCallback, no_progress
 
 log = logging.getLogger(__name__)

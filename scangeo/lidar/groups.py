@@ -23,7 +23,7 @@ from scangeo.adjustment.keys import Boresight, LeverArm, Plane, RangeOffset, Sca
 from scangeo.adjustment.observations import Linearisation, ObservationGroup
 from scangeo.adjustment.parameters import JacobianPart
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, derivatives, georeference
-from scangeo.models import ModelSet
+from scangeo.adjustment.models import ModelSet
 
 CALIBRATION_KEYS = (Boresight(), LeverArm(), RangeOffset(), ScanIndex())
 

@@ -8,7 +8,7 @@ from scangeo.adjustment import Boresight, Correction, Ground, Knots, LeverArm, S
 from scangeo.adjustment.checks import check_jacobian
 from scangeo.adjustment.gpsimu import GpsImuSamples
 from scangeo.adjustment.image import ImageObservations
-from scangeo.models import GpsImuModel, ModelSet
+from scangeo.adjustment.models import GpsImuModel, ModelSet
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.sensors.strip import Mounting, StripGeometry
 from scangeo.timing import LineTiming

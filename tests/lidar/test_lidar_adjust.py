@@ -16,7 +16,7 @@ from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, ge
 from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors
 from scangeo.lidar.outputs import apply, evaluate
 from scangeo.lidar.project import LaserProject
-from scangeo.models import GpsImuModel, ModelSet
+from scangeo.adjustment.models import GpsImuModel, ModelSet
 from scangeo.simulate.laser import LaserBlockConfig, simulate_laser
 from scangeo.trajectory.stream import ProjectTrajectory
 

@@ -1,4 +1,4 @@
-"""GPS/IMU models and their correction functions (DESIGN section 1).
+"""GPS/IMU models and their correction functions.
 
 A GPS/IMU model covers the whole block, one strip, or one part of a strip (a sub-model between break
 epochs). Its correction function, added to the measured GPS/IMU, gives the orientation:
