@@ -6,7 +6,9 @@
   mounting, scanner calibration, project frame; SI units; ``scangeo.adjustment.orientation``,
   docs/formats.md). Everything that rebuilds the variant's geometry reads this file;
 - ``residuals.csv``: every observation row with its residual, w-test, redundancy number and flag;
-- ``report.json``: sigma0, accounting, iterations, rms per strip, coefficients, notes.
+- ``report.json``: sigma0, accounting, iterations, rms per strip, coefficients, notes;
+- ``reliability.csv``, ``reliability.json``: MDBs and external reliability per observation unit, per
+  strip and kind of point, non-separable points (``scangeo.adjustment.reliability_summary``).
 
 The folder is written under a temporary name and renamed when complete.
 """
@@ -24,6 +26,8 @@ from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex, ScanScale, TimeOffset
 from scangeo.adjustment.orientation import FILE_NAME as ORIENTATION_FILE
 from scangeo.adjustment.orientation import write_orientation
+from scangeo.adjustment.reliability_summary import COLUMNS as RELIABILITY_COLUMNS
+from scangeo.adjustment.reliability_summary import check_columns, row_columns, variant_reliability, write_reliability
 from scangeo.adjustment.results import VariantResult
 from scangeo.trajectory.readers import write_trajectory_csv
 from scangeo.trajectory.stream import GpsImuStream, ProjectTrajectory
@@ -121,9 +125,11 @@ def residual_rows(result: VariantResult):
     """Rows of residuals.csv: every observation row, then the check-point measurements."""
     adj = result.adjustment
     sol, stats = adj.solution, adj.statistics
-    yield ["group", "id", "strip", "kind", "component", "residual", "unit", "sigma", "w", "redundancy", "flagged"]
+    yield ["group", "id", "strip", "kind", "component", "residual", "unit", "sigma", "w", "redundancy", "flagged",
+           *RELIABILITY_COLUMNS]
     w_all, r_all, res_all = stats.w_tests(), stats.redundancy_numbers(), stats.residuals()
-    for g, act, w, red, res in zip(sol.groups, sol.active, w_all, r_all, res_all):
+    vr = variant_reliability(result)  # mdb, external reliability, status (reliability_summary.py)
+    for gi, (g, act, w, red, res) in enumerate(zip(sol.groups, sol.active, w_all, r_all, res_all)):
         strip = getattr(g, "strip", "")
         for i in range(g.n_rows):
             pid = str(g.ids[i])
@@ -149,6 +155,7 @@ def residual_rows(result: VariantResult):
                 "" if not math.isfinite(w[i]) else f"{w[i]:.3f}",
                 "" if not math.isfinite(red[i]) else f"{red[i]:.4f}",
                 int(flagged),
+                *row_columns(vr, gi, i),
             ]
     c = result.checks
     crit = result.variant.critical_value
@@ -169,6 +176,7 @@ def residual_rows(result: VariantResult):
                 f"{w:.3f}" if ok else "",
                 "",
                 int(not ok or abs(w) > crit),
+                *check_columns(sig, ok, abs(w) > crit, vr.reliability.alpha0, vr.reliability.beta),
             ]
 
 
@@ -188,6 +196,7 @@ def write_results(result: VariantResult, out_dir=None) -> Path:
         traj = ProjectTrajectory(t, vals[:, :3], vals[:, 3:], f"adjusted {sid}")
         write_trajectory_csv(tmp / f"trajectory_{sid}.csv", GpsImuStream.from_project(traj, frame))
     write_orientation(result.orientation(), tmp / ORIENTATION_FILE)
+    write_reliability(result, tmp)
     with open(tmp / "residuals.csv", "w", newline="") as f:
         csv.writer(f).writerows(residual_rows(result))
     (tmp / "report.json").write_text(json.dumps(report_dict(result), indent=1))

@@ -57,6 +57,8 @@ class OrientationProbe:
 
     strip: str
     matrix: sp.csr_matrix
+    #: (k, 2) map x, y of the k positions (for maps), or None
+    xy: np.ndarray | None = None
 
 
 @dataclass
@@ -64,7 +66,9 @@ class Reliability:
     """Per observation group, per row: redundancy number, MDB and external reliability.
 
     ``ext_strip`` holds per strip the largest shift of its ground positions (m) any single undetected
-    MDB-sized blunder causes, and the row (group index, row) responsible.
+    MDB-sized blunder of a tested observation (image, control, DTM height; not the GPS/IMU samples,
+    which data snooping does not test) causes, and the row (group index, row) responsible;
+    ``ext_positions`` the same per probe position.
     """
 
     groups: list
@@ -76,6 +80,8 @@ class Reliability:
     alpha0: float = ALPHA0
     beta: float = BETA
     ext_strip: dict[str, tuple[float, int, int]] = field(default_factory=dict)
+    #: per strip, at each probe position, the largest shift (m) of any single MDB-sized blunder
+    ext_positions: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def delta0(self) -> float:
@@ -126,8 +132,11 @@ def compute_reliability(solution: Solution, statistics: Statistics, probes: Sequ
             m = np.where(ok, g.sigma * d0 / np.sqrt(np.where(ok, rr, 1.0)), np.where(obs, np.inf, np.nan))
             lam_g = np.where(ok, d0 * np.sqrt(np.clip(1.0 - rr, 0.0, None) / np.where(ok, rr, 1.0)),
                              np.where(obs, np.inf, np.nan))
-        red.append(rr), mdb.append(m), lam.append(lam_g)
-        ext_p.append(np.where(obs, np.inf, np.nan)), ext_o.append(np.where(obs, np.inf, np.nan))
+        red.append(rr)
+        mdb.append(m)
+        lam.append(lam_g)
+        ext_p.append(np.where(obs, np.inf, np.nan))
+        ext_o.append(np.where(obs, np.inf, np.nan))
     out = Reliability(list(groups), red, mdb, lam, ext_p, ext_o, alpha0, beta)
     if not external:
         out.ext_point_m = [np.full(g.n_rows, np.nan) for g in groups]
@@ -141,6 +150,7 @@ def compute_reliability(solution: Solution, statistics: Statistics, probes: Sequ
     if probes:
         P = (sp.vstack([p.matrix for p in probes]).tocsr() @ sp.diags(1.0 / scale)).tocsr()
         owner = np.concatenate([np.full(p.matrix.shape[0] // 2, k) for k, p in enumerate(probes)])
+        position_max = np.zeros(owner.size)
     todo = [(gi, k, int(i)) for gi, rows in enumerate(rows_of_group) for k, i in enumerate(rows)]
     strip_best: dict[str, tuple[float, int, int]] = {}
     for start in range(0, len(todo), chunk):
@@ -160,12 +170,19 @@ def compute_reliability(solution: Solution, statistics: Statistics, probes: Sequ
         length = np.hypot(shift[0::2], shift[1::2])                 # (K, chunk)
         per_strip = np.zeros((len(probes), len(part)))
         np.maximum.at(per_strip, owner, length)
+        tested = np.array([groups[gi].snooped for gi, _, _ in part])
+        if tested.any():
+            np.maximum(position_max, length[:, tested].max(axis=1), out=position_max)
         for j, (gi, _, i) in enumerate(part):
             ext_o[gi][i] = float(per_strip[:, j].max())
+            if not tested[j]:
+                continue
             for s, probe in enumerate(probes):
                 if per_strip[s, j] > strip_best.get(probe.strip, (-1.0, 0, 0))[0]:
                     strip_best[probe.strip] = (float(per_strip[s, j]), gi, i)
     out.ext_strip = strip_best
+    if probes:
+        out.ext_positions = {p.strip: position_max[owner == k] for k, p in enumerate(probes)}
     return out
 
 

@@ -35,6 +35,7 @@ from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Ground
 from scangeo.adjustment.parameters import Layout
 from scangeo.adjustment.reliability import OrientationProbe, Reliability, compute_reliability, delta0
+from scangeo.adjustment.results import VariantResult
 from scangeo.adjustment.statistics import MIN_REDUNDANCY
 
 #: Per strip, the probe grid of image positions: lines x pixels.
@@ -47,13 +48,15 @@ class VariantReliability:
     """The reliability of one variant, per row of its observation groups (as ``Reliability``) with a
     status and a kind per row."""
 
-    result: object
+    result: VariantResult
     reliability: Reliability
     status: list[np.ndarray]
     kind: list[np.ndarray]
+    probes: list[OrientationProbe]
+    grid: tuple[int, int] = PROBE_GRID
 
 
-def strip_probes(result, grid: tuple[int, int] = PROBE_GRID) -> list[OrientationProbe]:
+def strip_probes(result: VariantResult, grid: tuple[int, int] = PROBE_GRID) -> list[OrientationProbe]:
     """Per strip, how the unknowns move its ground positions at a grid of image positions (adjusted
     geometry, on the DTM): ``dG_xy = -(dimage/dG_xy)^-1 dimage/dx`` (see ``OrientationProbe``)."""
     sol = result.adjustment.solution
@@ -87,11 +90,12 @@ def strip_probes(result, grid: tuple[int, int] = PROBE_GRID) -> list[Orientation
         n = len(ids)
         blocks = [np.linalg.inv(J_g[2 * i:2 * i + 2, 2 * i:2 * i + 2]) for i in range(n)]
         M = -(sp.block_diag(blocks, format="csr") @ J_x)
-        out.append(OrientationProbe(sid, M.tocsr()))
+        x, y, _ = project.map_frame.project_to_map(p_P[ok])
+        out.append(OrientationProbe(sid, M.tocsr(), np.column_stack([x, y])))
     return out
 
 
-def _kinds(result, groups) -> list[np.ndarray]:
+def _kinds(result: VariantResult, groups) -> list[np.ndarray]:
     out = []
     for g in groups:
         if g.kind != "observation":
@@ -105,7 +109,7 @@ def _kinds(result, groups) -> list[np.ndarray]:
     return out
 
 
-def _statuses(result, rel: Reliability) -> list[np.ndarray]:
+def _statuses(result: VariantResult, rel: Reliability) -> list[np.ndarray]:
     adj = result.adjustment
     sol = adj.solution
     crit = result.variant.critical_value
@@ -128,7 +132,8 @@ def _statuses(result, rel: Reliability) -> list[np.ndarray]:
     return out
 
 
-def variant_reliability(result, external: bool = True, grid: tuple[int, int] = PROBE_GRID) -> VariantReliability:
+def variant_reliability(result: VariantResult, external: bool = True,
+                        grid: tuple[int, int] = PROBE_GRID) -> VariantReliability:
     """The reliability of an adjusted variant (cached on ``result`` for the default arguments)."""
     cached = result.__dict__.get("_reliability")
     if cached is not None and external and grid == PROBE_GRID:
@@ -136,7 +141,7 @@ def variant_reliability(result, external: bool = True, grid: tuple[int, int] = P
     adj = result.adjustment
     probes = strip_probes(result, grid) if external else []
     rel = compute_reliability(adj.solution, adj.statistics, probes, external=external)
-    out = VariantReliability(result, rel, _statuses(result, rel), _kinds(result, adj.solution.groups))
+    out = VariantReliability(result, rel, _statuses(result, rel), _kinds(result, adj.solution.groups), probes, grid)
     if external and grid == PROBE_GRID:
         result.__dict__["_reliability"] = out
     return out
@@ -255,18 +260,21 @@ def reliability_dict(vr: VariantReliability) -> dict:
         g = groups[gi]
         strips[sid] = {"ext_orientation_max_m": _num(size), "by": f"{g.name} {g.ids[i]} {g.components[i]}",
                        "mdb": _num(rel.mdb[gi][i]), "unit": str(g.units[i])}
+    positions = {p.strip: [[_num(x), _num(y), _num(e)] for (x, y), e in zip(p.xy, rel.ext_positions[p.strip])]
+                 for p in vr.probes if p.xy is not None and p.strip in rel.ext_positions}
     return {"alpha0": rel.alpha0, "beta": rel.beta, "delta0": rel.delta0, "lambda0": rel.delta0 ** 2,
-            "min_redundancy": MIN_REDUNDANCY, "probe_grid": list(PROBE_GRID), "strips": strips,
+            "min_redundancy": MIN_REDUNDANCY, "probe_grid": list(vr.grid), "strips": strips,
+            "positions": positions,
             "summary": summary(vr),
             "non_separable": [{"point": r.id, "group": r.group, "components": list(r.components), "w": _num(r.w),
                                "round": r.round, "note": r.note}
                               for r in result.adjustment.rejections if not r.separable]}
 
 
-def write_reliability(result, folder) -> None:
+def write_reliability(result: VariantResult, folder, vr: VariantReliability | None = None) -> None:
     """``reliability.csv`` and ``reliability.json`` of a variant into ``folder`` (temporary names,
-    renamed when complete)."""
-    vr = variant_reliability(result)
+    renamed when complete); ``vr`` the reliability if already computed."""
+    vr = vr if vr is not None else variant_reliability(result)
     folder = Path(folder)
     tmp = folder / ".reliability.csv.tmp"
     with open(tmp, "w", newline="") as f:

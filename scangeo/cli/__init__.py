@@ -23,6 +23,7 @@ COMMANDS = [
     "simulate",
     "match",
     "adjust",
+    "plan",
     "rectify",
     "diagnose",
     "compare",

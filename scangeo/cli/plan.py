@@ -1,0 +1,47 @@
+"""``scangeo plan PROJECT --variant NAME``: the reliability of a planned block, before the flight.
+
+A thin shell over :func:`scangeo.adjustment.planning.plan_block` and
+:func:`scangeo.adjustment.planning.write_plan` (docs/adjustment.md, "Reliability").
+"""
+from __future__ import annotations
+
+import sys
+
+
+def add_parser(subparsers, common) -> None:
+    p = subparsers.add_parser(
+        "plan", parents=[common], help="reliability of a planned block: weak areas before the flight",
+        description="Makes image measurements of the planned control (ground.csv) and a grid of tie points from "
+                    "the planned trajectories, adjusts the variant once and writes the minimal detectable blunders "
+                    "and external reliability with a weak-area map to PROJECT/results/plan_NAME/ (plan.html).",
+    )
+    p.add_argument("project", help="the project folder (planned trajectories in project.toml, planned control in "
+                                   "ground.csv)")
+    p.add_argument("--variant", default="SE", help="variant name from variants.toml or built in (default SE)")
+    p.add_argument("--variants", default=None, help="variants file (default PROJECT/variants.toml)")
+    p.add_argument("--tie-spacing", type=float, default=500.0, help="grid spacing of the planned tie points, m (500)")
+    p.add_argument("--sigma-px", type=float, default=0.3, help="image measurement sigma, px (0.3)")
+    p.add_argument("--out", default=None, help="output folder (default PROJECT/results/plan_NAME)")
+    p.set_defaults(func=run, writes_project=True)
+
+
+def run(args) -> int:
+    from scangeo.adjustment.planning import plan_block, write_plan
+    from scangeo.cli import progress_of
+
+    plan = plan_block(args.project, args.variant, args.variants, args.tie_spacing, args.sigma_px, progress_of(args))
+    out = write_plan(plan, args.out)
+    rel = plan.reliability.reliability
+    print(f"plan {plan.result.variant.name}: {plan.tie_points} tie points, {plan.control_points} control points, "
+          f"redundancy {plan.result.adjustment.statistics.redundancy}")
+    for sid, (size, gi, i) in sorted(rel.ext_strip.items()):
+        g = rel.groups[gi]
+        print(f"  strip {sid}: an undetected blunder shifts its ground positions by up to {size:.2f} m "
+              f"({g.name} {g.ids[i]} {g.components[i]})")
+    unc = sorted({str(g.ids[i]) for g, st in zip(rel.groups, plan.reliability.status)
+                  for i in range(g.n_rows) if st[i] == "uncontrolled" and g.snooped})
+    if unc:
+        print(f"  {len(unc)} points with uncontrolled measurements (r = 0): {', '.join(unc[:10])}"
+              f"{' ...' if len(unc) > 10 else ''}")
+    print(f"results in {out}", file=sys.stderr)
+    return 0
