@@ -12,6 +12,8 @@ variant's ``results/NAME/``), and writes one self-contained HTML file (figures e
 4. the GPS/IMU data of each strip (tracks and flight direction, positions and angles over time);
 5. the accounting of unknowns, observations and conditions, per variant and per GPS/IMU model;
 6. the regularisation and blunder notes of every variant.
+7. the reliability of the reference and the best variant: MDB and external reliability maps per
+   strip, the non-separable points and a sentence of interpretation (:mod:`scangeo.reports.reliability`).
 
 The residual vectors of every variant also go to a GeoPackage (:mod:`scangeo.reports.geopackage`).
 """
@@ -32,6 +34,7 @@ from scangeo.reports import figures, html
 from scangeo.reports.comparison import Comparison
 from scangeo.reports.corrections import breaks_of, correction_series, gpsimu_series, problem_strips, true_gps_error
 from scangeo.reports.geopackage import write_geopackage
+from scangeo.reports.reliability import reliability_section
 from scangeo.reports.residual_vectors import ResidualVectors, check_vectors
 from scangeo.reports.tables import markdown_tables, read_comparison
 
@@ -286,6 +289,8 @@ def write_report(
         step(title)
         sections.append(make())
     sections.append(_notes_section(project, comparison))
+    shown = [n for n in dict.fromkeys([comparison.reference, comparison.best]) if n in names]
+    sections.append(reliability_section(project.root / "results", shown))  # MDB and external reliability maps
     gpkg = None
     if geopackage:
         gpkg = write_geopackage(folder / "residuals.gpkg", [vectors[n] for n in names], project.crs)
