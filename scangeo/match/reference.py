@@ -73,7 +73,9 @@ class Reference:
         src = self._src
         X, Y = np.meshgrid(grid.xs(), grid.ys())
         rx, ry = self._to_ref.transform(X.ravel(), Y.ravel())
-        col, row = ~src.transform * (np.asarray(rx), np.asarray(ry))
+        inv = ~src.transform
+        rx, ry = np.asarray(rx), np.asarray(ry)
+        col, row = inv.a * rx + inv.b * ry + inv.c, inv.d * rx + inv.e * ry + inv.f
         col, row = np.asarray(col) - 0.5, np.asarray(row) - 0.5  # pixel centres at integers
         c0, c1 = int(math.floor(col.min())) - 3, int(math.ceil(col.max())) + 4
         r0, r1 = int(math.floor(row.min())) - 3, int(math.ceil(row.max())) + 4

@@ -27,6 +27,8 @@ log = logging.getLogger(__name__)
 
 #: candidates tried per wanted point of a cell
 CANDIDATES_PER_POINT = 8
+#: a chip whose grey values vary less than this (standard deviation) has no texture to match
+FLAT = 1e-3
 
 
 @dataclass(frozen=True)
@@ -78,7 +80,7 @@ def _candidates(master: np.ndarray, usable: np.ndarray, count: int, min_distance
     if not usable.any() or not finite.any():
         return np.empty((0, 2), int)
     image = np.where(finite, master, float(master[finite].mean())).astype(np.float32)
-    found = cv2.goodFeaturesToTrack(image, maxCorners=count, qualityLevel=0.01, minDistance=min_distance,
+    found = cv2.goodFeaturesToTrack(image, maxCorners=count, qualityLevel=0.001, minDistance=min_distance,
                                     mask=usable.astype(np.uint8), blockSize=5)
     if found is None:
         return np.empty((0, 2), int)
@@ -100,12 +102,17 @@ def match_cell(master: np.ndarray, targets: dict[str, Chip], inner: np.ndarray, 
         usable &= np.isfinite(chip.image)
     usable = cv2.erode(usable.astype(np.uint8), np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)) > 0
     usable &= inner
+    for sid, chip in targets.items():
+        if sid == required and usable.any() and float(np.nanstd(chip.image[usable])) < FLAT:
+            rejected[f"no texture in strip {sid}"] += 1  # water, cloud, a saturated image
+            return []
     master = smooth(master, options.smooth_cells)
     prepared = {sid: prepare(smooth(chip.image, options.smooth_cells)) for sid, chip in targets.items()}
     out: list[tuple[int, int, dict]] = []
-    candidates = _candidates(master, usable, CANDIDATES_PER_POINT * wanted, 0.75 * options.template_px)
+    candidates = _candidates(master, usable, CANDIDATES_PER_POINT * wanted, 0.5 * options.template_px)
     if len(candidates) == 0:
-        rejected["no texture"] += 1
+        rejected["no texture" if required is None or float(np.nanstd(master[inner])) < FLAT
+                 else "no corner"] += 1
     for col, row in candidates:
         if len(out) >= wanted:
             break
