@@ -22,7 +22,8 @@ def add_parser(subparsers, common) -> None:
     p.add_argument("--variant", default="DG", help="orientation that predicts where to look (default: DG)")
     p.add_argument("--reference", nargs="+", default=[], metavar="ORTHO",
                    help="reference orthoimage(s) for control points (any raster with a CRS)")
-    p.add_argument("--reference-dtm", default=None, metavar="DTM", help="heights of control points (default: project DTM)")
+    p.add_argument("--reference-dtm", default=None, metavar="DTM",
+                   help="heights of control points (default: the project's DTM)")
     p.add_argument("--reference-dtm-sigma", type=float, default=None, metavar="M",
                    help="accuracy of the reference DTM, m (default: the project's dtm_sigma_m)")
     p.add_argument("--per-overlap", type=int, default=None, dest="per_overlap", help="tie points per overlap (60)")
