@@ -99,15 +99,20 @@ def _row(tab, k, r, X, Y, Z):
 
 
 @nb.njit(inline="always", cache=True)
-def _bracket(tab, M, k_start, X, Y, Z):
+def _g(gtab, k, X, Y, Z):
+    return gtab[k, 0] * X + gtab[k, 1] * Y + gtab[k, 2] * Z - gtab[k, 3]
+
+
+@nb.njit(inline="always", cache=True)
+def _bracket(gtab, M, k_start, X, Y, Z):
     """Interval lo with g(lo) >= 0 > g(lo + 1), galloping from k_start then bisecting
     (g(0) >= 0 > g(M - 1) must hold)."""
     k = min(max(k_start, 0), M - 2)
-    if _row(tab, k, 0, X, Y, Z) >= 0:
+    if _g(gtab, k, X, Y, Z) >= 0:
         lo = k
         step = 1
         hi = min(M - 1, lo + step)
-        while _row(tab, hi, 0, X, Y, Z) >= 0:
+        while _g(gtab, hi, X, Y, Z) >= 0:
             lo = hi
             step *= 2
             hi = min(M - 1, lo + step)
@@ -115,13 +120,13 @@ def _bracket(tab, M, k_start, X, Y, Z):
         hi = k
         step = 1
         lo = max(0, hi - step)
-        while _row(tab, lo, 0, X, Y, Z) < 0:
+        while _g(gtab, lo, X, Y, Z) < 0:
             hi = lo
             step *= 2
             lo = max(0, hi - step)
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        if _row(tab, mid, 0, X, Y, Z) >= 0:
+        if _g(gtab, mid, X, Y, Z) >= 0:
             lo = mid
         else:
             hi = mid
@@ -147,13 +152,14 @@ def _monotonic(ga, gb, ma, mb):
 
 
 @nb.njit(parallel=True, cache=True)
-def whiskbroom_ground_to_image(points, times, tab, err, cA, cC, window, t0, dt, coef, lever, R_BS, toff,
+def whiskbroom_ground_to_image(points, times, tab, gtab, err, cA, cC, window, t0, dt, coef, lever, R_BS, toff,
                                sp, lt0, lrate, ltable, n_lines, tol_line, tol_t, n_chunks,
                                out_line, out_pixel, out_status, out_exact):
     """(line, pixel, status) of ground points (n, 3) in the project frame seen by a whiskbroom.
 
-    ``times, tab, err`` from ``whiskbroom_tables``; ``cA, cC``: contiguous copies of the g rows
-    (``tab[:, 0, :3]``, ``tab[:, 0, 3]``) for the over-scanning search and the exact solver; ``window`` as in
+    ``times, tab, err`` from ``whiskbroom_tables``; ``gtab``: a contiguous copy of the g rows
+    ``tab[:, 0]`` (M, 4) for the bracketing (compact: it stays in cache for points in random order),
+    ``cA, cC``: its columns :3 and 3 for the over-scanning search and the exact solver; ``window`` as in
     ``kernels.ground_to_image_kernel`` (0: one crossing per point). ``tol_line``: largest
     interpolation error accepted, in pixels and (as ``tol_t`` seconds) in lines; ``tol_t`` is also
     the last Newton step of an exact solution. ``out_exact[q]`` is 1 where the exact solution was needed.
@@ -182,14 +188,14 @@ def whiskbroom_ground_to_image(points, times, tab, err, cA, cC, window, t0, dt, 
                 continue
             flag = 0
             if window == 0:
-                g0 = _row(tab, 0, 0, X, Y, Z)
-                gM = _row(tab, M - 1, 0, X, Y, Z)
+                g0 = _g(gtab, 0, X, Y, Z)
+                gM = _g(gtab, M - 1, X, Y, Z)
                 if not (g0 >= 0 and gM < 0):
                     continue
                 # start at the previous point's interval when near, else at the strip-wide linear guess
                 k_lin = int(g0 / (g0 - gM) * (M - 1))
                 start = k_warm if abs(k_lin - k_warm) <= 32 else k_lin
-                crossings[0] = _bracket(tab, M, start, X, Y, Z)
+                crossings[0] = _bracket(gtab, M, start, X, Y, Z)
                 count = 1
             else:
                 count, sightings = _find_crossings(points[q], cA, cC, max(k_warm, 0), window, crossings)

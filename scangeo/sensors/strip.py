@@ -197,7 +197,8 @@ class StripGeometry:
         t, tab, err = whiskbroom_tables(lambda tt: self.pose(tt, derivatives=True), self.spline.t0,
                                         self.spline.spacing, float(self.mounting.time_offset),
                                         self.timing.mean_rate, float(times[0]), float(times[-1]))
-        return t, tab, err, np.ascontiguousarray(tab[:, 0, :3]), np.ascontiguousarray(tab[:, 0, 3])
+        g = np.ascontiguousarray(tab[:, 0])
+        return t, tab, g, err, np.ascontiguousarray(g[:, :3]), np.ascontiguousarray(g[:, 3])
 
     def ground_to_image(self, p_P: np.ndarray, tol_line: float = 1e-6):
         """(line, pixel) that saw project-frame points (n, 3), and status codes.
@@ -231,11 +232,11 @@ class StripGeometry:
     def _whiskbroom_ground_to_image(self, p_P: np.ndarray, sp: np.ndarray, tol_line: float):
         """line, pixel, status and the exact-solution flag per point (whiskbroom)."""
         n = len(p_P)
-        times, tab, err, cA, cC = self._whiskbroom_tables
+        times, tab, gtab, err, cA, cC = self._whiskbroom_tables
         line, pixel = np.empty(n), np.empty(n)
         status, exact = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.uint8)
         whiskbroom_ground_to_image(
-            p_P, times, tab, err, cA, cC, self.overscan_window(p_P), *self._mount_args(), sp,
+            p_P, times, tab, gtab, err, cA, cC, self.overscan_window(p_P), *self._mount_args(), sp,
             *self._timing_args(), float(self.n_lines), float(tol_line), tol_line / self.timing.mean_rate,
             max(1, min(n, 256)), line, pixel, status, exact,
         )

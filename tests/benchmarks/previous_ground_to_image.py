@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib.util
 import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
@@ -32,8 +33,11 @@ def previous_kernels():
         tmp = target.with_suffix(".tmp")
         tmp.write_text(text)
         tmp.replace(target)
+    if target.stem in sys.modules:
+        return sys.modules[target.stem]
     spec = importlib.util.spec_from_file_location(target.stem, target)
     module = importlib.util.module_from_spec(spec)
+    sys.modules[target.stem] = module  # numba's cache finds the module's functions by its name
     spec.loader.exec_module(module)
     return module
 
