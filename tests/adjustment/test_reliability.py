@@ -3,6 +3,7 @@ a dense inverse on a simulated block, and the separability of injected blunders.
 from __future__ import annotations
 
 import csv
+import json
 import shutil
 
 import numpy as np
@@ -19,10 +20,13 @@ from scangeo.adjustment import (
     Unknown,
     adjust,
 )
+from scangeo.adjustment.outputs import write_results
 from scangeo.adjustment.reliability import blunder_effect, compute_reliability, delta0
 from scangeo.adjustment.reliability_summary import strip_probes, variant_reliability
 from scangeo.adjustment.results import run_variant
 from scangeo.adjustment.variants import Variant
+from scangeo.io.project import Project
+from scangeo.reports.reliability import reliability_section
 
 from .problems import HeightDifferences
 from .test_block import SHIFT_ONLY, _simulate
@@ -211,10 +215,14 @@ def inject(source, root, seed, n=6, size=(10.0, 30.0)):
         if body[i][0] not in points and len(picked) < n:
             points.add(body[i][0])
             picked.append(int(i))
+    project = Project.load(root)
     for i in picked:
         a, b = rng.uniform(0, 2 * np.pi), rng.uniform(*size)
-        body[i][2] = f"{float(body[i][2]) + b * np.cos(a):.4f}"
-        body[i][3] = f"{float(body[i][3]) + b * np.sin(a):.4f}"
+        size_of = {2: project.n_lines(body[i][1]), 3: project.sensor.model.pixels}
+        for col, d in ((2, b * np.cos(a)), (3, b * np.sin(a))):
+            top = size_of[col]
+            x = float(body[i][col]) + d
+            body[i][col] = f"{x if 0 <= x <= top - 1 else x - 2 * d:.4f}"   # inside the image
     with open(root / "points.csv", "w", newline="") as f:
         csv.writer(f).writerows([head] + body)
     return {(body[i][0], body[i][1]) for i in picked}
@@ -250,3 +258,59 @@ def test_injected_blunders_are_rejected_or_flagged_never_blamed_on_a_good_measur
     assert detectable >= 15
     assert caught >= 0.95 * detectable
     assert blamed == []
+
+
+def _shift_line(source, root, point, strip, lines):
+    """A copy of the project with ``lines`` added to the line of ``point`` in ``strip``."""
+    shutil.copytree(source, root, ignore=shutil.ignore_patterns("results"))
+    rows = list(csv.reader(open(root / "points.csv")))
+    for r in rows[1:]:
+        if r[0] == point and r[1] == strip:
+            r[2] = f"{float(r[2]) + lines:.6f}"
+    with open(root / "points.csv", "w", newline="") as f:
+        csv.writer(f).writerows(rows)
+    return root
+
+
+def test_an_undetected_blunder_below_its_mdb_stays_within_the_external_reliability(block, clean, tmp_path):
+    vr = variant_reliability(clean)
+    sol = clean.adjustment.solution
+    gi = next(k for k, g in enumerate(sol.groups) if g.name == "image 01")
+    g = sol.groups[gi]
+    rows = [i for i in range(g.n_rows) if g.components[i] == "line" and vr.status[gi][i] == "verified"
+            and clean.block.role(str(g.ids[i])) == "tie"]
+    i = max(rows, key=lambda k: vr.reliability.ext_point_m[gi][k])      # the tie measurement with most leverage
+    size = 0.9 * vr.reliability.mdb[gi][i]
+    result = run_variant(_shift_line(block, tmp_path / "small", str(g.ids[i]), "01", size), VARIANT)
+    assert result.adjustment.rejections == []                          # it stays undetected
+    point = Ground(str(g.ids[i]))
+    moved = np.linalg.norm(result.adjustment.parameters[point].values - sol.parameters[point].values)
+    assert 0.5 * 0.9 * vr.reliability.ext_point_m[gi][i] < moved < vr.reliability.ext_point_m[gi][i]
+    # the strips' ground positions: the probes applied to the change of the unknowns
+    dx = np.concatenate([result.adjustment.parameters[k].values - sol.parameters[k].values
+                         for k in sol.layout.keys])[sol.layout.free_to_full]
+    for probe in vr.probes:
+        shift = probe.matrix @ dx
+        assert np.hypot(shift[0::2], shift[1::2]).max() < vr.reliability.ext_orientation_m[gi][i]
+
+
+def test_results_hold_the_reliability(clean, tmp_path):
+    out = write_results(clean, tmp_path / "out")
+    rows = list(csv.DictReader(open(out / "residuals.csv")))
+    assert {"mdb", "ext_point_m", "ext_orientation_m", "sqrt_lambda", "status"} <= set(rows[0])
+    for r in rows:
+        if r["redundancy"] and float(r["redundancy"]) < 1e-3:
+            assert r["status"] == "uncontrolled" and r["mdb"] == "inf"
+        if r["status"] == "verified":
+            assert float(r["redundancy"]) >= 1e-3 and 0 < float(r["mdb"]) < 100
+    assert {r["status"] for r in rows if r["kind"] == "check"} <= {"check", "check failed", "not projected"}
+    units = list(csv.DictReader(open(out / "reliability.csv")))
+    assert {u["kind"] for u in units} >= {"control", "tie", "dtm"}
+    assert all(np.isfinite(float(u["x"])) for u in units)
+    summary = json.loads((out / "reliability.json").read_text())
+    assert summary["delta0"] == pytest.approx(D0)
+    assert set(summary["strips"]) == {"01", "02"} and set(summary["positions"]) == {"01", "02"}
+    assert {s["kind"] for s in summary["summary"]} >= {"control", "tie", "dtm", "gpsimu"}
+    section = reliability_section(tmp_path, ["out"])
+    text = "".join(section.parts)
+    assert text.count("<img") == 2 and "external reliability" in text and "r = 0" in text
