@@ -66,7 +66,10 @@ def check_jacobian(group: ObservationGroup, values: Values,
     for col, full in enumerate(layout.free_to_full):
         key = next(k for k in layout.keys if layout.start[k] <= full < layout.start[k] + layout.size[k])
         i = full - layout.start[key]
-        h = steps if np.isscalar(steps) else np.broadcast_to(steps.get(key, 1e-6), (layout.size[key],))[i]
+        if isinstance(steps, Mapping):
+            h = float(np.broadcast_to(steps.get(key, 1e-6), (layout.size[key],))[i])
+        else:
+            h = float(steps)
         plus, minus = dict(base), dict(base)
         plus[key] = base[key].copy()
         minus[key] = base[key].copy()

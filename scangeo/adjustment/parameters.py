@@ -119,7 +119,8 @@ class Parameters:
             ParameterBlock(b.key, b.values.copy(), b.free.copy(),
                            None if b.prior_values is None else b.prior_values.copy(),
                            None if b.prior_sigma is None else b.prior_sigma.copy(),
-                           b.regularisation_sigma.copy(), b.names, b.conditions)
+                           None if b.regularisation_sigma is None else b.regularisation_sigma.copy(),
+                           b.names, b.conditions)
             for b in self
         )
 

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from scangeo.errors import InputFileError, ScangeoError
+from scangeo.sensors.models import Whiskbroom
 
 KINDS = ("trajectory", "dtm", "image", "points", "ground", "project")
 SBET_SUFFIXES = (".out", ".sbet")
@@ -238,7 +239,7 @@ def summarise_project(path: Path) -> dict[str, Any]:
             "line_rate_hz": sensor.line_rate,
             **(
                 {"fov_deg": round(float(np.degrees(model.fov)), 6), "per_pixel_timing": model.per_pixel_timing}
-                if sensor.kind == "whiskbroom"
+                if isinstance(model, Whiskbroom)
                 else {}
             ),
             "lever_arm_m": [float(v) for v in sensor.mounting.lever_arm_B],

@@ -86,9 +86,9 @@ class Truth:
         """(line, pixel, true ground point p_P (n, 3)) of the strip's sample grid (points that hit the terrain)."""
         if strip_id not in self._samples:
             g = self.geometries[strip_id]
-            line, pixel = np.meshgrid(np.linspace(0.0, g.n_lines - 1.0, self.lines),
-                                      np.linspace(0.0, g.sensor.pixels - 1.0, self.pixels), indexing="ij")
-            line, pixel = line.ravel(), pixel.ravel()
+            line_grid, pixel_grid = np.meshgrid(np.linspace(0.0, g.n_lines - 1.0, self.lines),
+                                                np.linspace(0.0, g.sensor.pixels - 1.0, self.pixels), indexing="ij")
+            line, pixel = line_grid.ravel(), pixel_grid.ravel()
             p_P, status = g.image_to_ground(line, pixel, self.terrain)
             ok = (status == 0) & np.isfinite(p_P).all(axis=1)
             self._samples[strip_id] = (line[ok], pixel[ok], p_P[ok])

@@ -100,7 +100,7 @@ def resolve_location(config: SimulationConfig, dtm_file: str | None) -> tuple[st
         if b.crs == "auto":
             raise ProjectFileError(f"{config.source} [block.centre]: a map centre needs block.crs (not 'auto')")
         to_geo = pyproj.Transformer.from_crs(b.crs, "EPSG:4326", always_xy=True)
-        lon, lat = to_geo.transform(*b.centre[:2])
+        lon, lat = to_geo.transform(b.centre[0], b.centre[1])
         crs = b.crs
     else:
         raise ProjectFileError(f"{config.source} [block]: give centre (map) or centre_lonlat (degrees)")
@@ -183,7 +183,7 @@ def _simulate_into(root: Path, config: SimulationConfig, seed: int, dtm_file, te
 
     scene = make_scene(config.scene, (extent.xmin, extent.ymax) if (texture or config.scene.kind == "texture")
                        else centre, seed, texture)
-    geometries = [s.geometry for s in strips]
+    geometries = [sim.geometry for sim in strips]
     problem = config.gpsimu_errors.problem_strip
     ids, kinds, xs, ys = place_points(config.points, plan, geometries, map_frame, terrain, scene,
                                       rng_for(seed, "points"), problem, config.gpsimu_errors.breaks_lines)
@@ -194,10 +194,11 @@ def _simulate_into(root: Path, config: SimulationConfig, seed: int, dtm_file, te
     _write_project(root, config, seed, map_frame, terrain, plan, strips, points, crab)
     image_ext = ".tif" if config.output.image_format == "GTiff" else ".bsq"
     n = len(strips)
-    for k, s in enumerate(strips if config.output.images else []):
-        image = render_strip(s.geometry, true_dtm, scene, sensor_cfg.noise_dn, rng_for(seed, f"noise {s.strip_id}"),
-                             config.output.line_chunk, scaled(progress, k, k + 1, n), f"image {s.strip_id}")
-        write_image(root / "images" / f"{s.strip_id}{image_ext}", image, config.output.image_format)
+    for k, sim in enumerate(strips if config.output.images else []):
+        image = render_strip(sim.geometry, true_dtm, scene, sensor_cfg.noise_dn,
+                             rng_for(seed, f"noise {sim.strip_id}"), config.output.line_chunk,
+                             scaled(progress, k, k + 1, n), f"image {sim.strip_id}")
+        write_image(root / "images" / f"{sim.strip_id}{image_ext}", image, config.output.image_format)
         del image
     half = plan.swath_m / 2.0
     ortho_extent = Extent(min(s.x for s in plan.strips) - half, extent.ymin + plan.run_in_s * plan.ground_speed_mps,
@@ -256,7 +257,7 @@ def _write_project(root: Path, config: SimulationConfig, seed: int, map_frame: M
         if role:
             sxy, sz = sigmas[role]
             given[i] += rng.standard_normal(3) * np.array([sxy, sxy, sz])
-    writer.write_points(root, points, [s.strip_id for s in strips], pc.measurement_sigma_px, given, sigmas)
+    writer.write_points(root, points, [sim.strip_id for sim in strips], pc.measurement_sigma_px, given, sigmas)
     writer.write_json(
         root / "truth" / "errors.json",
         {
