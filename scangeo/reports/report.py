@@ -14,6 +14,7 @@ variant's ``results/NAME/``), and writes one self-contained HTML file (figures e
 6. the regularisation and blunder notes of every variant.
 7. the reliability of the reference and the best variant: MDB and external reliability maps per
    strip, the non-separable points and a sentence of interpretation (:mod:`scangeo.reports.reliability`).
+8. when ``scangeo match`` measured points: their map and counts (:mod:`scangeo.match.figure`).
 
 The residual vectors of every variant also go to a GeoPackage (:mod:`scangeo.reports.geopackage`).
 """
@@ -29,6 +30,7 @@ import numpy as np
 
 from scangeo import __version__
 from scangeo.io.project import Project
+from scangeo.match.figure import match_section
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.reports import figures, html
 from scangeo.reports.comparison import Comparison
@@ -291,6 +293,9 @@ def write_report(
     sections.append(_notes_section(project, comparison))
     shown = [n for n in dict.fromkeys([comparison.reference, comparison.best]) if n in names]
     sections.append(reliability_section(project.root / "results", shown))  # MDB and external reliability maps
+    matched = match_section(project.root, {sid: f.footprint for sid, f in frames.items()})  # scangeo match
+    if matched is not None:
+        sections.append(matched)
     gpkg = None
     if geopackage:
         gpkg = write_geopackage(folder / "residuals.gpkg", [vectors[n] for n in names], project.crs)
