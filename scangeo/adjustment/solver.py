@@ -122,6 +122,21 @@ def prior_group(parameters: Parameters) -> PseudoObservations | None:
     return PseudoObservations("priors", keys, np.array(comps), np.array(vals), np.array(sig), names)
 
 
+@dataclass
+class _Outcome:
+    """What one iteration ended with: the values after it, the cost reported, its largest scaled
+    step and damping, whether to stop and whether that is convergence, and whether its system and
+    factor are the solution's (a negligible step)."""
+
+    values: dict
+    cost: float
+    max_step: float
+    damping: float = 0.0
+    done: bool = False
+    converged: bool = False
+    keep_system: bool = False
+
+
 class Solver:
     """Solves ``min sum ||r_g(x)||^2`` over the free unknowns of ``parameters``."""
 
@@ -214,72 +229,90 @@ class Solver:
 
     # -- iteration ------------------------------------------------------------------------------
     def solve(self, active: list[np.ndarray] | None = None) -> Solution:
-        """Iterate to convergence from the current values; ``active`` rows per group (default all)."""
+        """Iterate to convergence from the current values; ``active`` rows per group (default all).
+
+        Every iteration (:meth:`_iterate`) factorises the system at the current values, takes the
+        Gauss-Newton step and keeps it if it lowers the cost (damped until it does); the iteration
+        ends when the step is negligible or the cost stops falling. The final system and factor
+        (:meth:`_finish`) are those of the solution, for the statistics.
+        """
         opts = self.options
         values = self.parameters.values()
-        active = [np.ones(g.n_rows, bool) for g in self.groups] if active is None else list(active)
-        active += [np.ones(g.n_rows, bool) for g in self.groups[len(active) :]]
+        active = [] if active is None else list(active)
+        self._cover(active)
         iterations: list[IterationInfo] = []
-        converged = False
+        outcome = _Outcome(values, 0.0, 0.0)
         final = None
-        lam = 0.0
         for it in range(1, opts.max_iterations + 1):
             t0 = time.perf_counter()
-            n_groups = len(self.groups)
-            system, factor = self.factorize(values, active)
-            active += [np.ones(g.n_rows, bool) for g in self.groups[n_groups:]]
-            cost = system.cost
-            step = factor.solve(-system.gradient)
-            # dx^T N dx: the step's squared length in standard deviations of the unknowns
-            predicted = float(step @ -system.gradient)
-            if (
-                float(np.max(np.abs(step), initial=0.0)) < opts.step_tolerance or predicted < opts.chi2_tolerance
-            ):  # converged: no trial needed
-                values = self.layout.add_step(values, step / system.scale)
-                iterations.append(
-                    IterationInfo(it, cost, float(np.max(np.abs(step), initial=0.0)), 0.0, time.perf_counter() - t0)
-                )
-                self.callback(it, opts.max_iterations, f"iteration {it}: cost {cost:.6g}")
-                converged = True
-                final = (system, factor)  # the step is negligible: keep this linearisation and factor
+            outcome, system, factor = self._iterate(values, active)
+            values = outcome.values
+            iterations.append(IterationInfo(it, outcome.cost, outcome.max_step, outcome.damping,
+                                            time.perf_counter() - t0))
+            log.info("iteration %d: cost %.6g, max scaled step %.3g, damping %g", it, outcome.cost, outcome.max_step,
+                     outcome.damping)
+            self.callback(it, opts.max_iterations, f"iteration {it}: cost {outcome.cost:.6g}")
+            if outcome.keep_system:  # the step is negligible: keep this linearisation and factor
+                final = (system, factor)
+            if outcome.done:
                 break
+        self.callback(opts.max_iterations, opts.max_iterations, "adjusted" if outcome.converged else "not converged")
+        return self._finish(values, active, outcome.converged, final, iterations)
+
+    def _cover(self, active: list[np.ndarray]) -> None:
+        """In place: every group added since (regularisation) gets all its rows active."""
+        active += [np.ones(g.n_rows, bool) for g in self.groups[len(active):]]
+
+    def _iterate(self, values, active: list[np.ndarray]) -> tuple[_Outcome, System, Factor]:
+        """One Gauss-Newton iteration from ``values``: the system, the step, its trial."""
+        opts = self.options
+        system, factor = self.factorize(values, active)
+        self._cover(active)
+        cost = system.cost
+        step = factor.solve(-system.gradient)
+        size = float(np.max(np.abs(step), initial=0.0))
+        # dx^T N dx: the step's squared length in standard deviations of the unknowns
+        predicted = float(step @ -system.gradient)
+        if size < opts.step_tolerance or predicted < opts.chi2_tolerance:  # converged: no trial needed
+            return _Outcome(self.layout.add_step(values, step / system.scale), cost, size, done=True,
+                            converged=True, keep_system=True), system, factor
+        new_values = self.layout.add_step(values, step / system.scale)
+        new_cost = self._cost(new_values, active)
+        if cost < new_cost <= cost * (1 + FLOOR):
+            # the Gauss-Newton step changes the cost only at the rounding level: a minimum
+            return _Outcome(values, cost, size, done=True, converged=True, keep_system=True), system, factor
+        lam = 0.0
+        if opts.damping and new_cost > cost * (1 + 1e-12) + 1e-300:
+            step, new_values, new_cost, lam = self._damped_step(values, system, cost, active)
+        return self._judge(values, cost, step, new_values, new_cost, lam), system, factor
+
+    def _damped_step(self, values, system: System, cost: float, active: list[np.ndarray]):
+        """Levenberg-Marquardt: ``(N + lambda I)`` with lambda from 1e-4 up by tens until the step
+        lowers the cost (or ``max_damping_steps`` are spent); (step, values, cost, lambda)."""
+        lam = 1e-4
+        eye = sp.eye(self.layout.n, format="csc")
+        for _ in range(self.options.max_damping_steps):
+            step = self.factorizer.factorize(system.normal + lam * eye).solve(-system.gradient)
             new_values = self.layout.add_step(values, step / system.scale)
             new_cost = self._cost(new_values, active)
-            lam = 0.0
-            if new_cost > cost and new_cost <= cost * (1 + FLOOR):
-                # the Gauss-Newton step changes the cost only at the rounding level: a minimum
-                iterations.append(
-                    IterationInfo(it, cost, float(np.max(np.abs(step), initial=0.0)), 0.0, time.perf_counter() - t0)
-                )
-                self.callback(it, opts.max_iterations, f"iteration {it}: cost {cost:.6g}")
-                converged = True
-                final = (system, factor)
+            if new_cost <= cost:
                 break
-            if opts.damping and new_cost > cost * (1 + 1e-12) + 1e-300:
-                lam = 1e-4
-                for _ in range(opts.max_damping_steps):
-                    damped = self.factorizer.factorize(system.normal + lam * sp.eye(self.layout.n, format="csc"))
-                    step = damped.solve(-system.gradient)
-                    new_values = self.layout.add_step(values, step / system.scale)
-                    new_cost = self._cost(new_values, active)
-                    if new_cost <= cost:
-                        break
-                    lam *= 10.0
-            max_step = float(np.max(np.abs(step), initial=0.0))
-            accepted = new_cost <= cost * (1 + 1e-12)
-            if accepted:
-                values = new_values
-            iterations.append(IterationInfo(it, min(new_cost, cost), max_step, lam, time.perf_counter() - t0))
-            log.info("iteration %d: cost %.6g, max scaled step %.3g, damping %g", it, new_cost, max_step, lam)
-            self.callback(it, opts.max_iterations, f"iteration {it}: cost {min(new_cost, cost):.6g}")
-            if not accepted:  # no step lowers the cost: a minimum to numerical precision
-                converged = max_step < opts.step_tolerance or abs(cost - new_cost) <= 1e-9 * max(cost, 1e-300)
-                break
-            if max_step < opts.step_tolerance or abs(cost - new_cost) <= opts.cost_tolerance * max(cost, 1e-300):
-                converged = True
-                break
-        self.callback(opts.max_iterations, opts.max_iterations, "adjusted" if converged else "not converged")
-        n_groups = len(self.groups)
+            lam *= 10.0
+        return step, new_values, new_cost, lam
+
+    def _judge(self, values, cost: float, step: np.ndarray, new_values, new_cost: float, lam: float) -> _Outcome:
+        """Keep a trial step that does not raise the cost; stop at a negligible step or cost change."""
+        opts = self.options
+        size = float(np.max(np.abs(step), initial=0.0))
+        if new_cost > cost * (1 + 1e-12):  # no step lowers the cost: a minimum to numerical precision
+            converged = size < opts.step_tolerance or abs(cost - new_cost) <= 1e-9 * max(cost, 1e-300)
+            return _Outcome(values, cost, size, lam, done=True, converged=converged)
+        small = size < opts.step_tolerance or abs(cost - new_cost) <= opts.cost_tolerance * max(cost, 1e-300)
+        return _Outcome(new_values, min(new_cost, cost), size, lam, done=small, converged=small)
+
+    def _finish(self, values, active: list[np.ndarray], converged: bool, final, iterations) -> Solution:
+        """The solution at ``values``: the kept system and factor with the final residuals, or a
+        fresh factorisation there."""
         if final is not None:
             system, factor = final
             system.residuals = np.concatenate(
@@ -287,19 +320,10 @@ class Solver:
             )
         else:
             system, factor = self.factorize(values, active)
-        active += [np.ones(g.n_rows, bool) for g in self.groups[n_groups:]]
+        self._cover(active)
         self.parameters.set_values(values)
-        return Solution(
-            self.parameters,
-            self.layout,
-            list(self.groups),
-            active,
-            system,
-            factor,
-            iterations,
-            converged,
-            list(self.regularisation),
-        )
+        return Solution(self.parameters, self.layout, list(self.groups), active, system, factor, iterations,
+                        converged, list(self.regularisation))
 
     def _cost(self, values, active) -> float:
         """The cost at trial values; infinite where a model cannot be evaluated (the step is damped)."""
