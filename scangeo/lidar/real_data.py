@@ -28,28 +28,9 @@ from scipy.optimize import least_squares
 from scangeo.errors import InputFileError
 from scangeo.frames import R_ecef_ned, geodetic_to_ecef
 from scangeo.rotation import rph_to_matrix, unwrap_heading
+from scangeo.trajectory.readers import read_sbet_records
 
 log = logging.getLogger(__name__)
-
-SBET_FIELDS = ("time", "lat", "lon", "alt", "vx", "vy", "vz", "roll", "pitch", "heading", "wander",
-               "ax", "ay", "az", "wx", "wy", "wz")
-_SBET_DTYPE = np.dtype([(name, "<f8") for name in SBET_FIELDS])
-
-
-def _read_sbet(path: str | Path) -> np.ndarray:
-    """Records of an Applanix SBET (17 little-endian float64 per record; radians, metres, seconds)."""
-    path = Path(path)
-    size = path.stat().st_size
-    if size == 0 or size % _SBET_DTYPE.itemsize:
-        raise InputFileError(
-            f"{path}: {size} bytes, expected a multiple of {_SBET_DTYPE.itemsize} (17 float64 per record)"
-        )
-    records = np.fromfile(path, dtype=_SBET_DTYPE)
-    if np.any(np.diff(records["time"]) <= 0):
-        k = int(np.argmax(np.diff(records["time"]) <= 0)) + 1
-        raise InputFileError(f"{path} record {k}: time {records['time'][k]:.6f} is not after the previous one")
-    return records
-
 
 @dataclass(frozen=True)
 class LeewardConfig:
@@ -95,7 +76,7 @@ def load_returns(sbet: str | Path, las: str | Path, utm_zone: int, heading: str 
     """
     import laspy
 
-    nav = _read_sbet(sbet)
+    nav = read_sbet_records(sbet)
     cloud = laspy.read(str(las))
     t = np.asarray(cloud.gps_time, dtype=float)
     if t.min() < nav["time"][0] or t.max() > nav["time"][-1]:
@@ -104,7 +85,7 @@ def load_returns(sbet: str | Path, las: str | Path, utm_zone: int, heading: str 
             f"{nav['time'][0]:.3f}..{nav['time'][-1]:.3f} s"
         )
     interp = {k: np.interp(t, nav["time"], nav[k]) for k in ("lat", "lon", "alt", "roll", "pitch")}
-    hdg = unwrap_heading(nav["heading"] - (nav["wander"] if heading == "true" else 0.0))
+    hdg = unwrap_heading(nav["platform_heading"] - (nav["wander"] if heading == "true" else 0.0))
     to_geo = pyproj.Transformer.from_crs(32600 + utm_zone, 4326, always_xy=True)
     lon, lat = to_geo.transform(np.asarray(cloud.x), np.asarray(cloud.y))
     p = geodetic_to_ecef(np.radians(lat), np.radians(lon), np.asarray(cloud.z, dtype=float))

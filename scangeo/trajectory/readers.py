@@ -148,11 +148,10 @@ def read_trajectory_csv(path, crs=None) -> GpsImuStream:
     return GpsImuStream(data[:, 0], lat, lon, h, roll, pitch, np.unwrap(heading), source=str(path))
 
 
-def read_sbet(path) -> GpsImuStream:
-    """Read an Applanix SBET: 17 little-endian float64 per record (radians, metres, seconds).
-
-    The true heading is the platform heading minus the wander angle.
-    """
+def read_sbet_records(path) -> np.ndarray:
+    """The records of an Applanix SBET as they are: 17 little-endian float64 per record (fields
+    :data:`SBET_FIELDS`; radians, metres, seconds). Errors name the file and the record: a
+    truncated record, a value that is not finite, a time not after the previous one."""
     path = Path(path)
     try:
         size = path.stat().st_size
@@ -172,6 +171,15 @@ def read_sbet(path) -> GpsImuStream:
         if bad.size:
             raise TrajectoryError(f"{path} record {bad[0] + 1}: {name} is not a finite number")
     check_times(raw["time"], str(path), lambda i: f"record {i + 1}")
+    return raw
+
+
+def read_sbet(path) -> GpsImuStream:
+    """Read an Applanix SBET (:func:`read_sbet_records`) as a GPS/IMU stream.
+
+    The true heading is the platform heading minus the wander angle.
+    """
+    raw = read_sbet_records(path)
     heading = np.unwrap(raw["platform_heading"] - raw["wander"])
     return GpsImuStream(
         raw["time"].copy(),

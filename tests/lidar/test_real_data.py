@@ -5,11 +5,12 @@ import numpy as np
 import pytest
 
 from scangeo.errors import InputFileError
-from scangeo.lidar.real_data import _read_sbet, consistency
+from scangeo.lidar.real_data import consistency
+from scangeo.trajectory.readers import read_sbet_records
 
 
-def test_private_sbet_reader(leeward, tmp_path):
-    nav = _read_sbet(leeward / "leeward_sbet.out")
+def test_sbet_records_of_the_sample(leeward, tmp_path):
+    nav = read_sbet_records(leeward / "leeward_sbet.out")
     assert len(nav) == 200
     assert np.degrees(nav["lat"][0]) == pytest.approx(37.7648, abs=1e-4)
     assert np.degrees(nav["lon"][0]) == pytest.approx(-119.0238, abs=1e-4)
@@ -17,8 +18,8 @@ def test_private_sbet_reader(leeward, tmp_path):
     assert np.degrees(nav["wander"][0]) == pytest.approx(1.0217, abs=1e-3)
     bad = tmp_path / "bad.out"
     bad.write_bytes(b"\0" * 100)
-    with pytest.raises(InputFileError, match="multiple of 136"):
-        _read_sbet(bad)
+    with pytest.raises(InputFileError, match=r"bad.out record 1: truncated \(100 bytes of 136"):
+        read_sbet_records(bad)
 
 
 def test_leeward_consistency(leeward, run_lidar_json):
