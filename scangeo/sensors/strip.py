@@ -91,7 +91,7 @@ class StripGeometry:
         self.strip_id = strip_id
 
     # --- poses ----------------------------------------------------------------------------------
-    def _mount_args(self):
+    def _mount_args(self) -> tuple[float, float, np.ndarray, np.ndarray, np.ndarray, float]:
         m = self.mounting
         return (self.spline.t0, self.spline.spacing, np.ascontiguousarray(self.spline.coef),
                 np.asarray(m.lever_arm_B, float), np.ascontiguousarray(m.R_BS), float(m.time_offset))
@@ -122,7 +122,7 @@ class StripGeometry:
                       *self._timing_args(), o, d)
         return o, d
 
-    def _timing_args(self):
+    def _timing_args(self) -> tuple[float, float, np.ndarray]:
         ltable = self.timing.table if self.timing.table is not None else np.zeros(0)
         return float(self.timing.first_line_time), float(self.timing.line_rate), np.asarray(ltable, float)
 
@@ -187,7 +187,7 @@ class StripGeometry:
                 starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
                 for a, b in zip(starts, ends):
                     first = int(np.searchsorted(runmax, s[a:b].min()))
-                    window = max(window, b - first)
+                    window = max(window, int(b) - first)
         return window + 3 if window else 0
 
     @cached_property

@@ -166,19 +166,22 @@ def measure_points(ids, kinds, x, y, geometries: list[StripGeometry], map_frame:
     """True ground points and their (noisy, possibly blundered) measurements in every strip."""
     z = terrain.height(x, y)
     p_P = map_frame.map_to_project(x, y, z)
-    m_point, m_strip, lt, pt = [], [], [], []
+    point_parts: list[np.ndarray] = []
+    strip_parts: list[np.ndarray] = []
+    lt: list[np.ndarray] = []
+    pt: list[np.ndarray] = []
     margin = config.edge_margin_px
     for k, g in enumerate(geometries):
         line, pixel, status = g.ground_to_image(p_P)
         ok = ((status == 0) & (line >= margin) & (line <= g.n_lines - 1 - margin)
               & (pixel >= margin) & (pixel <= g.sensor.pixels - 1 - margin))
         idx = np.flatnonzero(ok)
-        m_point.append(idx)
-        m_strip.append(np.full(idx.size, k))
+        point_parts.append(idx)
+        strip_parts.append(np.full(idx.size, k))
         lt.append(line[idx])
         pt.append(pixel[idx])
-    m_point = np.concatenate(m_point)
-    m_strip = np.concatenate(m_strip)
+    m_point = np.concatenate(point_parts)
+    m_strip = np.concatenate(strip_parts)
     order = np.lexsort((m_strip, m_point))
     m_point, m_strip = m_point[order], m_strip[order]
     line_true, pixel_true = np.concatenate(lt)[order], np.concatenate(pt)[order]
