@@ -11,7 +11,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from scangeo.errors import ProjectFileError
-from scangeo.io.toml_config import Table, load_toml
+from scangeo.io.schema import read, setting
+from scangeo.io.toml_config import load_toml
 
 STRATEGIES = ("DG", "BE", "SE", "P", "S")
 ROLES = ("control", "check", "height", "planimetric", "tie", "ignore")
@@ -22,42 +23,49 @@ CALIBRATION = ("boresight", "lever_arm", "time_offset", "index_error", "scale_er
 class StripModels:
     """Per-strip overrides: degrees, rotation, and break epochs (lines or times) of a split."""
 
-    strip: str
-    position_degree: int | None = None
-    attitude_degree: int | None = None
-    rotation: bool | None = None
-    breaks_lines: tuple[float, ...] = ()
-    breaks_times: tuple[float, ...] = ()
+    strip: str = setting(key="id", file_type=str | int, parse=lambda v, where: str(v),
+                         doc="the strip's id in project.toml")
+    position_degree: int | None = setting(None, ge=-1, le=10, unit="1", default_doc="the variant's",
+                                          doc="polynomial degree of the position correction (-1: none)")
+    attitude_degree: int | None = setting(None, ge=-1, le=10, unit="1", default_doc="the variant's",
+                                          doc="polynomial degree of the attitude correction (-1: none)")
+    rotation: bool | None = setting(None, default_doc="the variant's", doc="rigid rotation of the model's positions")
+    breaks_lines: tuple[float, ...] = setting((), ge=0, unit="line", doc="image lines where the model splits")
+    breaks_times: tuple[float, ...] = setting((), unit="s", doc="times where the model splits")
 
 
 @dataclass(frozen=True)
 class Variant:
     """One adjustment strategy; every field is a key of a ``[variants.NAME]`` table."""
 
-    name: str
-    strategy: str = "SE"
-    description: str = ""
-    position_degree: int = 0
-    attitude_degree: int = 0
-    rotation: bool = False
-    strips: tuple[StripModels, ...] = ()
-    roles: tuple[tuple[str, str], ...] = ()
-    dtm_heights: bool = False
-    dtm_height_points: tuple[str, ...] = ("*",)
-    gps_sigma_m: tuple[float, float, float] = (0.05, 0.05, 0.10)
-    imu_sigma_deg: tuple[float, float, float] = (0.003, 0.003, 0.005)
-    image_sigma_px: float | None = None
-    coefficient_sigma_m: float = 10.0
-    coefficient_sigma_deg: float = 0.1
-    constant_sigma_m: float | None = None
-    constant_sigma_deg: float | None = None
-    calibrate: tuple[str, ...] = ()
-    snooping: bool = True
-    critical_value: float = 3.29
-    rejections_per_round: int = 1
-    snooping_method: str = "update"
-    max_iterations: int = 20
-    backend: str = "auto"
+    name: str = setting(internal=True)
+    strategy: str = setting("SE", choices=STRATEGIES, doc="DG, BE, SE, P or S (docs/adjustment.md)")
+    description: str = setting("", doc="one line for tables and reports")
+    position_degree: int = setting(0, ge=-1, le=10, unit="1", doc="polynomial degree of every position model")
+    attitude_degree: int = setting(0, ge=-1, le=10, unit="1", doc="polynomial degree of every attitude model")
+    rotation: bool = setting(False, doc="rigid rotation of each (unsplit) model's positions")
+    strips: tuple[StripModels, ...] = setting((), key="strip", doc="per-strip overrides ([[variants.NAME.strip]])")
+    roles: tuple[tuple[str, str], ...] = setting((), file_type=dict[str, str], parse=lambda v, where: _roles(v, where),
+                                                 default_doc="ground.csv's",
+                                                 doc="glob pattern on point ids -> role, applied in order")
+    dtm_heights: bool = setting(False, doc="tie points carry Z = DTM(X, Y)")
+    dtm_height_points: tuple[str, ...] = setting(("*",), doc="glob patterns of the tie points with DTM heights")
+    gps_sigma_m: tuple[float, float, float] = setting((0.05, 0.05, 0.10), gt=0, doc="GPS/IMU position sigma x, y, z")
+    imu_sigma_deg: tuple[float, float, float] = setting((0.003, 0.003, 0.005), gt=0,
+                                                        doc="GPS/IMU roll, pitch, heading sigma")
+    image_sigma_px: float | None = setting(None, gt=0, default_doc="points.csv's", doc="image measurement sigma")
+    coefficient_sigma_m: float = setting(10.0, gt=0, doc="pseudo-observation coefficient = 0 (degree >= 1)")
+    coefficient_sigma_deg: float = setting(0.1, gt=0, doc="the same for attitude coefficients")
+    constant_sigma_m: float | None = setting(None, gt=0, doc="pseudo-observation for the constant terms")
+    constant_sigma_deg: float | None = setting(None, gt=0, doc="the same for attitude constants")
+    calibrate: tuple[str, ...] = setting((), choices=CALIBRATION, doc="calibration unknowns")
+    snooping: bool = setting(True, doc="data snooping")
+    critical_value: float = setting(3.29, gt=0, unit="1", doc="critical value of the normalised residual w")
+    rejections_per_round: int = setting(1, ge=1, unit="1", doc="units removed per re-solution")
+    snooping_method: str = setting("update", choices=("update", "resolve"),
+                                   doc="re-solution after a removal: low-rank update or full")
+    max_iterations: int = setting(20, ge=1, unit="1", doc="Gauss-Newton iterations at most")
+    backend: str = setting("auto", choices=("auto", "cholmod", "superlu"), doc="sparse solver")
 
     def role_of(self, point: str, role: str) -> str:
         """The role of a point in this variant: ground.csv's (or ``tie``), then the patterns in order."""
@@ -84,59 +92,21 @@ BUILTIN = {
 }
 
 
-def _variant(t: Table, name: str, defaults: dict) -> Variant:
-    data = {**defaults, **t.data}
-    t = Table(data, t.path, t.name)
-    kw: dict = {"name": name}
-    kw["strategy"] = t.choice("strategy", STRATEGIES, "SE")
-    kw["description"] = t.get("description", str, "")
-    for key in ("position_degree", "attitude_degree", "max_iterations", "rejections_per_round"):
-        kw[key] = t.get(key, int, getattr(Variant, key))
-    for key in ("rotation", "dtm_heights", "snooping"):
-        kw[key] = t.get(key, bool, getattr(Variant, key))
-    for key in ("coefficient_sigma_m", "coefficient_sigma_deg", "critical_value"):
-        kw[key] = t.get(key, float, getattr(Variant, key))
-    for key in ("constant_sigma_m", "constant_sigma_deg", "image_sigma_px"):
-        kw[key] = t.get(key, float, None)
-    kw["gps_sigma_m"] = tuple(t.vector("gps_sigma_m", 3, list(Variant.gps_sigma_m)))
-    kw["imu_sigma_deg"] = tuple(t.vector("imu_sigma_deg", 3, list(Variant.imu_sigma_deg)))
-    kw["backend"] = t.choice("backend", ("auto", "cholmod", "superlu"), "auto")
-    kw["snooping_method"] = t.choice("snooping_method", ("update", "resolve"), "update")
-    kw["dtm_height_points"] = tuple(str(p) for p in t.get("dtm_height_points", list, ["*"]))
-    calibrate = t.get("calibrate", list, [])
-    for c in calibrate:
-        if c not in CALIBRATION:
-            raise ProjectFileError(f"{t.path} [{t.name}] calibrate: {c!r} is not one of {', '.join(CALIBRATION)}")
-    kw["calibrate"] = tuple(calibrate)
-    roles = t.get("roles", dict, {})
-    for pattern, role in roles.items():
+def _roles(value: dict, where: str) -> tuple[tuple[str, str], ...]:
+    for pattern, role in value.items():
         if role not in ROLES:
-            raise ProjectFileError(
-                f"{t.path} [{t.name}] roles: {pattern!r} = {role!r}: expected one of {', '.join(ROLES)}"
-            )
-    kw["roles"] = tuple(roles.items())
-    strips = []
-    for i, s in enumerate(t.get("strip", list, [])):
-        st = Table(s, t.path, f"{t.name}.strip #{i + 1}")
-        strips.append(
-            StripModels(
-                str(st.get("id", (str, int))),
-                st.get("position_degree", int, None),
-                st.get("attitude_degree", int, None),
-                st.get("rotation", bool, None),
-                tuple(float(v) for v in st.get("breaks_lines", list, [])),
-                tuple(float(v) for v in st.get("breaks_times", list, [])),
-            )
-        )
-        st.finish()
-        if (strips[-1].breaks_lines or strips[-1].breaks_times) and kw["strategy"] in ("DG", "BE"):
-            raise ProjectFileError(f"{t.path} [{t.name}]: breaks need per-strip models (strategy SE, P or S)")
-    kw["strips"] = tuple(strips)
-    t.finish()
-    for key in ("position_degree", "attitude_degree"):
-        if not -1 <= kw[key] <= 10:
-            raise ProjectFileError(f"{t.path} [{t.name}] {key}: expected -1..10, found {kw[key]}")
-    return Variant(**kw)
+            raise ProjectFileError(f"{where[:-1]}.{pattern}]: expected one of {', '.join(ROLES)}, found {role!r}")
+    return tuple(value.items())
+
+
+def _variant(table: dict, path: Path, name: str, defaults: dict) -> Variant:
+    where = f"variants.{name}"
+    if not isinstance(table, dict):
+        raise ProjectFileError(f"{path} [{where}]: expected a table, found {table!r}")
+    variant = read(Variant, {**defaults, **table}, str(path), where, name=name)
+    if variant.strategy in ("DG", "BE") and any(s.breaks_lines or s.breaks_times for s in variant.strips):
+        raise ProjectFileError(f"{path} [{where}.strip]: breaks need per-strip models (strategy SE, P or S)")
+    return variant
 
 
 def read_variants(path) -> dict[str, Variant]:
@@ -146,11 +116,13 @@ def read_variants(path) -> dict[str, Variant]:
     for key in data:
         if key not in ("defaults", "variants"):
             raise ProjectFileError(f"{path}: unknown table [{key}] (expected defaults, variants)")
-    defaults = Table(data.get("defaults", {}), path, "defaults").data
+    defaults = data.get("defaults", {})
+    if not isinstance(defaults, dict):
+        raise ProjectFileError(f"{path} [defaults]: expected a table, found {defaults!r}")
     raw = data.get("variants", {})
     if not isinstance(raw, dict) or not raw:
         raise ProjectFileError(f"{path}: expected at least one [variants.NAME] table")
-    return {name: _variant(Table(t, path, f"variants.{name}"), name, defaults) for name, t in raw.items()}
+    return {name: _variant(t, path, name, defaults) for name, t in raw.items()}
 
 
 def find_variant(project_root, name: str, variants_file=None) -> Variant:

@@ -10,7 +10,8 @@ import numpy as np
 
 from scangeo.errors import ProjectFileError
 from scangeo.frames import Geoid, MapFrame, ProjectFrame, parse_crs
-from scangeo.io.toml_config import Table, load_toml
+from scangeo.io.project_schema import SensorKeys, StripKeys, read_project_file
+from scangeo.io.toml_config import load_toml
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.sensors.strip import Mounting, StripGeometry
 from scangeo.timing import LineTiming
@@ -30,40 +31,28 @@ class SensorConfig:
     wavelengths_nm: tuple[float, ...] = ()
 
     @classmethod
-    def from_table(cls, t: Table, root: Path) -> SensorConfig:
-        kind = t.choice("kind", ("whiskbroom", "pushbroom"))
-        pixels = t.get("pixels", int)
-        line_rate = t.get("line_rate_hz", float)
-        if kind == "whiskbroom":
+    def from_keys(cls, t: SensorKeys, root: Path) -> SensorConfig:
+        """The sensor model and mounting of a checked [sensor] table."""
+        model: Whiskbroom | Pushbroom
+        if t.kind == "whiskbroom":
+            assert t.fov_deg is not None  # SensorKeys.check
             model = Whiskbroom(
-                pixels=pixels, fov=np.radians(t.get("fov_deg", float)), line_rate=line_rate,
-                scan_direction=t.get("scan_direction", int, 1),
-                per_pixel_timing=t.get("per_pixel_timing", bool, True),
-                index_error=np.radians(t.get("index_error_deg", float, 0.0)),
-                scale_error=t.get("scale_error", float, 0.0),
+                pixels=t.pixels, fov=np.radians(t.fov_deg), line_rate=t.line_rate_hz,
+                scan_direction=t.scan_direction, per_pixel_timing=t.per_pixel_timing,
+                index_error=np.radians(t.index_error_deg), scale_error=t.scale_error,
             )
+        elif t.look_angles is not None:
+            along, across = read_look_angles(root / t.look_angles, t.pixels)
+            model = Pushbroom(pixels=t.pixels, along=along, across=across)
         else:
-            table = t.get("look_angles", str, None)
-            if table is not None:
-                along, across = read_look_angles(root / table, pixels)
-                model = Pushbroom(pixels=pixels, along=along, across=across)
-            else:
-                model = Pushbroom(
-                    pixels=pixels, focal_length=t.get("focal_length_mm", float) / 1000.0,
-                    pitch=t.get("pixel_pitch_um", float) / 1e6,
-                    principal_point=t.get("principal_point_px", float, None),
-                    k1=t.get("k1", float, 0.0), k2=t.get("k2", float, 0.0),
-                    line_offset=t.get("line_offset_mm", float, 0.0) / 1000.0,
-                )
-        mounting = Mounting(
-            lever_arm_B=np.array(t.vector("lever_arm_m", 3, [0.0, 0.0, 0.0])),
-            boresight=np.radians(t.vector("boresight_deg", 3, [0.0, 0.0, 0.0])),
-            time_offset=t.get("time_offset_s", float, 0.0),
-        )
-        bands = tuple(t.get("bands", list, []))
-        wavelengths = tuple(float(w) for w in t.get("wavelengths_nm", list, []))
-        t.finish()
-        return cls(kind, model, mounting, line_rate, bands, wavelengths)
+            assert t.focal_length_mm is not None and t.pixel_pitch_um is not None  # SensorKeys.check
+            model = Pushbroom(
+                pixels=t.pixels, focal_length=t.focal_length_mm / 1000.0, pitch=t.pixel_pitch_um / 1e6,
+                principal_point=t.principal_point_px, k1=t.k1, k2=t.k2, line_offset=t.line_offset_mm / 1000.0,
+            )
+        mounting = Mounting(lever_arm_B=np.array(t.lever_arm_m), boresight=np.radians(t.boresight_deg),
+                            time_offset=t.time_offset_s)
+        return cls(t.kind, model, mounting, t.line_rate_hz, t.bands, t.wavelengths_nm)
 
 
 def read_look_angles(path: Path, pixels: int) -> tuple[np.ndarray, np.ndarray]:
@@ -89,17 +78,10 @@ class StripConfig:
     lines: int | None
 
     @classmethod
-    def from_table(cls, t: Table, root: Path) -> StripConfig:
-        sid = t.get("id", (str, int))
-        image = t.get("image", str, None)
-        first = t.get("first_line_time", float, None)
-        table = t.get("line_times", str, None)
-        if (first is None) == (table is None):
-            raise ProjectFileError(f"{t.path} [strips id={sid}]: give exactly one of first_line_time and line_times")
-        cfg = cls(str(sid), root / image if image else None, root / t.get("trajectory", str),
-                  first, root / table if table else None, t.get("lines", int, None))
-        t.finish()
-        return cfg
+    def from_keys(cls, t: StripKeys, root: Path) -> StripConfig:
+        """A strip of a checked [[strips]] entry (paths relative to the project folder)."""
+        return cls(t.id, root / t.image if t.image else None, root / t.trajectory, t.first_line_time,
+                   root / t.line_times if t.line_times else None, t.lines)
 
 
 @dataclass(frozen=True)
@@ -126,39 +108,16 @@ class Project:
         if not file.exists():
             raise ProjectFileError(f"{file}: no such project file")
         root = file.parent
-        data = load_toml(file)
-        for key in data:
-            if key not in ("project", "sensor", "strips"):
-                raise ProjectFileError(f"{file}: unknown table [{key}] (expected project, sensor, strips)")
-        p = Table(data.get("project", {}), file, "project")
-        crs = p.get("crs", str)
-        parse_crs(crs, f"{file} [project] crs")
-        dtm = root / p.get("dtm", str)
-        geoid_file = p.get("geoid", str, None)
-        undulation = p.get("geoid_undulation_m", float, None)
-        if geoid_file and undulation is not None:
-            raise ProjectFileError(f"{file} [project]: give geoid or geoid_undulation_m, not both")
-        undulation = 0.0 if undulation is None else undulation
-        geoid = Geoid.from_raster(root / geoid_file) if geoid_file else Geoid(undulation)
-        origin = p.vector("origin", 3, None)
-        knot_spacing = p.get("knot_spacing_s", float, 0.2)
-        dtm_sigma = p.get("dtm_sigma_m", float, 1.5)
-        traj_crs = p.get("trajectory_crs", str, None)
-        if traj_crs is not None:
-            parse_crs(traj_crs, f"{file} [project] trajectory_crs")
-        p.finish()
-        sensor = SensorConfig.from_table(Table(data.get("sensor", {}), file, "sensor"), root)
-        raw_strips = data.get("strips", [])
-        if not isinstance(raw_strips, list) or not raw_strips:
-            raise ProjectFileError(f"{file}: expected at least one [[strips]] entry")
-        strips = tuple(StripConfig.from_table(Table(s, file, f"strips #{i + 1}"), root) for i, s in enumerate(raw_strips))
-        ids = [s.id for s in strips]
-        dup = {i for i in ids if ids.count(i) > 1}
-        if dup:
-            raise ProjectFileError(f"{file}: strip id {sorted(dup)[0]!r} appears more than once")
-        return cls(
-            root, crs, dtm, geoid, tuple(origin) if origin else None, sensor, strips, knot_spacing, dtm_sigma, traj_crs
-        )
+        keys = read_project_file(load_toml(file), file)  # every key checked (scangeo.io.schema)
+        p = keys.project
+        parse_crs(p.crs, f"{file} [project.crs]")
+        if p.trajectory_crs is not None:
+            parse_crs(p.trajectory_crs, f"{file} [project.trajectory_crs]")
+        geoid = Geoid.from_raster(root / p.geoid) if p.geoid else Geoid(p.geoid_undulation_m or 0.0)
+        sensor = SensorConfig.from_keys(keys.sensor, root)
+        strips = tuple(StripConfig.from_keys(s, root) for s in keys.strips)
+        return cls(root, p.crs, root / p.dtm, geoid, p.origin, sensor, strips, p.knot_spacing_s, p.dtm_sigma_m,
+                   p.trajectory_crs)
 
     # --- frames and DTM -------------------------------------------------------------------------
     @cached_property

@@ -18,6 +18,7 @@ import rasterio
 import rasterio.shutil
 
 from scangeo.errors import ScangeoError
+from scangeo.io.schema import setting
 from scangeo.rectify.output_grid import OutputGrid
 
 _COMPRESSIONS = ("deflate", "zstd", "lzw", "none")
@@ -41,13 +42,14 @@ class GeoTiffProfile:
     threads : compression threads (``ALL_CPUS`` or a number).
     """
 
-    blocksize: int = 512
-    compress: str = "deflate"
-    level: int | None = None
-    predictor: bool = True
-    overviews: bool = False
-    cog: bool = True
-    threads: str = "ALL_CPUS"
+    blocksize: int = setting(512, ge=16, unit="px", doc="internal tile size, a multiple of 16")
+    compress: str = setting("deflate", choices=_COMPRESSIONS, doc="compression")
+    level: int | None = setting(None, ge=1, le=22, unit="1", default_doc="1 for deflate and zstd",
+                                doc="compression level")
+    predictor: bool = setting(True, doc="horizontal differencing (integers), floating-point predictor (floats)")
+    overviews: bool = setting(False, doc="build internal overviews")
+    cog: bool = setting(True, doc="write with GDAL's COG driver (cloud-optimised layout)")
+    threads: str = setting("ALL_CPUS", doc="compression threads: ALL_CPUS or a number")
 
     def __post_init__(self) -> None:
         if self.compress not in _COMPRESSIONS:

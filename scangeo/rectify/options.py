@@ -1,19 +1,21 @@
 """Rectification settings: a typed frozen dataclass, readable from a TOML table.
 
-A ``[rectify]`` table (in project.toml or a separate file) holds the same keys as
-:class:`RectifyOptions`; ``[rectify.geotiff]`` those of :class:`GeoTiffProfile`. An unknown key is an
-error naming it.
+A ``[rectify]`` table (a settings file given with ``--config``) holds the same keys as
+:class:`RectifyOptions`; ``[rectify.geotiff]`` those of :class:`GeoTiffProfile`. Both are settings
+dataclasses of :mod:`scangeo.io.schema`: every key's type, range and unit is checked, and an error
+names the file and the key (``rectify.toml [rectify.igm]: expected true or false, found 'false'``).
 """
 from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-from scangeo.errors import ProjectFileError, ScangeoError
+from scangeo.errors import ScangeoError
+from scangeo.io.schema import read, setting
 from scangeo.rectify.geotiff import GeoTiffProfile
 from scangeo.rectify.inverse_map import InverseMapOptions
-from scangeo.rectify.resample import check_resampling
+from scangeo.rectify.resample import RESAMPLING, check_resampling
 
 #: optional per-cell layers (written as bands of NAME.layers.tif, float32, NaN nodata)
 LAYERS = {
@@ -48,19 +50,23 @@ class RectifyOptions:
     geotiff : layout of the GeoTIFFs.
     """
 
-    resolution: float | None = None
-    bounds: tuple[float, float, float, float] | None = None
-    resampling: str = "bilinear"
-    max_error_px: float = 0.05
-    memory_budget_mb: float = 1024.0
-    tile_size: int | None = None
-    nodata: float | None = None
-    occlusion: bool = True
-    layers: tuple[str, ...] = ()
-    igm: bool = False
-    glt: bool = False
-    mosaic: bool = False
-    geotiff: GeoTiffProfile = field(default_factory=GeoTiffProfile)
+    resolution: float | None = setting(None, gt=0, unit="map unit", default_doc="nadir ground pixel",
+                                       doc="output cell size (default: the nadir ground pixel, two significant digits)")
+    bounds: tuple[float, float, float, float] | None = setting(
+        None, unit="map unit", default_doc="strip footprint", doc="xmin, ymin, xmax, ymax of the output")
+    resampling: str = setting("bilinear", choices=tuple(RESAMPLING), doc="resampling of the image")
+    max_error_px: float = setting(0.05, gt=0, doc="tolerance of the inverse map's validation sample")
+    memory_budget_mb: float = setting(1024.0, ge=16, doc="memory a strip may use for its working arrays")
+    tile_size: int | None = setting(None, ge=16, unit="cell", default_doc="from the memory budget",
+                                    doc="output tile size, a multiple of 16")
+    nodata: float | None = setting(None, default_doc="the source's", unit="1",
+                                   doc="output nodata value (default: the source's, else 0 or NaN)")
+    occlusion: bool = setting(True, doc="make ground hidden by terrain nodata")
+    layers: tuple[str, ...] = setting((), choices=tuple(LAYERS), doc="optional per-cell layers (NAME.layers.tif)")
+    igm: bool = setting(False, doc="also write the ENVI-style IGM (image -> map coordinates)")
+    glt: bool = setting(False, doc="also write the ENVI-style GLT (map -> image)")
+    mosaic: bool = setting(False, doc="also write a mosaic of all strips (batch runs only)")
+    geotiff: GeoTiffProfile = setting(GeoTiffProfile(), doc="layout of the GeoTIFFs ([rectify.geotiff])")
 
     def __post_init__(self) -> None:
         check_resampling(self.resampling)
@@ -88,30 +94,11 @@ class RectifyOptions:
             return self.layers + ("view_zenith",)
         return self.layers
 
-    def replace(self, **changes) -> "RectifyOptions":
+    def replace(self, **changes) -> RectifyOptions:
         return dataclasses.replace(self, **changes)
 
     @classmethod
-    def from_dict(cls, table: dict, source: str = "[rectify]") -> "RectifyOptions":
-        """Options from a TOML table; unknown keys are errors naming ``source`` and the key."""
-        names = {f.name for f in dataclasses.fields(cls)}
-        values = {}
-        for key, value in table.items():
-            if key not in names:
-                raise ProjectFileError(f"{source}: unknown key {key!r} (expected one of {', '.join(sorted(names))})")
-            values[key] = value
-        if "geotiff" in values:
-            geo = values["geotiff"]
-            gnames = {f.name for f in dataclasses.fields(GeoTiffProfile)}
-            for key in geo:
-                if key not in gnames:
-                    raise ProjectFileError(f"{source}.geotiff: unknown key {key!r} (expected one of {', '.join(sorted(gnames))})")
-            values["geotiff"] = GeoTiffProfile(**geo)
-        if "layers" in values:
-            values["layers"] = tuple(values["layers"])
-        try:
-            return cls(**values)
-        except ScangeoError as exc:
-            raise ProjectFileError(f"{source}: {exc}") from exc
-        except TypeError as exc:
-            raise ProjectFileError(f"{source}: {exc}") from exc
+    def from_dict(cls, table: dict, source: str = "rectify options") -> RectifyOptions:
+        """Options from a ``[rectify]`` TOML table; every key checked (:mod:`scangeo.io.schema`),
+        errors naming ``source`` (the file) and the key."""
+        return read(cls, table, source, "rectify")

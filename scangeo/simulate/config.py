@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import dataclasses
 import tomllib
-import typing
 from dataclasses import dataclass, field
 from importlib.resources.abc import Traversable
 from pathlib import Path
 
 from scangeo.errors import ProjectFileError
+from scangeo.io.schema import Setting, read, setting
 from scangeo.resources import preset_file, preset_names
 
 
@@ -39,14 +39,14 @@ class SensorConfig:
     """The scanner (whiskbroom) and its mounting; ``boresight_error_deg`` is the true
     misalignment that project.toml does not know (uncalibrated), roll/pitch/heading order."""
 
-    kind: str = "whiskbroom"
-    pixels: int = 716
-    fov_deg: float = 42.9
-    line_rate_hz: float = 25.0
+    kind: str = setting("whiskbroom", choices=("whiskbroom",), doc="the simulator renders whiskbroom scanners")
+    pixels: int = setting(716, ge=16)
+    fov_deg: float = setting(42.9, gt=0, lt=120)
+    line_rate_hz: float = setting(25.0, gt=0)
     pixel_timing: bool = True
-    boresight_deg: tuple[float, ...] = (0.0, 0.0, 0.0)
-    lever_arm_m: tuple[float, ...] = (0.0, 0.0, 0.0)
-    boresight_error_deg: tuple[float, ...] = (0.0, 0.0, 0.0)
+    boresight_deg: tuple[float, ...] = setting((0.0, 0.0, 0.0), length=3)
+    lever_arm_m: tuple[float, ...] = setting((0.0, 0.0, 0.0), length=3)
+    boresight_error_deg: tuple[float, ...] = setting((0.0, 0.0, 0.0), length=3)
     noise_dn: float = 0.0
 
 
@@ -54,7 +54,7 @@ class SensorConfig:
 class TerrainConfig:
     """True terrain (``fractal`` hills, ``urban`` flat, or ``file``) and the project DTM's error."""
 
-    kind: str = "fractal"
+    kind: str = setting("fractal", choices=("fractal", "urban", "file"))
     file: str = ""
     mean_height_m: float = 200.0
     relief_m: float = 60.0
@@ -71,7 +71,7 @@ class TerrainConfig:
 class SceneConfig:
     """What the ground looks like: procedural ``landcover`` or an orthophoto ``texture``."""
 
-    kind: str = "landcover"
+    kind: str = setting("landcover", choices=("landcover", "texture"))
     texture: str = ""
     texture_pixel_m: float = 0.0
     urban_fraction: float = 0.3
@@ -84,7 +84,7 @@ class TurbulenceConfig:
     """Attitude and position dynamics of the true flight: ``spectral`` (random sinusoids with a
     turbulence-like spectrum between ``period_s``) or ``replay`` of a real trajectory's dynamics."""
 
-    kind: str = "spectral"
+    kind: str = setting("spectral", choices=("spectral", "replay"))
     file: str = ""
     roll_deg: float = 1.0
     pitch_deg: float = 0.5
@@ -94,7 +94,7 @@ class TurbulenceConfig:
     lateral_m: float = 4.0
     vertical_m: float = 2.5
     along_m: float = 3.0
-    period_s: tuple[float, ...] = (2.0, 60.0)
+    period_s: tuple[float, ...] = setting((2.0, 60.0), length=2, gt=0)
     components: int = 48
 
 
@@ -102,15 +102,15 @@ class TurbulenceConfig:
 class FlightConfig:
     """Flight planning: north-south strips with sidelap, height above ground, speed, timing."""
 
-    strips: int = 3
-    lines: int = 7000
+    strips: int = setting(3, ge=1)
+    lines: int = setting(7000, ge=50)
     height_above_ground_m: float = 2200.0
-    sidelap: float = 0.35
+    sidelap: float = setting(0.35, ge=0.0, lt=0.9, unit="1")
     ground_speed_mps: float = 62.5
-    direction: str = "alternate"
+    direction: str = setting("alternate", choices=("alternate", "north", "south"))
     run_in_s: float = 8.0
     turn_s: float = 150.0
-    gpsimu_rate_hz: float = 50.0
+    gpsimu_rate_hz: float = setting(50.0, ge=1)
     turbulence: TurbulenceConfig = TurbulenceConfig()
 
 
@@ -127,7 +127,7 @@ class StripErrorConfig:
     """
 
     strip: int = 0
-    shift_m: tuple[float, ...] = (1.0, 3.0)
+    shift_m: tuple[float, ...] = setting((1.0, 3.0), length=2, doc="[smallest, largest]")
     rotation_deg: float = 0.001
     attitude_offset_deg: float = 0.02
     drift_m: float = 0.3
@@ -140,7 +140,7 @@ class StripErrorConfig:
     white_noise_m: float = 0.03
     white_noise_deg: float = 0.002
     height_wander_m: float = 1.0
-    excursion_shape: str = "kinked"
+    excursion_shape: str = setting("kinked", choices=("kinked", "smooth"))
     excursion_lines: tuple[float, ...] = ()
     excursion_x_m: tuple[float, ...] = ()
     excursion_y_m: tuple[float, ...] = ()
@@ -180,14 +180,14 @@ class PointsConfig:
     height_sigma_z_m: float = 0.1
     height_sigma_xy_m: float = 1.0
     blunders: int = 0
-    blunder_px: tuple[float, ...] = (10.0, 40.0)
+    blunder_px: tuple[float, ...] = setting((10.0, 40.0), length=2, doc="[smallest, largest]")
 
 
 @dataclass(frozen=True)
 class OutputConfig:
     """What is written: images (``GTiff`` or ``ENVI``; ``images = false`` skips rendering), the truth ortho."""
 
-    image_format: str = "GTiff"
+    image_format: str = setting("GTiff", choices=("GTiff", "ENVI"))
     images: bool = True
     ortho_resolution_m: float = 2.5
     truth_ortho: bool = True
@@ -206,8 +206,8 @@ class SimulationConfig:
     gpsimu_errors: GpsImuErrorConfig = GpsImuErrorConfig()
     points: PointsConfig = PointsConfig()
     output: OutputConfig = OutputConfig()
-    seed: int = 1
-    source: str = field(default="<config>", compare=False)
+    seed: int = setting(1, doc="random seed: the same seed gives the same block byte for byte")
+    source: str = field(default="<config>", compare=False, metadata={"setting": Setting(internal=True)})
 
     def strip_errors(self, strip: int) -> StripErrorConfig:
         """The error configuration of strip number ``strip`` (1-based): an override or the defaults."""
@@ -217,52 +217,7 @@ class SimulationConfig:
         return dataclasses.replace(self.gpsimu_errors.defaults, strip=strip)
 
 
-# --- reading ------------------------------------------------------------------------------------
-def _convert(value, hint, where: str):
-    origin = typing.get_origin(hint)
-    if dataclasses.is_dataclass(hint):
-        if not isinstance(value, dict):
-            raise ProjectFileError(f"{where}: expected a table, found {value!r}")
-        return _build(hint, value, where)
-    if origin is tuple:
-        if not isinstance(value, list):
-            raise ProjectFileError(f"{where}: expected a list, found {value!r}")
-        (item,) = {a for a in typing.get_args(hint) if a is not Ellipsis}
-        return tuple(_convert(v, item, f"{where}[{i}]") for i, v in enumerate(value))
-    if hint is bool:
-        if not isinstance(value, bool):
-            raise ProjectFileError(f"{where}: expected true or false, found {value!r}")
-        return value
-    if hint is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ProjectFileError(f"{where}: expected an integer, found {value!r}")
-        return value
-    if hint is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ProjectFileError(f"{where}: expected a number, found {value!r}")
-        return float(value)
-    if hint is str:
-        if not isinstance(value, str):
-            raise ProjectFileError(f"{where}: expected a string, found {value!r}")
-        return value
-    raise TypeError(f"unsupported type {hint}")  # pragma: no cover - a programming error
-
-
-def _build(cls, data: dict, where: str):
-    hints = typing.get_type_hints(cls)
-    names = {f.name for f in dataclasses.fields(cls) if f.init and f.name != "source"}
-    unknown = sorted(set(data) - names)
-    if unknown:
-        raise ProjectFileError(f"{where}: unknown key {unknown[0]!r} (expected one of {', '.join(sorted(names))})")
-    kwargs = {}
-    for key, value in data.items():
-        hint = hints[key]
-        if key == "strip" and cls is GpsImuErrorConfig:  # [[gpsimu_errors.strip]] tables
-            value = value if isinstance(value, list) else [value]
-        kwargs[key] = _convert(value, hint, f"{where}.{key}" if where else key)
-    return cls(**kwargs)
-
-
+# --- reading (scangeo.io.schema: every key typed and checked, errors naming the file and key) -----------
 def merge(base: dict, overrides: dict) -> dict:
     """Deep merge of nested dictionaries (``overrides`` wins); lists are replaced, not merged."""
     out = dict(base)
@@ -276,8 +231,7 @@ def merge(base: dict, overrides: dict) -> dict:
 
 def config_from_dict(data: dict, source: str = "<config>") -> SimulationConfig:
     """A SimulationConfig from a parsed TOML dictionary; errors name ``source`` and the key."""
-    config = _build(SimulationConfig, data, "")
-    config = dataclasses.replace(config, source=source)
+    config = read(SimulationConfig, data, source, source=source)
     validate(config)
     return config
 
@@ -310,41 +264,21 @@ def load_preset(name: str | Path, overrides: dict | None = None) -> SimulationCo
         raise ProjectFileError(f"{path}: not valid TOML ({exc})") from exc
     if overrides:
         data = merge(data, overrides)
-    try:
-        return config_from_dict(data, source=str(path))
-    except ProjectFileError as exc:
-        raise ProjectFileError(f"{path}: {exc}") from exc
+    return config_from_dict(data, source=str(path))
 
 
 def validate(config: SimulationConfig) -> None:
     """Raise ProjectFileError for values that cannot make a block."""
     checks = [
-        (config.sensor.kind == "whiskbroom", "sensor.kind", "whiskbroom (the simulator renders whiskbroom scanners)"),
-        (config.sensor.pixels >= 16, "sensor.pixels", "at least 16"),
-        (0 < config.sensor.fov_deg < 120, "sensor.fov_deg", "between 0 and 120"),
-        (config.sensor.line_rate_hz > 0, "sensor.line_rate_hz", "positive"),
-        (config.terrain.kind in ("fractal", "urban", "file"), "terrain.kind", "fractal, urban or file"),
         (config.terrain.kind != "file" or bool(config.terrain.file), "terrain.file", "a DTM path with kind = 'file'"),
-        (config.scene.kind in ("landcover", "texture"), "scene.kind", "landcover or texture"),
-        (config.scene.kind != "texture" or bool(config.scene.texture), "scene.texture", "an image path with kind = 'texture'"),
-        (config.flight.strips >= 1, "flight.strips", "at least 1"),
-        (config.flight.lines >= 50, "flight.lines", "at least 50"),
-        (0.0 <= config.flight.sidelap < 0.9, "flight.sidelap", "between 0 and 0.9"),
-        (config.flight.direction in ("alternate", "north", "south"), "flight.direction", "alternate, north or south"),
-        (config.flight.gpsimu_rate_hz >= 1, "flight.gpsimu_rate_hz", "at least 1 Hz"),
-        (config.flight.turbulence.kind in ("spectral", "replay"), "flight.turbulence.kind", "spectral or replay"),
-        (len(config.flight.turbulence.period_s) == 2, "flight.turbulence.period_s", "two periods [shortest, longest]"),
-        (config.output.image_format in ("GTiff", "ENVI"), "output.image_format", "GTiff or ENVI"),
-        (len(config.points.blunder_px) == 2, "points.blunder_px", "two sizes [smallest, largest]"),
+        (config.scene.kind != "texture" or bool(config.scene.texture), "scene.texture",
+         "an image path with kind = 'texture'"),
         (0 <= config.gpsimu_errors.problem_strip <= config.flight.strips, "gpsimu_errors.problem_strip",
          "0 (none) or a strip number"),
     ]
     for ok, key, expected in checks:
         if not ok:
             raise ProjectFileError(f"{config.source} [{key}]: expected {expected}")
-    for triple in ("boresight_deg", "lever_arm_m", "boresight_error_deg"):
-        if len(getattr(config.sensor, triple)) != 3:
-            raise ProjectFileError(f"{config.source} [sensor.{triple}]: expected three values")
     for errors in (config.gpsimu_errors.defaults, *config.gpsimu_errors.strip):
         _validate_strip_errors(errors, config)
 
@@ -353,11 +287,7 @@ def _validate_strip_errors(errors: StripErrorConfig, config: SimulationConfig) -
     key = f"gpsimu_errors.strip {errors.strip}" if errors.strip else "gpsimu_errors.defaults"
     if errors.strip and not 1 <= errors.strip <= config.flight.strips:
         raise ProjectFileError(f"{config.source} [{key}]: strip must be 1..{config.flight.strips}")
-    if len(errors.shift_m) != 2:
-        raise ProjectFileError(f"{config.source} [{key}.shift_m]: expected [smallest, largest] in metres")
     n = len(errors.excursion_lines)
-    if errors.excursion_shape not in ("kinked", "smooth"):
-        raise ProjectFileError(f"{config.source} [{key}.excursion_shape]: expected kinked or smooth")
     for name in ("excursion_x_m", "excursion_y_m", "excursion_z_m", "excursion_roll_deg"):
         if len(getattr(errors, name)) not in (0, n):
             raise ProjectFileError(f"{config.source} [{key}.{name}]: expected {n} values (one per excursion line)")

@@ -200,8 +200,8 @@ def test_cli_writes_results(small, capsys):
     for sid in ("01", "02"):
         traj = read_trajectory(out / f"trajectory_{sid}.csv")
         assert len(traj.time) > 100
-        spline = json.loads((out / f"spline_{sid}.json").read_text())
-        assert np.array(spline["coef"]).shape[1] == 6
+        strip = next(s for s in json.loads((out / "orientation.json").read_text())["strips"] if s["id"] == sid)
+        assert np.array(strip["spline"]["coefficients"]).shape[1] == 6
     assert "sigma0" in capsys.readouterr().out
     assert not list((small / "results").glob(".*"))   # no temporary folder left behind
 
@@ -210,10 +210,10 @@ def test_bad_inputs_give_clear_errors(small, tmp_path, capsys):
     root = tmp_path / "bad"
     shutil.copytree(small, root, ignore=shutil.ignore_patterns("results"))
     (root / "variants.toml").write_text('[variants.X]\nstrategy = "SE"\ndegree = 3\n')
-    with pytest.raises(ProjectFileError, match="unknown key degree"):
+    with pytest.raises(ProjectFileError, match="unknown key 'degree'"):
         read_variants(root / "variants.toml")
     assert main(["adjust", str(root), "--variant", "X", "--no-progress"]) == 1
-    assert "unknown key degree" in capsys.readouterr().err
+    assert "unknown key 'degree'" in capsys.readouterr().err
     (root / "variants.toml").unlink()
     assert main(["adjust", str(root), "--variant", "NOPE", "--no-progress"]) == 1
     assert "no variant 'NOPE'" in capsys.readouterr().err
