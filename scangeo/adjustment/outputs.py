@@ -114,7 +114,8 @@ def report_dict(result: VariantResult) -> dict:
             for n in sol.regularisation
         ],
         "rejections": [
-            {"group": r.group, "id": r.id, "components": list(r.components), "w": _num(r.w), "round": r.round}
+            {"group": r.group, "id": r.id, "components": list(r.components), "w": _num(r.w), "round": r.round,
+             "separable": r.separable, "note": r.note}
             for r in adj.rejections
         ],
         "notes": list(result.notes),
