@@ -274,11 +274,11 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
     n_ties = int((data.channel == 0).sum())
     if n_ties < 10:
         notes.append(f"only {n_ties} tie points with a DTM misclosure: too few to look for breaks")
-        null = evaluate(data, [[] for _ in data.strips])
+        null = evaluate(data, [[] for _ in data.strips], None, options.degree, range(len(data.strips)))
         fit, breaks = null, []
     else:
         fit = select_breaks(data, options)
-        null = evaluate(data, [[] for _ in data.strips], fit.rho)
+        null = evaluate(data, [[] for _ in data.strips], fit.rho, options.degree, range(len(data.strips)))
         callback(2, 3, "diagnosis: break intervals")
         breaks = break_intervals(data, fit, options)
     callback(3, 3, "diagnosis: done")

@@ -14,16 +14,20 @@ def add_parser(subparsers, common) -> None:
         description="Run every variant (docs/adjustment.md) on the project, write each one's results to "
                     "PROJECT/results/NAME/, the comparison table to PROJECT/results/comparison.{md,csv,json} and "
                     "the report (report.html, residuals.gpkg; docs/reports.md). Without PROJECT/variants.toml the "
-                    "default variants (shipped with scangeo; docs/reports.md) are filled in and written there.",
+                    "project is diagnosed (scangeo diagnose: problem strips and breaks from an SE adjustment) and the "
+                    "default variants (shipped with scangeo; docs/reports.md) are filled in and written there. A "
+                    "cross-validation over the control points recommends a variant without check points.",
     )
     p.add_argument("project", help="the project folder")
     p.add_argument("--variants", default=None, help="variants file (default PROJECT/variants.toml)")
     p.add_argument("--only", nargs="+", default=None, metavar="NAME", help="run only these variants")
     p.add_argument("--reference", default="SE", help="the variant that is 100 %% (default SE)")
     p.add_argument("--problem-strip", default=None, metavar="ID",
-                   help="for the default variants: the strip with the GPS/IMU problem (simulated projects: from truth/)")
+                   help="for the default variants: the strip with the GPS/IMU problem (default: diagnosed)")
     p.add_argument("--breaks-lines", type=float, nargs="+", default=None, metavar="LINE",
                    help="for the default variants: the problem strip's break lines")
+    p.add_argument("--folds", type=int, default=4,
+                   help="folds of the cross-validation over the control points (default 4; 0: none)")
     p.add_argument("--no-report", dest="report", action="store_false", help="write the tables only")
     p.set_defaults(func=run, writes_project=True)  # one run at a time (scangeo.atomic.OutputLock)
 
@@ -38,11 +42,14 @@ def run(args) -> int:
     comparison = compare_project(args.project, args.variants, reference=args.reference, names=args.only,
                                  problem_strip=args.problem_strip,
                                  breaks_lines=tuple(args.breaks_lines) if args.breaks_lines else None,
-                                 callback=progress)
+                                 folds=args.folds, callback=progress)
     paths = write_comparison(comparison)
     print(text_table(*markdown_tables(comparison)["check points"]))
     if comparison.best:
         print(f"reference {comparison.reference}; best (lowest check-point rms): {comparison.best}")
+    if comparison.recommended:
+        print(f"recommended without check points: {comparison.recommended} "
+              f"({(comparison.crossvalidation or {}).get('reason', '')})")
     for v in comparison.variants:
         if v.error:
             print(f"variant {v.name} failed: {v.error}")

@@ -57,6 +57,7 @@ class VariantSummary:
     seconds: float = 0.0
     strips: dict[str, dict] = field(default_factory=dict)
     error: str | None = None
+    correlations: list[dict] = field(default_factory=list)
 
     @property
     def control_label(self) -> str:
@@ -79,12 +80,12 @@ class VariantSummary:
                 "control": dict(self.control), "control_label": self.control_label, "dtm_heights": self.dtm_heights,
                 "max_degree": self.max_degree, "sigma0": self.sigma0, "accounting": self.accounting,
                 "rejected": self.rejected, "regularised": self.regularised, "converged": self.converged,
-                "seconds": self.seconds, "strips": self.strips, "error": self.error}
+                "seconds": self.seconds, "strips": self.strips, "error": self.error, "correlations": self.correlations}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "VariantSummary":
+    def from_dict(cls, d: dict) -> VariantSummary:
         keys = ("name", "strategy", "description", "control", "dtm_heights", "max_degree", "sigma0", "accounting",
-                "rejected", "regularised", "converged", "seconds", "strips", "error")
+                "rejected", "regularised", "converged", "seconds", "strips", "error", "correlations")
         return cls(**{k: d[k] for k in keys if k in d})
 
 
@@ -98,6 +99,7 @@ class Comparison:
     strips: list[str]
     variants: list[VariantSummary]
     truth: bool = False
+    crossvalidation: dict | None = None
 
     def variant(self, name: str) -> VariantSummary:
         for v in self.variants:
@@ -120,8 +122,28 @@ class Comparison:
         return None
 
     def sigma0_percent(self, v: VariantSummary) -> float | None:
+        """sigma0 in % of the reference's (the paper's ratio: P/S carry DTM heights the reference does not)."""
         ref = self.reference_summary()
         return percent(v.sigma0, ref.sigma0 if ref else None)
+
+    def dtm_reference(self) -> VariantSummary | None:
+        """The reference with the DTM heights (``SE_DTM`` for reference ``SE``), when it ran."""
+        for v in self.variants:
+            if v.name == f"{self.reference}_DTM" and v.error is None:
+                return v
+        return None
+
+    def sigma0_identical_percent(self, v: VariantSummary) -> float | None:
+        """sigma0 in % of the reference run with the same DTM heights (``SE_DTM``), for variants with DTM heights."""
+        ref = self.dtm_reference()
+        if ref is None or not v.dtm_heights or v.dtm_heights != ref.dtm_heights:
+            return None
+        return percent(v.sigma0, ref.sigma0)
+
+    @property
+    def recommended(self) -> str | None:
+        """The variant the cross-validation and the information criterion recommend (crossvalidation.py)."""
+        return (self.crossvalidation or {}).get("recommended")
 
     def check_percent(self, v: VariantSummary, strip: str, key: str) -> float | None:
         """Check-point rms ``key`` (``along`` or ``across``) of a strip in % of the reference's."""
@@ -133,10 +155,12 @@ class Comparison:
     def as_dict(self) -> dict:
         """Everything, with the percentages of the reference filled in (the JSON of the comparison)."""
         out = {"project": self.project, "variants_file": self.variants_file, "reference": self.reference,
-               "best": self.best, "strips": self.strips, "truth": self.truth, "variants": []}
+               "best": self.best, "recommended": self.recommended, "strips": self.strips, "truth": self.truth,
+               "crossvalidation": self.crossvalidation, "variants": []}
         for v in self.variants:
             d = v.as_dict()
             d["sigma0_percent"] = self.sigma0_percent(v)
+            d["sigma0_identical_percent"] = self.sigma0_identical_percent(v)
             d["strips"] = {sid: {k: dict(x) for k, x in e.items()} for sid, e in v.strips.items()}
             for sid, e in d["strips"].items():
                 for key in ("along", "across"):
@@ -145,13 +169,15 @@ class Comparison:
         return out
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Comparison":
+    def from_dict(cls, d: dict) -> Comparison:
         return cls(d["project"], d["variants_file"], d["reference"], list(d["strips"]),
-                   [VariantSummary.from_dict(v) for v in d["variants"]], bool(d.get("truth")))
+                   [VariantSummary.from_dict(v) for v in d["variants"]], bool(d.get("truth")), d.get("crossvalidation"))
 
 
 def summarise(result: VariantResult, truth: Truth | None = None) -> VariantSummary:
     """The figures of one adjusted variant (and its true error when ``truth`` is given)."""
+    from scangeo.reports.correlations import correlated_pairs
+
     block, adj = result.block, result.adjustment
     measured = {str(p) for p in block.points.point}
     control: dict[str, int] = {}
@@ -176,12 +202,13 @@ def summarise(result: VariantResult, truth: Truth | None = None) -> VariantSumma
     return VariantSummary(
         v.name, v.strategy, v.description, control, int(dtm), max(degrees) if degrees else None,
         _num(adj.statistics.sigma0), adj.statistics.accounting.as_dict(), len(adj.rejections),
-        len(adj.solution.regularisation), bool(adj.solution.converged), round(result.seconds, 2), strips)
+        len(adj.solution.regularisation), bool(adj.solution.converged), round(result.seconds, 2), strips,
+        correlations=correlated_pairs(result))
 
 
 def compare_project(project_root, variants_file=None, *, reference: str = "SE", names: list[str] | None = None,
                     problem_strip: str | None = None, breaks_lines: tuple[float, ...] | None = None,
-                    callback: ProgressCallback = no_progress) -> Comparison:
+                    folds: int = 4, callback: ProgressCallback = no_progress) -> Comparison:
     """Adjust every variant of the project, write each one's results, and compare them.
 
     Parameters
@@ -193,6 +220,8 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
         truth is never used to build variants, only for the true-error table)).
     reference : the variant that is 100 %.
     names : the variants to run (default all, in the file's order).
+    folds : folds of the cross-validation over the control points that recommends a variant without
+        check points (:mod:`scangeo.reports.crossvalidation`; 0: none).
     callback : progress ``callback(done, total, message)``.
     """
     from scangeo.adjustment.outputs import write_results
@@ -220,7 +249,8 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
     for i, name in enumerate(chosen):
         sub = scaled(callback, i, i + 1, len(chosen))
         try:
-            result = run_variant(root, variants[name], path, lambda d, t, m="": sub(d, t, f"{name}: {m}"))
+            result = run_variant(root, variants[name], path,
+                                 lambda d, t, m="", sub=sub, name=name: sub(d, t, f"{name}: {m}"))
             write_results(result)
             summaries.append(summarise(result, truth))
         except (InputFileError, DTMError):
@@ -229,7 +259,15 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
             log.warning("variant %s failed: %s", name, exc)
             summaries.append(VariantSummary(name, variants[name].strategy, variants[name].description, error=str(exc)))
         callback(i + 1, len(chosen), f"{name}: done")
-    return Comparison(str(root), str(path), reference, [s.id for s in project.strips], summaries, truth is not None)
+    comparison = Comparison(str(root), str(path), reference, [s.id for s in project.strips], summaries,
+                            truth is not None)
+    if folds >= 2:
+        from scangeo.reports.crossvalidation import cross_validate
+
+        cv = cross_validate(root, variants, summaries, folds, path, callback)
+        comparison.crossvalidation = cv.as_dict()
+        log.info("recommended: %s (%s)", cv.recommended, cv.reason)
+    return comparison
 
 
 __all__ = ["CONTROL_KIND", "Comparison", "VariantSummary", "compare_project", "percent", "summarise"]

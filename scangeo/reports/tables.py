@@ -37,7 +37,9 @@ def _check_cell(c: Comparison, v: VariantSummary, sid: str, key: str) -> str:
 
 def markdown_tables(c: Comparison) -> dict[str, tuple[list[str], list[list[str]]]]:
     """The tables (header, rows) by title: ``check points``, ``accounting`` and, with truth, ``true error``."""
-    head = ["variant", "type", "control", "max degree", "sigma0", "sigma0 %"]
+    ident = f"{c.reference}_DTM"
+    head = ["variant", "type", "control", "max degree", "sigma0", f"sigma0 % {c.reference} (paper: other observations)",
+            f"sigma0 % {ident} (same observations)"]
     for sid in c.strips:
         head += [f"{sid} n", f"{sid} along px (%)", f"{sid} across px (%)"]
     rows = []
@@ -46,7 +48,7 @@ def markdown_tables(c: Comparison) -> dict[str, tuple[list[str], list[list[str]]
             rows.append([v.name, v.strategy, f"failed: {v.error}"] + [""] * (len(head) - 3))
             continue
         row = [v.name, v.strategy, v.control_label, "–" if v.max_degree is None else str(v.max_degree),
-               _f(v.sigma0, 3), _f(c.sigma0_percent(v), 0)]
+               _f(v.sigma0, 3), _f(c.sigma0_percent(v), 0), _f(c.sigma0_identical_percent(v), 0)]
         for sid in c.strips:
             row += [str(v.strips.get(sid, {}).get("check", {}).get("n", 0)),
                     _check_cell(c, v, sid, "along"), _check_cell(c, v, sid, "across")]
@@ -73,6 +75,18 @@ def markdown_tables(c: Comparison) -> dict[str, tuple[list[str], list[list[str]]
                 row += [_f(t.get("rms_along_px")), _f(t.get("rms_across_px")), _f(t.get("rms_ground_m"))]
             t_rows.append(row)
         tables["true error"] = (t_head, t_rows)
+    cv = c.crossvalidation
+    if cv:
+        cv_head = ["variant", "cross-validated rms px", "held-out measurements", "BIC", "observations (group)",
+                   "recommended"]
+        cv_rows = [[v.name, _f(cv["rms_px"].get(v.name), 3), str(cv["n"].get(v.name, "")),
+                    _f(cv["bic"].get(v.name), 1), cv["group"].get(v.name, ""),
+                    "**yes**" if v.name == cv.get("recommended") else ""] for v in c.variants if v.error is None]
+        tables["cross-validation"] = (cv_head, cv_rows)
+    pairs = [[v.name, p["model"], p["a"], p["b"], f"{p['r']:+.3f}", p["note"]] for v in c.variants
+             for p in v.correlations]
+    if pairs:
+        tables["correlations"] = (["variant", "model", "unknown", "unknown", "r", "note"], pairs)
     return tables
 
 
@@ -94,9 +108,13 @@ def markdown(c: Comparison) -> str:
     """The comparison as a Markdown document."""
     tables = markdown_tables(c)
     best = c.best
+    rec = c.recommended
     out = [f"# Comparison of strategies: {c.project}", "",
            f"Variants from `{c.variants_file}`. Reference: **{c.reference}** (100 %)"
-           + (f"; best (lowest check-point rms): **{best}**." if best else "."),
+           + (f"; best (lowest check-point rms): **{best}**" if best else "")
+           + (f"; recommended without check points: **{rec}**." if rec else "."),
+           f"sigma0 % {c.reference}: the paper's ratio (P/S carry DTM heights the reference does not); sigma0 % "
+           f"{c.reference}_DTM: over the same observations (the reference run with the same DTM heights).",
            "Check points: rms of the residuals (model - measured) along track in lines (= pixels) and across "
            "track in pixels, per strip, with the % of the reference.", "",
            _md_table(*tables["check points"]), "", "## Accounting", "", _md_table(*tables["accounting"])]
@@ -105,11 +123,21 @@ def markdown(c: Comparison) -> str:
                 "rms of the adjusted orientation's error against truth/ over a grid of image positions: "
                 "along and across track in pixels, horizontal ground error in metres.", "",
                 _md_table(*tables["true error"])]
+    if "cross-validation" in tables:
+        cv = c.crossvalidation or {}
+        out += ["", "## Recommendation without check points", "",
+                f"{cv.get('folds')}-fold cross-validation over the {cv.get('points')} control points (each fold "
+                "held out as check points in turn; rms along and across together) and BIC over identical "
+                f"observations. Recommended: **{rec}** ({cv.get('reason', '')}).", "",
+                _md_table(*tables["cross-validation"])]
+    if "correlations" in tables:
+        out += ["", "## Correlated unknowns (|r| > 0.95)", "", _md_table(*tables["correlations"])]
     return "\n".join(out) + "\n"
 
 
 CSV_FIELDS = ["variant", "type", "description", "control", "dtm_heights", "max_degree", "unknowns", "redundancy",
-              "rejected", "sigma0", "sigma0_percent", "strip", "check_n", "check_rms_along_px",
+              "rejected", "sigma0", "sigma0_percent", "sigma0_identical_percent", "cv_rms_px", "strip", "check_n",
+              "check_rms_along_px",
               "check_rms_across_px", "check_along_percent", "check_across_percent", "control_n",
               "control_rms_along_px", "control_rms_across_px", "true_n", "true_rms_along_px", "true_rms_across_px",
               "true_rms_ground_m", "true_max_ground_m", "error"]
@@ -129,7 +157,9 @@ def csv_text(c: Comparison) -> str:
             w.writerow([g(x) for x in (
                 v.name, v.strategy, v.description, v.control_label, v.dtm_heights, v.max_degree,
                 v.accounting.get("unknowns"), v.accounting.get("redundancy"), v.rejected, v.sigma0,
-                c.sigma0_percent(v), sid, ch.get("n"), ch.get("rms_along_px"), ch.get("rms_across_px"),
+                c.sigma0_percent(v), c.sigma0_identical_percent(v),
+                (c.crossvalidation or {}).get("rms_px", {}).get(v.name), sid, ch.get("n"), ch.get("rms_along_px"),
+                ch.get("rms_across_px"),
                 c.check_percent(v, sid, "along"), c.check_percent(v, sid, "across"), co.get("n"),
                 co.get("rms_along_px"), co.get("rms_across_px"), tr.get("n"), tr.get("rms_along_px"),
                 tr.get("rms_across_px"), tr.get("rms_ground_m"), tr.get("max_ground_m"), v.error)])

@@ -6,14 +6,17 @@ import pytest
 from scangeo.simulate.block import simulate
 from scangeo.simulate.config import load_preset
 
-#: The ``small`` preset without images, its second strip made a problem strip: height excursions
-#: with kinks at two break lines (the pattern of vienna2000 on 600 lines).
+#: The ``small`` preset without images and with three strips, the middle one made a problem strip:
+#: height excursions of +-20 m with kinks at two break lines (the pattern of vienna2000 on 600 lines),
+#: 40 tie points per overlap (the diagnosis finds the problem strip from them: a strip with one
+#: neighbour only cannot be told from it, hence three strips).
 PROBLEM_SMALL = {
     "output": {"images": False, "truth_ortho": False},
+    "flight": {"strips": 3},
     "gpsimu_errors": {"problem_strip": 2, "breaks_lines": [200.0, 400.0], "strip": [{
         "strip": 2, "shift_m": [1.0, 3.0], "excursion_lines": [0.0, 200.0, 400.0, 599.0],
-        "excursion_x_m": [0.0, 1.5, -1.5, 0.5], "excursion_z_m": [2.0, 10.0, -10.0, -2.0]}]},
-    "points": {"break_points_per_band_per_strip": 3, "break_band_lines": 60.0},
+        "excursion_x_m": [0.0, 3.0, -3.0, 1.0], "excursion_z_m": [4.0, 20.0, -20.0, -4.0]}]},
+    "points": {"break_points_per_band_per_strip": 3, "break_band_lines": 60.0, "tie_per_overlap": 40},
 }
 
 

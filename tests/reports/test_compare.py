@@ -18,7 +18,7 @@ from scangeo.reports.true_error import Truth
 
 def test_table_holds_each_variants_own_figures(compared_small):
     root, c, _ = compared_small
-    assert [v.name for v in c.variants] == ["DG", "BE", "SE", "P2", "P4", "S2", "S4"]
+    assert [v.name for v in c.variants] == ["DG", "BE", "SE", "SE_DTM", "P2", "P4", "S2", "S4"]
     for v in c.variants:
         assert v.error is None
         report = json.loads((root / "results" / v.name / "report.json").read_text())
@@ -37,11 +37,14 @@ def test_table_holds_each_variants_own_figures(compared_small):
     n_b = sum(1 for line in open(root / "ground.csv") if line.startswith("B"))
     assert n_b > 0 and p4.control["XYZ"] == se.control["XYZ"] + n_b
     assert sum(p4.strips[s]["check"]["n"] for s in c.strips) < sum(se.strips[s]["check"]["n"] for s in c.strips)
-    # every adjusted variant carries the same DTM heights and rejects nothing (the same observations)
-    assert se.dtm_heights > 0 and c.variant("DG").dtm_heights == 0
-    assert all(c.variant(n).dtm_heights == se.dtm_heights and c.variant(n).rejected == 0
-               for n in ("BE", "P2", "P4", "S2", "S4"))
-    assert c.variant("P2").accounting["observations"] == se.accounting["observations"]
+    # the paper's set-up: SE and BE without DTM heights, P/S with them; SE_DTM has P2's observations; no rejection
+    dtm = c.variant("SE_DTM")
+    assert se.dtm_heights == 0 and c.variant("BE").dtm_heights == 0 and c.variant("DG").dtm_heights == 0
+    assert dtm.dtm_heights > 0
+    assert all(c.variant(n).dtm_heights == dtm.dtm_heights and c.variant(n).rejected == 0
+               for n in ("P2", "P4", "S2", "S4"))
+    assert c.variant("P2").accounting["observations"] == dtm.accounting["observations"]
+    assert dtm.accounting["observations"] == se.accounting["observations"] + dtm.dtm_heights
 
 
 def test_percentages_of_the_reference(compared_small):

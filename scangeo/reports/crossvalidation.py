@@ -1,0 +1,149 @@
+"""A recommendation without check points: k-fold cross-validation over the control points, and BIC.
+
+Check points say which variant is best only if they exist and stay out of every decision. The
+recommendation uses what the adjustment itself uses:
+
+* **Cross-validation.** The full control points of ``ground.csv`` (role ``control``; height-only
+  and planimetric points stay as they are) are dealt into ``k`` folds (sorted by id, every k-th point
+  to the same fold, so every fold has points in every control band). Each variant is adjusted ``k``
+  times, each time with one fold turned into check points, and the held-out points are projected
+  into the images with that orientation: the cross-validated figure is the rms of their residuals,
+  along and across together (pixels), over all folds. Points a variant adds as control (``B*`` in
+  the 4-band variants) are never held out: they are part of that variant.
+* **Information criterion.** ``BIC = v^T P v + u ln n`` of each variant's own adjustment (``u``
+  unknowns, ``n`` observations and pseudo-observations). It compares variants only over identical
+  observations (same count and DTM heights): there it says whether the richer model's fit pays for
+  its unknowns.
+
+Recommended: among the variants whose cross-validated rms is within ``tolerance`` (5 %) of the
+lowest, the one with the lowest BIC within its group of identical observations, and of those group
+winners the one with the lowest cross-validated rms. DG (no orientation unknowns) takes part as any
+other variant. The check points are not used.
+"""
+from __future__ import annotations
+
+import glob
+import logging
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from scangeo.adjustment.variants import Variant
+from scangeo.errors import ScangeoError
+from scangeo.progress import ProgressCallback, no_progress
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class CrossValidation:
+    """Cross-validated rms per variant, BIC, and the recommendation."""
+
+    folds: int
+    points: int
+    rms_px: dict[str, float] = field(default_factory=dict)
+    n: dict[str, int] = field(default_factory=dict)
+    bic: dict[str, float] = field(default_factory=dict)
+    group: dict[str, str] = field(default_factory=dict)
+    recommended: str | None = None
+    reason: str = ""
+    tolerance: float = 0.05
+    errors: dict[str, str] = field(default_factory=dict)
+
+    def as_dict(self) -> dict:
+        return {"folds": self.folds, "points": self.points, "rms_px": self.rms_px, "n": self.n, "bic": self.bic,
+                "group": self.group, "recommended": self.recommended, "reason": self.reason,
+                "tolerance": self.tolerance, "errors": self.errors}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> CrossValidation:
+        return cls(**{k: d[k] for k in ("folds", "points", "rms_px", "n", "bic", "group", "recommended", "reason",
+                                        "tolerance", "errors") if k in d})
+
+
+def folds_of(control_ids, k: int) -> list[list[str]]:
+    """``k`` folds of the control points: sorted by id, every k-th point into the same fold."""
+    ids = sorted(str(p) for p in control_ids)
+    return [ids[i::k] for i in range(k) if ids[i::k]]
+
+
+def held_out(variant: Variant, fold: list[str]) -> Variant:
+    """The variant with the fold's points turned into check points (exact ids, glob characters escaped)."""
+    extra = tuple((glob.escape(p), "check") for p in fold)
+    return replace(variant, name=f"{variant.name}-cv", roles=variant.roles + extra)
+
+
+def bic_of(summary) -> float | None:
+    """``v^T P v + u ln n`` from a variant's summary (sigma0, accounting)."""
+    a = summary.accounting
+    if summary.sigma0 is None or not a:
+        return None
+    n = a["observations"] + a["pseudo_observations"]
+    r = n - a["unknowns"]
+    return float(summary.sigma0 ** 2 * r + a["unknowns"] * math.log(max(n, 2)))
+
+
+def recommend(cv: CrossValidation, summaries) -> None:
+    """Fill in ``cv.recommended`` and ``cv.reason`` (module docstring)."""
+    ok = {s.name: s for s in summaries if s.error is None and s.name in cv.rms_px and math.isfinite(cv.rms_px[s.name])}
+    if not ok:
+        cv.reason = "no variant could be cross-validated"
+        return
+    best = min(cv.rms_px[n] for n in ok)
+    near = [n for n in ok if cv.rms_px[n] <= best * (1.0 + cv.tolerance)]
+    winners = []
+    for g in sorted({cv.group[n] for n in near}):
+        members = [n for n in near if cv.group[n] == g]
+        winners.append(min(members, key=lambda n: (cv.bic.get(n, math.inf), cv.rms_px[n])))
+    cv.recommended = min(winners, key=lambda n: cv.rms_px[n])
+    others = [n for n in near if n != cv.recommended]
+    cv.reason = (f"lowest cross-validated rms {cv.rms_px[cv.recommended]:.3f} px" if not others else
+                 f"cross-validated rms {cv.rms_px[cv.recommended]:.3f} px, within {100 * cv.tolerance:.0f} % of the "
+                 f"lowest ({best:.3f} px) with {', '.join(others)}; lowest BIC among the variants with the same "
+                 "observations")
+
+
+def cross_validate(project_root, variants: dict[str, Variant], summaries, folds: int = 4, variants_file=None,
+                   callback: ProgressCallback = no_progress, tolerance: float = 0.05) -> CrossValidation:
+    """Cross-validate every variant of ``summaries`` (module docstring); ``folds`` >= 2."""
+    from scangeo.adjustment.results import run_variant
+    from scangeo.io.points import GroundPoints
+
+    root = Path(project_root)
+    ground = GroundPoints.read(root / "ground.csv") if (root / "ground.csv").exists() else None
+    control = [str(p) for p, r in zip(ground.point, ground.role) if str(r) == "control"] if ground is not None else []
+    parts = folds_of(control, max(2, folds))
+    cv = CrossValidation(len(parts), len(control), tolerance=tolerance)
+    names = [s.name for s in summaries if s.error is None]
+    total = max(1, len(names) * len(parts))
+    for i, name in enumerate(names):
+        v = variants[name]
+        sq, n = 0.0, 0
+        try:
+            for j, fold in enumerate(parts):
+                callback(i * len(parts) + j, total, f"cross-validation: {name}, fold {j + 1}/{len(parts)}")
+                result = run_variant(root, held_out(v, fold), variants_file)
+                c = result.checks
+                sel = np.isin(c.point.astype(str), fold) & (c.status == 0)
+                sq += float(np.sum(c.line[sel] ** 2) + np.sum(c.pixel[sel] ** 2))
+                n += 2 * int(sel.sum())
+        except ScangeoError as exc:
+            log.warning("cross-validation of %s failed: %s", name, exc)
+            cv.errors[name] = str(exc)
+            continue
+        cv.rms_px[name] = math.sqrt(sq / n) if n else math.nan
+        cv.n[name] = n // 2
+    for s in summaries:
+        if s.error is None:
+            b = bic_of(s)
+            if b is not None:
+                cv.bic[s.name] = b
+            cv.group[s.name] = f"{s.accounting.get('observations')} observations, {s.dtm_heights} DTM heights"
+    callback(total, total, "cross-validation: done")
+    recommend(cv, summaries)
+    return cv
+
+
+__all__ = ["CrossValidation", "bic_of", "cross_validate", "folds_of", "held_out", "recommend"]
