@@ -2,6 +2,12 @@
 
 Every message names the file, line or key, what was found and what was expected, e.g.
 ``nav/12.csv line 4031: time 123.40 is not after the previous 123.44 (times must increase)``.
+
+As in rasterio, the classes also derive from the built-in exception that fits, so code that does not
+know scangeo can still catch them the usual way: an input file that cannot be read is an
+:class:`OSError` (a missing one a :class:`FileNotFoundError`), a bad value in a file or an argument a
+:class:`ValueError`, a missing optional dependency an :class:`ImportError`. The root class itself is
+never raised: every error is one of the subclasses below.
 """
 from __future__ import annotations
 
@@ -10,20 +16,24 @@ class ScangeoError(Exception):
     """Root of every error scangeo raises for a user's input or a failed computation."""
 
 
-class InputFileError(ScangeoError):
-    """A file could not be read or does not have the expected content."""
+class InputFileError(ScangeoError, OSError):
+    """A file could not be read or does not have the expected content (also an OSError)."""
 
 
-class ProjectFileError(InputFileError):
-    """project.toml, variants.toml, points.csv or ground.csv is malformed."""
+class MissingFileError(InputFileError, FileNotFoundError):
+    """An input file or folder does not exist (also a FileNotFoundError)."""
 
 
-class OrientationFileError(InputFileError):
+class ProjectFileError(InputFileError, ValueError):
+    """project.toml, variants.toml, a preset, points.csv or ground.csv is malformed (also a ValueError)."""
+
+
+class OrientationFileError(InputFileError, ValueError):
     """An ``orientation.json`` (an adjusted orientation, docs/formats.md) is missing, of another
     schema version, or malformed (names the file and the key)."""
 
 
-class TrajectoryError(InputFileError):
+class TrajectoryError(InputFileError, ValueError):
     """A GPS/IMU trajectory file is malformed (times, columns, records)."""
 
 
@@ -31,15 +41,15 @@ class CRSError(ProjectFileError):
     """A coordinate reference system given by the user is not known to PROJ (names the file and key)."""
 
 
-class DTMError(ScangeoError):
+class DTMError(InputFileError, ValueError):
     """A DTM cannot be read or does not cover what is asked."""
 
 
-class SensorError(ScangeoError):
+class SensorError(ScangeoError, ValueError):
     """A sensor model is configured inconsistently."""
 
 
-class ConvergenceError(ScangeoError):
+class ConvergenceError(ScangeoError, RuntimeError):
     """An iterative computation did not converge."""
 
 
@@ -47,12 +57,29 @@ class AdjustmentError(ScangeoError):
     """The adjustment cannot be set up or solved."""
 
 
-class LidarError(ScangeoError):
+class LidarError(ScangeoError, ValueError):
     """A laser-scanner computation is given inconsistent input (geometry, errors, strips, budget)."""
 
 
 class OutputLockedError(ScangeoError):
     """Another scangeo run is writing the same project (its lock file is held)."""
+
+
+class OptionsError(ScangeoError, ValueError):
+    """An option given to a command or function is unknown or out of range (also a ValueError)."""
+
+
+class RectifyOptionsError(OptionsError):
+    """A rectification option (``RectifyOptions``, ``GeoTiffProfile``, ``[rectify]`` settings) is invalid."""
+
+
+class GeometryError(ScangeoError, ValueError):
+    """The geometry does not allow the computation (a footprint off the DTM, a block too large for a
+    local map, an output grid without cells)."""
+
+
+class MissingDependencyError(ScangeoError, ImportError):
+    """An optional dependency a feature needs is not installed (names the extra to install)."""
 
 
 def where(path: object, line: int | None = None, key: str | None = None) -> str:
