@@ -17,6 +17,7 @@ from scangeo.adjustment.gpsimu import GpsImuSamples
 from scangeo.adjustment.ground import DtmHeights, GroundControl
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.models import GpsImuModel, ModelSet
 from scangeo.adjustment.observations import ObservationGroup
 from scangeo.adjustment.parameters import Parameters
 from scangeo.adjustment.variants import Variant
@@ -24,7 +25,6 @@ from scangeo.errors import AdjustmentError
 from scangeo.io.point_checks import check_points
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
-from scangeo.adjustment.models import GpsImuModel, ModelSet
 from scangeo.sensors.models import Whiskbroom
 from scangeo.sensors.strip import StripGeometry
 from scangeo.trajectory.spline import COMPONENTS, OrientationSpline
@@ -133,77 +133,122 @@ def _correction_block(params: Parameters, m: GpsImuModel, v: Variant) -> None:
                names=names, conditions=m.conditions)
 
 
+@dataclass
+class _Setup:
+    """What the steps of :func:`build_block` share: the inputs, the strips and models, each
+    point's role, the points that enter the adjustment, and the notes for the user."""
+
+    project: Project
+    variant: Variant
+    points: ImagePoints
+    ground: GroundPoints
+    strips: dict[str, StripData]
+    models: ModelSet
+    roles: dict[str, str] = field(default_factory=dict)
+    used: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def given(self) -> dict[str, int]:
+        """Row of each point of ground.csv."""
+        return {str(p): i for i, p in enumerate(self.ground.point)}
+
+    def measured_in(self, sid: str) -> np.ndarray:
+        """Rows of points.csv of strip ``sid`` whose points enter the adjustment."""
+        pts = self.points
+        return np.flatnonzero((pts.strip.astype(str) == sid) & np.isin(pts.point.astype(str), self.used))
+
+
 def build_block(project: Project, variant: Variant, points: ImagePoints, ground: GroundPoints) -> Block:
-    """The parameters and observation groups of ``variant`` on ``project``."""
+    """The parameters and observation groups of ``variant`` on ``project``.
+
+    The steps: every strip's GPS/IMU and start spline (:func:`strip_data`), the GPS/IMU models
+    (:func:`build_models`), the unknowns of the orientation and the calibration, each point's role
+    and which points enter, their start coordinates, and the observation groups.
+    """
     check_points(project, points, ground)  # strips, inside the images, tie points in 2+ strips, near the DTM
-    notes: list[str] = []
     strips = {s.id: strip_data(project, s.id) for s in project.strips}
-    models = build_models(project, variant, strips)
+    setup = _Setup(project, variant, points, ground, strips, build_models(project, variant, strips))
     params = Parameters()
-    for sid, s in strips.items():
-        params.add(Knots(sid), s.spline.coef.ravel(), variant.strategy != "DG",
+    _orientation_unknowns(setup, params)
+    _calibration_unknowns(setup, params)
+    _choose_points(setup)
+    _ground_unknowns(setup, params)
+    groups = _observation_groups(setup)
+    for note in setup.notes:
+        log.warning("%s", note)
+    return Block(project, variant, strips, setup.models, params, groups, points, ground, setup.roles, setup.notes)
+
+
+def _orientation_unknowns(setup: _Setup, params: Parameters) -> None:
+    """Knots of every strip's spline (fixed in DG) and the coefficients of every GPS/IMU model."""
+    v = setup.variant
+    for sid, s in setup.strips.items():
+        params.add(Knots(sid), s.spline.coef.ravel(), v.strategy != "DG",
                    regularisation_sigma=np.tile([1.0, 1.0, 1.0, 0.01, 0.01, 0.01], s.spline.n_coef),
                    names=[f"{c}[{k}]" for k in range(s.spline.n_coef) for c in COMPONENTS])
-    for m in models:
-        _correction_block(params, m, variant)
+    for m in setup.models:
+        _correction_block(params, m, v)
+
+
+def _calibration_unknowns(setup: _Setup, params: Parameters) -> None:
+    """Boresight, lever arm, time offset, scan index and scale: free where the variant calibrates them."""
+    project, v = setup.project, setup.variant
     mount, sensor = project.sensor.mounting, project.sensor.model
-    cal = set(variant.calibrate)
+    cal = set(v.calibrate)
     scan_errors = sorted(cal & {"index_error", "scale_error"})
     if scan_errors and not isinstance(sensor, Whiskbroom):
-        raise AdjustmentError(f"variant {variant.name}: calibrate {', '.join(scan_errors)} is a whiskbroom (scan "
+        raise AdjustmentError(f"variant {v.name}: calibrate {', '.join(scan_errors)} is a whiskbroom (scan "
                               f"mirror) parameter, but the project's sensor is a {project.sensor.kind}")
-    params.add(
-        Boresight(), mount.boresight, "boresight" in cal, regularisation_sigma=0.01, names=["roll", "pitch", "heading"]
-    )
+    scan = sensor if isinstance(sensor, Whiskbroom) else None
+    params.add(Boresight(), mount.boresight, "boresight" in cal, regularisation_sigma=0.01,
+               names=["roll", "pitch", "heading"])
     params.add(LeverArm(), mount.lever_arm_B, "lever_arm" in cal, regularisation_sigma=0.5, names=["x", "y", "z"])
     params.add(TimeOffset(), [mount.time_offset], "time_offset" in cal, regularisation_sigma=0.01, names=["dt"])
-    params.add(
-        ScanIndex(),
-        [getattr(sensor, "index_error", 0.0)],
-        "index_error" in cal,
-        regularisation_sigma=0.01,
-        names=["index"],
-    )
-    params.add(
-        ScanScale(),
-        [getattr(sensor, "scale_error", 0.0)],
-        "scale_error" in cal,
-        regularisation_sigma=0.01,
-        names=["scale"],
-    )
+    params.add(ScanIndex(), [scan.index_error if scan else 0.0], "index_error" in cal, regularisation_sigma=0.01,
+               names=["index"])
+    params.add(ScanScale(), [scan.scale_error if scan else 0.0], "scale_error" in cal, regularisation_sigma=0.01,
+               names=["scale"])
 
-    given = {str(p): i for i, p in enumerate(ground.point)}
-    roles = {str(p): variant.role_of(str(p), str(r)) for p, r in zip(ground.point, ground.role)}
+
+def _choose_points(setup: _Setup) -> None:
+    """Each point's role (the variant's over ground.csv's; measured only: tie) and the points that
+    enter the adjustment (not check or ignored; tie points seen in two strips or more)."""
+    v, points, ground = setup.variant, setup.points, setup.ground
+    setup.roles = {str(p): v.role_of(str(p), str(r)) for p, r in zip(ground.point, ground.role)}
     for p in map(str, points.point):
-        roles.setdefault(p, variant.role_of(p, "tie"))
-    # which points enter the adjustment
+        setup.roles.setdefault(p, v.role_of(p, "tie"))
     meas_strips: dict[str, set] = {}
     for p, sid in zip(map(str, points.point), map(str, points.strip)):
         meas_strips.setdefault(p, set()).add(sid)
-    used = []
+    given = setup.given
     for p, ss in meas_strips.items():
-        role = roles[p]
+        role = setup.roles[p]
         if role in ("check", "ignore"):
             continue
         if role == "tie" and len(ss) < 2:
-            notes.append(f"tie point {p} is measured in strip {next(iter(ss))} only: left out")
+            setup.notes.append(f"tie point {p} is measured in strip {next(iter(ss))} only: left out")
             continue
         if role in CONTROL_COMPONENTS and p not in given:
             raise AdjustmentError(f"point {p} has role {role} but no coordinates in ground.csv")
-        used.append(p)
-    # start values: rays of the direct georeferencing onto the DTM, control from their coordinates
-    dtm = project.dtm
-    start: dict[str, list] = {p: [] for p in used}
-    for sid, s in strips.items():
-        sel = np.flatnonzero((points.strip.astype(str) == sid) & np.isin(points.point.astype(str), used))
+        setup.used.append(p)
+
+
+def _ground_unknowns(setup: _Setup, params: Parameters) -> None:
+    """Coordinates of every point in the adjustment; start values: control from ground.csv, the
+    others the mean of their rays of the direct georeferencing onto the DTM."""
+    project, points, given = setup.project, setup.points, setup.given
+    start: dict[str, list] = {p: [] for p in setup.used}
+    for sid, s in setup.strips.items():
+        sel = setup.measured_in(sid)
         if sel.size:
-            xyz, _ = s.geometry.image_to_ground(points.line[sel], points.pixel[sel], dtm)
+            xyz, _ = s.geometry.image_to_ground(points.line[sel], points.pixel[sel], project.dtm)
             for k, p in enumerate(points.point[sel]):
                 if np.isfinite(xyz[k]).all():
                     start[str(p)].append(xyz[k])
-    for p in used:
-        if roles[p] == "control":
-            x, y, z = ground.xyz[given[p]]
+    for p in setup.used:
+        if setup.roles[p] == "control":
+            x, y, z = setup.ground.xyz[given[p]]
             p0 = project.map_frame.map_to_project(np.array([x]), np.array([y]), np.array([z]))[0]
         elif start[p]:
             p0 = np.mean(start[p], axis=0)
@@ -211,41 +256,35 @@ def build_block(project: Project, variant: Variant, points: ImagePoints, ground:
             raise AdjustmentError(f"point {p}: no measurement of it hits the DTM with the GPS/IMU orientation")
         params.add(Ground(p), p0, True, regularisation_sigma=10.0, names=["x", "y", "z"])
 
+
+def _observation_groups(setup: _Setup) -> list[ObservationGroup]:
+    """Per strip its GPS/IMU (not in DG) and image measurements; the control coordinates; DTM
+    heights at the tie points the variant asks for."""
+    project, v, points, ground, roles = setup.project, setup.variant, setup.points, setup.ground, setup.roles
     groups: list[ObservationGroup] = []
-    sig_gps = np.concatenate([variant.gps_sigma_m, np.radians(variant.imu_sigma_deg)])
-    for sid, s in strips.items():
-        if variant.strategy != "DG":
-            groups.append(GpsImuSamples(sid, s.spline, s.epochs, s.gpsimu, sig_gps, models))
-        sel = np.flatnonzero((points.strip.astype(str) == sid) & np.isin(points.point.astype(str), used))
+    sig_gps = np.concatenate([v.gps_sigma_m, np.radians(v.imu_sigma_deg)])
+    for sid, s in setup.strips.items():
+        if v.strategy != "DG":
+            groups.append(GpsImuSamples(sid, s.spline, s.epochs, s.gpsimu, sig_gps, setup.models))
+        sel = setup.measured_in(sid)
         if sel.size == 0:
-            notes.append(f"strip {sid} has no image measurement in the adjustment")
+            setup.notes.append(f"strip {sid} has no image measurement in the adjustment")
             continue
-        sigma = points.sigma_px[sel] if variant.image_sigma_px is None else variant.image_sigma_px
-        groups.append(
-            ImageObservations(
-                sid,
-                project.sensor.model,
-                s.spline,
-                project.timing(sid),
-                points.point[sel].astype(str),
-                points.line[sel],
-                points.pixel[sel],
-                sigma,
-            )
-        )
+        sigma = points.sigma_px[sel] if v.image_sigma_px is None else v.image_sigma_px
+        groups.append(ImageObservations(sid, project.sensor.model, s.spline, project.timing(sid),
+                                        points.point[sel].astype(str), points.line[sel], points.pixel[sel], sigma))
         if not any(roles[str(p)] in CONTROL_COMPONENTS for p in points.point[sel]):
-            notes.append(f"strip {sid} has no control point: it is held only by tie points and its GPS/IMU")
-    ctrl = [p for p in used if roles[p] in CONTROL_COMPONENTS]
+            setup.notes.append(f"strip {sid} has no control point: it is held only by tie points and its GPS/IMU")
+    ctrl = [p for p in setup.used if roles[p] in CONTROL_COMPONENTS]
     if ctrl:
+        given = setup.given
         idx = [given[p] for p in ctrl]
         sig = np.column_stack([ground.sigma_xy[idx], ground.sigma_xy[idx], ground.sigma_z[idx]])
         comp = np.array([CONTROL_COMPONENTS[roles[p]] for p in ctrl])
         groups.append(GroundControl(ctrl, ground.xyz[idx], sig, comp, project.map_frame))
     else:
-        notes.append("no control point in the adjustment: the block's datum comes from the GPS/IMU alone")
-    dtm_pts = [p for p in used if roles[p] == "tie" and variant.dtm_height_at(p)]
+        setup.notes.append("no control point in the adjustment: the block's datum comes from the GPS/IMU alone")
+    dtm_pts = [p for p in setup.used if roles[p] == "tie" and v.dtm_height_at(p)]
     if dtm_pts:
-        groups.append(DtmHeights(dtm_pts, dtm, project.dtm_sigma))
-    for note in notes:
-        log.warning("%s", note)
-    return Block(project, variant, strips, models, params, groups, points, ground, roles, notes)
+        groups.append(DtmHeights(dtm_pts, project.dtm, project.dtm_sigma))
+    return groups

@@ -15,9 +15,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from scangeo.adjustment.keys import Knots
+from scangeo.adjustment.models import ModelSet
 from scangeo.adjustment.observations import Linearisation, ObservationGroup
 from scangeo.adjustment.parameters import JacobianPart
-from scangeo.adjustment.models import ModelSet
 from scangeo.trajectory.spline import COMPONENTS, OrientationSpline
 
 UNITS = ("m", "m", "m", "rad", "rad", "rad")

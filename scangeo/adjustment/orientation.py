@@ -24,10 +24,10 @@ from typing import Any
 
 import numpy as np
 
+from scangeo.adjustment.models import GpsImuModel, ModelSet
 from scangeo.errors import OrientationFileError, ScangeoError
 from scangeo.frames import ProjectFrame
 from scangeo.io.project import Project
-from scangeo.adjustment.models import GpsImuModel, ModelSet
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.sensors.strip import Mounting, StripGeometry
 from scangeo.timing import LineTiming
