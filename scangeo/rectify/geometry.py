@@ -6,7 +6,7 @@ the same for direct georeferencing, for an adjusted orientation, and for the ana
 of the tests. :mod:`scangeo.rectify.core_geometry` implements it on the geometry core.
 
 Coordinates: map ``x, y`` in the map CRS of the output grid (metres), heights ``H`` orthometric
-metres; image ``line`` and ``pixel`` 0-based with pixel centres at integers (DESIGN section 2).
+metres; image ``line`` and ``pixel`` 0-based with pixel centres at integers (docs/conventions.md).
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from scangeo.errors import ScangeoError
+from scangeo.errors import GeometryError
 
 
 @runtime_checkable
@@ -73,7 +73,7 @@ def footprint_bounds(geometry: MapStripGeometry, samples: int = 64) -> tuple[flo
     x, y, _ = geometry.image_to_ground(line, pixel)
     ok = np.isfinite(x) & np.isfinite(y)
     if not ok.any():
-        raise ScangeoError("the strip's footprint does not meet the DTM anywhere")
+        raise GeometryError("the strip's footprint does not meet the DTM anywhere")
     return float(x[ok].min()), float(y[ok].min()), float(x[ok].max()), float(y[ok].max())
 
 
