@@ -2,6 +2,7 @@
 
 A thin shell over :func:`scangeo.lidar.outputs.adjust_project`.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -10,7 +11,8 @@ from pathlib import Path
 
 def add_adjust(sub, common) -> None:
     p = sub.add_parser(
-        "adjust", parents=[common],
+        "adjust",
+        parents=[common],
         help="adjust laser strips with tie patches (GPS/IMU correction polynomials, boresight; Kager 2003)",
         description="Find planar patches in every strip, tie overlapping strips by them, adjust GPS/IMU "
         "correction polynomials, the boresight and the patch planes (or, without trajectories, XYZ correction "
@@ -19,8 +21,12 @@ def add_adjust(sub, common) -> None:
     p.add_argument("project", type=Path, help="laser project folder (project.toml with [sensor] kind = 'laser')")
     p.add_argument("--out", type=Path, default=None, help="output folder (default PROJECT/lidar-adjust)")
     p.add_argument("--ground", type=Path, default=None, help="control/check patches CSV (default PROJECT/ground.csv)")
-    p.add_argument("--mode", choices=("auto", "trajectory", "points"), default=None,
-                   help="trajectory (GPS/IMU corrections) or points (trajectory-free); default auto")
+    p.add_argument(
+        "--mode",
+        choices=("auto", "trajectory", "points"),
+        default=None,
+        help="trajectory (GPS/IMU corrections) or points (trajectory-free); default auto",
+    )
     p.add_argument("--patch-size", type=float, default=None, help="patch (grid cell) size, m")
     p.add_argument("--position-degree", type=int, default=None, help="degree of the position correction polynomials")
     p.add_argument("--attitude-degree", type=int, default=None, help="degree of the attitude correction polynomials")
@@ -34,19 +40,32 @@ def run_adjust(args: argparse.Namespace) -> int:
     from scangeo.lidar.outputs import adjust_project
 
     out = args.out or args.project / "lidar-adjust"
-    results = adjust_project(args.project, out, args.ground, progress_of(args), not args.no_strips,
-                             mode=args.mode, patch_size=args.patch_size, position_degree=args.position_degree,
-                             attitude_degree=args.attitude_degree, workers=args.workers)
+    results = adjust_project(
+        args.project,
+        out,
+        args.ground,
+        progress_of(args),
+        not args.no_strips,
+        mode=args.mode,
+        patch_size=args.patch_size,
+        position_degree=args.position_degree,
+        attitude_degree=args.attitude_degree,
+        workers=args.workers,
+    )
     ev = results["evaluation"] or {}
     acc = results["accounting"]
     print(f"mode: {results['mode_description']}")
-    print(f"patches: {results['patches']['tie']} tie, {results['patches']['control']} control, "
-          f"{results['patches']['check']} check; {acc['observations']} observations, {acc['unknowns']} unknowns, "
-          f"redundancy {acc['redundancy']}, sigma0 {results['sigma0']:.3f}")
-    for key, label in (("strip_differences_rms_m", "strip differences rms"),
-                       ("strip_differences_flat_rms_m", "  on flat cells"),
-                       ("check_patches_rms_m", "check patches rms"),
-                       ("tie_patch_discrepancies_rms_m", "tie patch discrepancies rms")):
+    print(
+        f"patches: {results['patches']['tie']} tie, {results['patches']['control']} control, "
+        f"{results['patches']['check']} check; {acc['observations']} observations, {acc['unknowns']} unknowns, "
+        f"redundancy {acc['redundancy']}, sigma0 {results['sigma0']:.3f}"
+    )
+    for key, label in (
+        ("strip_differences_rms_m", "strip differences rms"),
+        ("strip_differences_flat_rms_m", "  on flat cells"),
+        ("check_patches_rms_m", "check patches rms"),
+        ("tie_patch_discrepancies_rms_m", "tie patch discrepancies rms"),
+    ):
         if key in ev:
             print(f"{label:28s} {100 * ev[key]['before']:8.2f} cm -> {100 * ev[key]['after']:8.2f} cm")
     for p in results["parameters"]:
@@ -60,7 +79,9 @@ def run_adjust(args: argparse.Namespace) -> int:
     if planes:
         print(f"regularised {len(planes)} plane(s) of patches that data snooping left with one strip")
     if results["rejections"]:
-        print(f"data snooping rejected {len(results['rejections'])} patch observation(s): "
-              + ", ".join(f"{r['patch']} ({r['group']}, w {r['w']:.1f})" for r in results["rejections"][:8]))
+        print(
+            f"data snooping rejected {len(results['rejections'])} patch observation(s): "
+            + ", ".join(f"{r['patch']} ({r['group']}, w {r['w']:.1f})" for r in results["rejections"][:8])
+        )
     print(f"report: {out / 'report.html'}")
     return 0

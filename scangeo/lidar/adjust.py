@@ -15,6 +15,7 @@ with data snooping. Two modes:
 
 ``[adjustment]`` keys of project.toml (all optional) are the fields of :class:`LaserOptions`.
 """
+
 from __future__ import annotations
 
 import logging
@@ -26,6 +27,8 @@ import numpy as np
 
 from scangeo.adjustment.engine import Adjustment, SnoopingOptions, adjust
 from scangeo.adjustment.keys import Boresight, LeverArm, RangeOffset, ScanIndex
+from scangeo.adjustment.models import GpsImuModel, ModelSet
+from scangeo.adjustment.observations import ObservationGroup
 from scangeo.adjustment.parameters import Parameters
 from scangeo.adjustment.solver import SolverOptions
 from scangeo.errors import LidarError, ProjectFileError
@@ -43,7 +46,6 @@ from scangeo.lidar.patches import (
 )
 from scangeo.lidar.planes import Planes, anchors
 from scangeo.lidar.project import LaserProject, LaserStrip
-from scangeo.adjustment.models import GpsImuModel, ModelSet
 from scangeo.progress import ProgressCallback, no_progress
 
 log = logging.getLogger(__name__)
@@ -89,8 +91,14 @@ class LaserOptions:
 
     @property
     def patches(self) -> PatchOptions:
-        return PatchOptions(self.patch_size, self.min_patch_points, self.max_patch_sigma, max_angle_deg=self.max_angle_deg,
-                            max_offset=self.max_offset, thin_cell=self.thin_cell)
+        return PatchOptions(
+            self.patch_size,
+            self.min_patch_points,
+            self.max_patch_sigma,
+            max_angle_deg=self.max_angle_deg,
+            max_offset=self.max_offset,
+            thin_cell=self.thin_cell,
+        )
 
     @classmethod
     def from_table(cls, table: dict, where: str, **overrides) -> LaserOptions:
@@ -101,7 +109,7 @@ class LaserOptions:
         data = {k: (tuple(v) if k == "calibrate" else v) for k, v in table.items()}
         data.update({k: v for k, v in overrides.items() if v is not None})
         try:
-            return cls(**data)
+            return cls(**data)  # type: ignore[arg-type]
         except TypeError as exc:
             raise ProjectFileError(f"{where} [adjustment]: {exc}") from exc
 
@@ -113,12 +121,12 @@ class GivenPatches:
 
     ids: list[str]
     role: list[str]
-    centre: np.ndarray     # (m, 2) map
-    axes: np.ndarray       # (m, 2, 2) unit axes (rows) of the footprint box
-    half: np.ndarray       # (m, 2) half extents along them
+    centre: np.ndarray  # (m, 2) map
+    axes: np.ndarray  # (m, 2, 2) unit axes (rows) of the footprint box
+    half: np.ndarray  # (m, 2) half extents along them
     point_ids: np.ndarray
     point_patch: np.ndarray
-    xyz: np.ndarray        # (k, 3) map
+    xyz: np.ndarray  # (k, 3) map
     sigma: np.ndarray
 
 
@@ -137,18 +145,30 @@ def read_patch_ground(path: Path, margin: float = 1.0) -> GivenPatches:
     for p in ids:
         sel = np.flatnonzero(pid == p)
         if sel.size < 3:
-            raise ProjectFileError(f"{path} line {numbers[sel[0]]}: patch {p} has {sel.size} points (at least 3 needed)")
+            raise ProjectFileError(
+                f"{path} line {numbers[sel[0]]}: patch {p} has {sel.size} points (at least 3 needed)"
+            )
         if len({roles[i] for i in sel}) > 1:
             raise ProjectFileError(f"{path} line {numbers[sel[0]]}: patch {p} mixes the roles control and check")
         role.append(roles[sel[0]])
         c = xyz[sel, :2].mean(axis=0)
         _, vec = np.linalg.eigh(np.cov((xyz[sel, :2] - c).T))
         ax = vec.T[::-1]
-        centre.append(c), axes.append(ax)
+        centre.append(c)
+        axes.append(ax)
         half.append(np.abs((xyz[sel, :2] - c) @ ax.T).max(axis=0) + margin)
     point_patch = np.array([ids.index(p) for p in pid])
-    return GivenPatches(ids, role, np.array(centre), np.array(axes), np.array(half),
-                        np.array([r[header.index("point")] for r in body]), point_patch, xyz, sig)
+    return GivenPatches(
+        ids,
+        role,
+        np.array(centre),
+        np.array(axes),
+        np.array(half),
+        np.array([r[header.index("point")] for r in body]),
+        point_patch,
+        xyz,
+        sig,
+    )
 
 
 @dataclass
@@ -168,13 +188,22 @@ def _pass1(args) -> StripFound:
     strip, crs, options, prior, given = args
     cloud = read_strip(strip.id, strip.las, strip.point_source_id, crs)
     found = find_strip_patches(cloud, options, prior)
-    planes, ok = (fit_given_patches(cloud, given.centre, given.axes, given.half, options, prior) if given is not None
-                  else (None, None))
+    planes, ok = (
+        fit_given_patches(cloud, given.centre, given.axes, given.half, options, prior)
+        if given is not None
+        else (None, None)
+    )
     return StripFound(strip.id, cloud.size, float(cloud.time.min()), float(cloud.time.max()), found, planes, ok)
 
 
-def find_all(project: LaserProject, options: PatchOptions, prior: float, given: GivenPatches | None,
-             workers: int = 1, callback: ProgressCallback = no_progress) -> dict[str, StripFound]:
+def find_all(
+    project: LaserProject,
+    options: PatchOptions,
+    prior: float,
+    given: GivenPatches | None,
+    workers: int = 1,
+    callback: ProgressCallback = no_progress,
+) -> dict[str, StripFound]:
     """Pass 1 over every strip (in parallel processes with ``workers > 1``)."""
     tasks = [(s, project.crs, options, prior, given) for s in project.strips]
     out = {}
@@ -202,14 +231,14 @@ class LaserBlock:
     ties: list[TiePatch]
     given: GivenPatches | None
     frames: PatchFrames
-    kinds: list[str]                   # per patch: tie, control, check
+    kinds: list[str]  # per patch: tie, control, check
     models: ModelSet
     parameters: Parameters
     groups: list
     samplers: dict[str, TrajectorySampler]
     nominal: Calibration
-    reference: np.ndarray              # work frame origin in map coordinates (points mode)
-    anchors: dict[str, dict]           # strip -> arrays of its anchors (all patches, check included)
+    reference: np.ndarray  # work frame origin in map coordinates (points mode)
+    anchors: dict[str, dict]  # strip -> arrays of its anchors (all patches, check included)
     notes: list[str] = field(default_factory=list)
 
     def to_work(self, xyz: np.ndarray) -> np.ndarray:
@@ -228,8 +257,22 @@ def _models(found: dict[str, StripFound], options: LaserOptions, mode: str) -> M
     pdeg = options.position_degree
     if options.models == "block":
         t0, t1 = min(f.t_start for f in found.values()), max(f.t_end for f in found.values())
-        return ModelSet([GpsImuModel("block", tuple(found), t0, t1 + 1e-6, pdeg, adeg, False, np.zeros(3), None,
-                                     {s: (-np.inf, np.inf) for s in found})])
+        return ModelSet(
+            [
+                GpsImuModel(
+                    "block",
+                    tuple(found),
+                    t0,
+                    t1 + 1e-6,
+                    pdeg,
+                    adeg,
+                    False,
+                    np.zeros(3),
+                    None,
+                    {s: (-np.inf, np.inf) for s in found},
+                )
+            ]
+        )
     models = []
     for sid, f in found.items():
         edges = [f.t_start] + sorted(float(b) for b in options.breaks.get(sid, [])) + [f.t_end + 1e-6]
@@ -239,8 +282,20 @@ def _models(found: dict[str, StripFound], options: LaserOptions, mode: str) -> M
         for k in range(n):
             mid = sid if n == 1 else f"{sid}.{k + 1}"
             lo, hi = (-np.inf if k == 0 else edges[k]), (np.inf if k == n - 1 else edges[k + 1])
-            models.append(GpsImuModel(mid, (sid,), edges[k], edges[k + 1], pdeg, adeg, False, np.zeros(3),
-                                      None if k == 0 else f"{sid}.{k}", {sid: (lo, hi)}))
+            models.append(
+                GpsImuModel(
+                    mid,
+                    (sid,),
+                    edges[k],
+                    edges[k + 1],
+                    pdeg,
+                    adeg,
+                    False,
+                    np.zeros(3),
+                    None if k == 0 else f"{sid}.{k}",
+                    {sid: (lo, hi)},
+                )
+            )
     return ModelSet(models)
 
 
@@ -251,19 +306,31 @@ def _priors(params: Parameters, models: ModelSet, o: LaserOptions, unit: float, 
         deg = np.array([int(n[-1]) for n in names])
         angular = np.array([n[:-1] in ("roll", "pitch", "heading") for n in names])
         coef = np.where(angular, np.radians(o.coefficient_sigma_deg), o.coefficient_sigma_m / unit)
-        const = np.where(angular, np.radians(o.constant_sigma_deg) if o.constant_sigma_deg > 0 else np.inf,
-                         const_m / unit if const_m > 0 else np.inf)
-        params.add(m.key, np.zeros(len(names)), True, prior_sigma=np.where(deg >= 1, coef, const),
-                   prior_values=np.zeros(len(names)), regularisation_sigma=np.where(angular, np.radians(0.01), 0.1 / unit),
-                   names=names, conditions=m.conditions)
+        const = np.where(
+            angular,
+            np.radians(o.constant_sigma_deg) if o.constant_sigma_deg > 0 else np.inf,
+            const_m / unit if const_m > 0 else np.inf,
+        )
+        params.add(
+            m.key,
+            np.zeros(len(names)),
+            True,
+            prior_sigma=np.where(deg >= 1, coef, const),
+            prior_values=np.zeros(len(names)),
+            regularisation_sigma=np.where(angular, np.radians(0.01), 0.1 / unit),
+            names=names,
+            conditions=m.conditions,
+        )
 
 
 def _sampler(project: LaserProject, strip: LaserStrip, f: StripFound) -> TrajectorySampler:
     sampler = TrajectorySampler(project.trajectory(strip), str(strip.trajectory))
     lo, hi = sampler.span
     if f.t_start < lo or f.t_end > hi:
-        raise LidarError(f"strip {strip.id}: the returns' GPS times {f.t_start:.3f}..{f.t_end:.3f} s are not covered by "
-                         f"its trajectory {strip.trajectory} ({lo:.3f}..{hi:.3f} s)")
+        raise LidarError(
+            f"strip {strip.id}: the returns' GPS times {f.t_start:.3f}..{f.t_end:.3f} s are not covered by "
+            f"its trajectory {strip.trajectory} ({lo:.3f}..{hi:.3f} s)"
+        )
     return sampler
 
 
@@ -275,8 +342,13 @@ def map_unit(crs) -> float:
     return float(info[0].unit_conversion_factor) if info else 1.0
 
 
-def build(project: LaserProject, options: LaserOptions, ground: Path | None = None,
-          callback: ProgressCallback = no_progress, found: dict[str, StripFound] | None = None) -> LaserBlock:
+def build(
+    project: LaserProject,
+    options: LaserOptions,
+    ground: Path | None = None,
+    callback: ProgressCallback = no_progress,
+    found: dict[str, StripFound] | None = None,
+) -> LaserBlock:
     """Find patches (or reuse ``found`` of an earlier set-up), set up unknowns and observation groups."""
     mode = options.mode
     if mode == "auto":
@@ -285,30 +357,45 @@ def build(project: LaserProject, options: LaserOptions, ground: Path | None = No
         missing = [s.id for s in project.strips if s.trajectory is None]
         raise LidarError(f"mode trajectory: strip {missing[0]} has no trajectory in project.toml")
     unit = 1.0 if mode == "trajectory" else map_unit(project.crs)
-    popt = replace(options.patches, size=options.patch_size / unit, max_sigma=options.max_patch_sigma / unit,
-                   max_offset=options.max_offset / unit, thin_cell=options.thin_cell / unit)
+    popt = replace(
+        options.patches,
+        size=options.patch_size / unit,
+        max_sigma=options.max_patch_sigma / unit,
+        max_offset=options.max_offset / unit,
+        thin_cell=options.thin_cell / unit,
+    )
     prior = project.sensor.range_sigma_m / unit
     given = read_patch_ground(ground) if ground is not None and Path(ground).exists() else None
     if found is None:
         found = find_all(project, popt, prior, given, options.workers, callback)
     ties = homologous({s: f.patches for s, f in found.items()}, popt)
-    notes = [f"{len(ties)} tie patches in {len(found)} strips ({', '.join(f'{s}: {len(f.patches.cells)} planar cells' for s, f in found.items())})"]
+    notes = [
+        f"{len(ties)} tie patches in {len(found)} strips ("
+        + ", ".join(f"{s}: {len(f.patches.cells)} planar cells" for s, f in found.items())
+        + ")"
+    ]
     strips = {s.id: s for s in project.strips}
     samplers = {sid: _sampler(project, strips[sid], f) for sid, f in found.items()} if mode == "trajectory" else {}
     nominal = project.sensor.calibration()
     ids, kinds, members = [], [], []
     for tie in ties:
-        ids.append(tie.id), kinds.append("tie"), members.append([(s, "cells", i) for s, i in tie.members])
+        ids.append(tie.id)
+        kinds.append("tie")
+        members.append([(s, "cells", i) for s, i in tie.members])
     if given is not None:
         for k, pid in enumerate(given.ids):
             mem = [(s, "given", k) for s, f in found.items() if f.given_ok is not None and f.given_ok[k]]
             if not mem:
                 notes.append(f"{given.role[k]} patch {pid}: no strip has a planar patch there; left out")
                 continue
-            ids.append(pid), kinds.append(given.role[k]), members.append(mem)
+            ids.append(pid)
+            kinds.append(given.role[k])
+            members.append(mem)
     if not ids:
-        raise LidarError("no tie patch found: the strips do not overlap on planar surfaces (check patch_size and "
-                         "max_patch_sigma, and that the strips overlap)")
+        raise LidarError(
+            "no tie patch found: the strips do not overlap on planar surfaces (check patch_size and "
+            "max_patch_sigma, and that the strips overlap)"
+        )
     all_xyz = np.vstack([f.patches.planes.centroid for f in found.values()])
     reference = np.round(np.median(all_xyz, axis=0), -1 if unit == 1.0 else 0)
     # anchors of every member, per strip
@@ -317,8 +404,25 @@ def build(project: LaserProject, options: LaserOptions, ground: Path | None = No
         for sid, src, i in mem:
             per_strip[sid].append((p, src, i))
     anchor_data: dict[str, dict] = {}
-    block = LaserBlock(project, options, mode, found, ties, given, None, kinds, None, None, [], samplers, nominal,  # type: ignore[arg-type]
-                       reference, anchor_data, notes)
+    # frames, models and parameters are set below, once the anchors are known
+    block = LaserBlock(
+        project,
+        options,
+        mode,
+        found,
+        ties,
+        given,
+        PatchFrames.from_points([], np.zeros((0, 3)), np.zeros((0, 3))),
+        kinds,
+        ModelSet([]),
+        Parameters(),
+        [],
+        samplers,
+        nominal,
+        reference,
+        anchor_data,
+        notes,
+    )
     for sid, items in per_strip.items():
         if not items:
             notes.append(f"strip {sid} has no patch shared with another strip or control")
@@ -328,21 +432,28 @@ def build(project: LaserProject, options: LaserOptions, ground: Path | None = No
         rows_given = np.array([i for _, src, i in items if src == "given"], int)
         pts, times, sig = [], [], []
         for planes, rows in ((f.patches.planes, rows_cells), (f.given, rows_given)):
-            if rows.size:
+            if rows.size and planes is not None:
                 a, t, s = anchors(planes.take(rows))
-                pts.append(a), times.append(t), sig.append(np.maximum(s, 0.25 * prior * np.sqrt(3.0 / planes.count[rows])))
+                pts.append(a)
+                times.append(t)
+                sig.append(np.maximum(s, 0.25 * prior * np.sqrt(3.0 / planes.count[rows])))
         patch = np.array([p for p, src, _ in items if src == "cells"] + [p for p, src, _ in items if src == "given"])
         a_map = np.concatenate(pts).reshape(-1, 3)
-        anchor_data[sid] = {"patch": np.repeat(patch, 3), "map": a_map, "work": block.to_work(a_map),
-                            "time": np.concatenate(times).ravel(), "sigma": np.repeat(np.concatenate(sig), 3)}
+        anchor_data[sid] = {
+            "patch": np.repeat(patch, 3),
+            "map": a_map,
+            "work": block.to_work(a_map),
+            "time": np.concatenate(times).ravel(),
+            "sigma": np.repeat(np.concatenate(sig), 3),
+        }
     # patch frames from the best member's anchors
     centre = np.zeros((len(ids), 3))
     normal = np.zeros((len(ids), 3))
     best = np.full(len(ids), np.inf)
-    for sid, a in anchor_data.items():
-        w = a["work"].reshape(-1, 3, 3)
-        pat = a["patch"][::3]
-        s = a["sigma"][::3]
+    for adata in anchor_data.values():
+        w = adata["work"].reshape(-1, 3, 3)
+        pat = adata["patch"][::3]
+        s = adata["sigma"][::3]
         n = np.cross(w[:, 1] - w[:, 0], w[:, 2] - w[:, 0])
         n *= np.where(n[:, 2] < 0, -1.0, 1.0)[:, None]
         for k, p in enumerate(pat):
@@ -353,40 +464,50 @@ def build(project: LaserProject, options: LaserOptions, ground: Path | None = No
     params = Parameters()
     _priors(params, block.models, options, unit, mode)
     cal = set(options.calibrate) if mode == "trajectory" else set()
-    params.add(Boresight(), nominal.boresight, "boresight" in cal, regularisation_sigma=np.radians(0.01), names=["roll", "pitch", "heading"])
+    params.add(
+        Boresight(),
+        nominal.boresight,
+        "boresight" in cal,
+        regularisation_sigma=np.radians(0.01),
+        names=["roll", "pitch", "heading"],
+    )
     params.add(LeverArm(), nominal.lever_arm, "lever_arm" in cal, regularisation_sigma=0.1, names=["x", "y", "z"])
     params.add(RangeOffset(), [nominal.range_offset], "range_offset" in cal, regularisation_sigma=0.05, names=["dr"])
-    params.add(ScanIndex(), [nominal.scan_index], "scan_index" in cal, regularisation_sigma=np.radians(0.01), names=["index"])
+    params.add(
+        ScanIndex(), [nominal.scan_index], "scan_index" in cal, regularisation_sigma=np.radians(0.01), names=["index"]
+    )
     for key, kind in zip(block.frames.keys, kinds):
         if kind == "check":
             continue
-        params.add(key, np.zeros(3), True, regularisation_sigma=[0.01, 0.01, 1.0 / unit],
-                   names=["u", "v", "d"])
+        params.add(key, np.zeros(3), True, regularisation_sigma=[0.01, 0.01, 1.0 / unit], names=["u", "v", "d"])
     block.parameters = params
-    groups = []
-    for sid, a in anchor_data.items():
-        use = np.array([kinds[p] != "check" for p in a["patch"]])
+    groups: list[ObservationGroup] = []
+    for sid, adata in anchor_data.items():
+        use = np.array([kinds[p] != "check" for p in adata["patch"]])
         if not use.any():
             continue
-        patch, work, t, sig = a["patch"][use], a["work"][use], a["time"][use], a["sigma"][use]
+        patch, work, t, sig = adata["patch"][use], adata["work"][use], adata["time"][use], adata["sigma"][use]
         polar = recover(work, t, samplers[sid], nominal, solve_time=True) if mode == "trajectory" else None
-        if polar is not None:
-            a["polar"] = polar
-        groups.append(StripAnchors(sid, patch, patch, sig, block.frames, block.models, work, t, polar, samplers.get(sid)))
+        groups.append(
+            StripAnchors(sid, patch, patch, sig, block.frames, block.models, work, t, polar, samplers.get(sid))
+        )
     if given is not None:
         ctrl = [k for k, pid in enumerate(given.ids) if given.role[k] == "control" and pid in ids]
         sel = np.flatnonzero(np.isin(given.point_patch, ctrl))
         if sel.size:
             patch = np.array([ids.index(given.ids[given.point_patch[i]]) for i in sel])
-            groups.append(ControlPatchPoints(given.point_ids[sel], patch, block.to_work(given.xyz[sel]),
-                                             given.sigma[sel] / unit, block.frames))
+            groups.append(
+                ControlPatchPoints(
+                    given.point_ids[sel], patch, block.to_work(given.xyz[sel]), given.sigma[sel] / unit, block.frames
+                )
+            )
         else:
             notes.append("no control patch in the adjustment: the datum comes from the GPS/IMU and the priors alone")
     else:
         notes.append("no ground.csv: no control patches; the datum comes from the GPS/IMU and the priors alone")
     block.groups = groups
-    for n in notes:
-        log.info("%s", n)
+    for note in notes:
+        log.info("%s", note)
     return block
 
 
@@ -397,8 +518,12 @@ def run(block: LaserBlock, callback: ProgressCallback = no_progress) -> Adjustme
 
 
 def calibration_of(values) -> Calibration:
-    return Calibration(np.asarray(values[Boresight()], float), np.asarray(values[LeverArm()], float),
-                       float(values[RangeOffset()][0]), float(values[ScanIndex()][0]))
+    return Calibration(
+        np.asarray(values[Boresight()], float),
+        np.asarray(values[LeverArm()], float),
+        float(values[RangeOffset()][0]),
+        float(values[ScanIndex()][0]),
+    )
 
 
 def corrector(block: LaserBlock, strip: str, values):
@@ -415,9 +540,11 @@ def corrector(block: LaserBlock, strip: str, values):
             c = block.models.correction(strip, t, pos, coefficients)
             return block.to_map(georeference(pos + c[:, :3], ang + c[:, 3:], polar, cal))
     else:
+
         def correct(xyz: np.ndarray, t: np.ndarray) -> np.ndarray:
             c = block.models.correction(strip, t, xyz, coefficients)
             return xyz + c[:, :3]
+
     return correct
 
 
@@ -428,7 +555,9 @@ def anchor_points(block: LaserBlock, strip: str, values) -> np.ndarray:
     if block.mode == "trajectory":
         polar = a.get("polar_all")
         if polar is None:
-            polar = a["polar_all"] = recover(a["work"], a["time"], block.samplers[strip], block.nominal, solve_time=True)
+            polar = a["polar_all"] = recover(
+                a["work"], a["time"], block.samplers[strip], block.nominal, solve_time=True
+            )
         pos, ang = block.samplers[strip].at(polar.time)
         c = block.models.correction(strip, polar.time, pos, coefficients)
         return georeference(pos + c[:, :3], ang + c[:, 3:], polar, calibration_of(values))

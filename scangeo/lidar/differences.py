@@ -6,6 +6,7 @@ of strips gives ``dz`` = height of the first strip's plane minus the second's at
 The rms of ``dz`` is the block's overlap discrepancy; on sloped cells (roofs) it also shows
 planimetric errors (times the slope), as strip differences do.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -40,8 +41,11 @@ class Differences:
         out = {}
         for a, b in sorted(set(zip(self.a, self.b))):
             sel = (self.a == a) & (self.b == b)
-            out[f"{a}-{b}"] = {"cells": int(sel.sum()), "rms": float(np.sqrt(np.mean(self.dz[sel] ** 2))),
-                               "mean": float(np.mean(self.dz[sel]))}
+            out[f"{a}-{b}"] = {
+                "cells": int(sel.sum()),
+                "rms": float(np.sqrt(np.mean(self.dz[sel] ** 2))),
+                "mean": float(np.mean(self.dz[sel])),
+            }
         return out
 
 
@@ -51,8 +55,9 @@ def _height(found: StripPatches, rows: np.ndarray, xy: np.ndarray) -> np.ndarray
     return c[:, 2] - (n[:, 0] * (xy[:, 0] - c[:, 0]) + n[:, 1] * (xy[:, 1] - c[:, 1])) / n[:, 2]
 
 
-def strip_differences(found: dict[str, StripPatches], size: float, flat_deg: float = 8.0, max_angle_deg: float = 5.0,
-                      max_dz: float = 1.0) -> Differences:
+def strip_differences(
+    found: dict[str, StripPatches], size: float, flat_deg: float = 8.0, max_angle_deg: float = 5.0, max_dz: float = 1.0
+) -> Differences:
     """Differences of every pair of strips on every cell planar in both, with normals within
     ``max_angle_deg`` and ``|dz| <= max_dz`` (a cell where the strips see different surfaces, e.g. a
     roof and the ground beside it through an occlusion, is not a strip difference)."""
@@ -60,7 +65,7 @@ def strip_differences(found: dict[str, StripPatches], size: float, flat_deg: flo
     cells, a_, b_, dz, flat = [], [], [], [], []
     lookup = {s: dict(zip(found[s].cells.tolist(), range(found[s].cells.size))) for s in strips}
     for i, sa in enumerate(strips):
-        for sb in strips[i + 1:]:
+        for sb in strips[i + 1 :]:
             common = np.intersect1d(found[sa].cells, found[sb].cells)
             if not common.size:
                 continue
@@ -70,14 +75,17 @@ def strip_differences(found: dict[str, StripPatches], size: float, flat_deg: flo
             d = _height(found[sa], ra, xy) - _height(found[sb], rb, xy)
             na, nb = found[sa].planes.normal[ra], found[sb].planes.normal[rb]
             ok = (np.einsum("ij,ij->i", na, nb) >= np.cos(np.radians(max_angle_deg))) & (np.abs(d) <= max_dz)
-            cells.append(common[ok]), a_.append(np.full(int(ok.sum()), sa, object))
-            b_.append(np.full(int(ok.sum()), sb, object)), dz.append(d[ok])
+            cells.append(common[ok])
+            a_.append(np.full(int(ok.sum()), sa, object))
+            b_.append(np.full(int(ok.sum()), sb, object))
+            dz.append(d[ok])
             flat.append((np.minimum(na[:, 2], nb[:, 2]) > np.cos(np.radians(flat_deg)))[ok])
     if not cells:
         e = np.zeros(0)
         return Differences(e.astype(np.int64), e.astype(object), e.astype(object), e, e.astype(bool), size)
-    return Differences(np.concatenate(cells), np.concatenate(a_), np.concatenate(b_), np.concatenate(dz),
-                       np.concatenate(flat), size)
+    return Differences(
+        np.concatenate(cells), np.concatenate(a_), np.concatenate(b_), np.concatenate(dz), np.concatenate(flat), size
+    )
 
 
 def common_rows(before: Differences, after: Differences) -> tuple[Differences, Differences]:

@@ -12,6 +12,7 @@ S has x along track, y to the right, z down (docs/lidar.md section 1). ``along``
 small distance from the nominal scan plane that the recovery leaves (zero when the time is solved
 for), so that the nominal calibration reproduces the given point exactly.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -64,8 +65,10 @@ class TrajectorySampler:
     def check_covers(self, t: np.ndarray, what: str) -> None:
         lo, hi = self.span
         if t.size and (t.min() < lo or t.max() > hi):
-            raise LidarError(f"{what}: GPS times {t.min():.3f}..{t.max():.3f} s are not covered by the trajectory "
-                             f"{self.name} ({lo:.3f}..{hi:.3f} s)")
+            raise LidarError(
+                f"{what}: GPS times {t.min():.3f}..{t.max():.3f} s are not covered by the trajectory "
+                f"{self.name} ({lo:.3f}..{hi:.3f} s)"
+            )
 
     def at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Positions (n, 3) and angles (n, 3) at times ``t``."""
@@ -139,8 +142,14 @@ def scanner_frame(points: np.ndarray, pos: np.ndarray, angles: np.ndarray, cal: 
     return body @ R_BS
 
 
-def recover(points: np.ndarray, t: np.ndarray, sampler: TrajectorySampler, cal: Calibration,
-            solve_time: bool = False, iterations: int = 4) -> Polar:
+def recover(
+    points: np.ndarray,
+    t: np.ndarray,
+    sampler: TrajectorySampler,
+    cal: Calibration,
+    solve_time: bool = False,
+    iterations: int = 4,
+) -> Polar:
     """The original observations of points p_P (n, 3) at GPS times ``t`` (start values when
     ``solve_time``: the time is then moved until the point lies in the scan plane, ``along = 0``).
 

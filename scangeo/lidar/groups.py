@@ -13,17 +13,18 @@ Planes: ``Plane(patch)`` holds ``(u, v, d)``; with the patch's fixed reference p
   one strip form one observation unit (data snooping removes them together).
 - :class:`ControlPatchPoints`: surveyed points on control patches lie in their plane.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from scangeo.adjustment.keys import Boresight, LeverArm, Plane, RangeOffset, ScanIndex
+from scangeo.adjustment.keys import Boresight, Key, LeverArm, Plane, RangeOffset, ScanIndex
+from scangeo.adjustment.models import ModelSet
 from scangeo.adjustment.observations import Linearisation, ObservationGroup
 from scangeo.adjustment.parameters import JacobianPart
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, derivatives, georeference
-from scangeo.adjustment.models import ModelSet
 
 CALIBRATION_KEYS = (Boresight(), LeverArm(), RangeOffset(), ScanIndex())
 
@@ -92,9 +93,19 @@ class StripAnchors(ObservationGroup):
         and the nominal calibration (the observations were recovered with it).
     """
 
-    def __init__(self, strip: str, patch: np.ndarray, unit_id: np.ndarray, sigma: np.ndarray, frames: PatchFrames,
-                 models: ModelSet, points: np.ndarray, times: np.ndarray, polar: Polar | None = None,
-                 sampler: TrajectorySampler | None = None) -> None:
+    def __init__(
+        self,
+        strip: str,
+        patch: np.ndarray,
+        unit_id: np.ndarray,
+        sigma: np.ndarray,
+        frames: PatchFrames,
+        models: ModelSet,
+        points: np.ndarray,
+        times: np.ndarray,
+        polar: Polar | None = None,
+        sampler: TrajectorySampler | None = None,
+    ) -> None:
         self.name = f"anchors {strip}"
         self.strip = strip
         self.frames = frames
@@ -107,7 +118,7 @@ class StripAnchors(ObservationGroup):
         self.points = np.asarray(points, float)
         self.polar = polar
         self.trajectory = polar is not None
-        if self.trajectory:
+        if polar is not None:
             assert sampler is not None
             self.pos0, self.ang0 = sampler.at(polar.time)
             times = polar.time
@@ -117,8 +128,10 @@ class StripAnchors(ObservationGroup):
         self._keys = [k for k, _, _ in self._design]
 
     def keys(self):
-        extra = list(CALIBRATION_KEYS) if self.trajectory else []
-        return list(dict.fromkeys(self._keys + extra + self._plane_keys))
+        keys: list[Key] = list(self._keys)
+        if self.trajectory:
+            keys += CALIBRATION_KEYS
+        return list(dict.fromkeys(keys + list(self._plane_keys)))
 
     def _corrections(self, values) -> np.ndarray:
         c = np.zeros((self.n_rows, 6))
@@ -129,9 +142,13 @@ class StripAnchors(ObservationGroup):
     def _evaluate(self, values, jacobian: bool):
         c = self._corrections(values)
         d = None
-        if self.trajectory:
-            cal = Calibration(np.asarray(values[Boresight()], float), np.asarray(values[LeverArm()], float),
-                              float(values[RangeOffset()][0]), float(values[ScanIndex()][0]))
+        if self.polar is not None:
+            cal = Calibration(
+                np.asarray(values[Boresight()], float),
+                np.asarray(values[LeverArm()], float),
+                float(values[RangeOffset()][0]),
+                float(values[ScanIndex()][0]),
+            )
             if jacobian:
                 d = derivatives(self.pos0 + c[:, :3], self.ang0 + c[:, 3:], self.polar, cal)
                 p = d.points
@@ -157,23 +174,36 @@ class StripAnchors(ObservationGroup):
         parts = []
         for key, rr, D in self._design:
             J = np.einsum("ri,rik->rk", g[rr], D) * w[rr, None]
-            parts.append(JacobianPart([key], np.repeat(rr, D.shape[2]), np.tile(np.arange(D.shape[2]), rr.size), J.ravel()))
+            parts.append(
+                JacobianPart([key], np.repeat(rr, D.shape[2]), np.tile(np.arange(D.shape[2]), rr.size), J.ravel())
+            )
         if d is not None:
-            for key, M in ((Boresight(), d.boresight), (LeverArm(), d.lever_arm)):
+            cal_key: Key
+            for cal_key, M in ((Boresight(), d.boresight), (LeverArm(), d.lever_arm)):
                 J = np.einsum("ni,nik->nk", n, M) * w[:, None]
-                parts.append(JacobianPart([key], np.repeat(rows, 3), np.tile(np.arange(3), self.n_rows), J.ravel()))
-            for key, v in ((RangeOffset(), d.range), (ScanIndex(), d.index)):
-                parts.append(JacobianPart([key], rows, np.zeros(self.n_rows, np.int64), np.einsum("ni,ni->n", n, v) * w))
-        parts.append(JacobianPart(self._plane_keys, np.repeat(rows, 3), np.tile(np.arange(3), self.n_rows),
-                                  (dd * w[:, None]).ravel(), np.repeat(self._local, 3)))
+                parts.append(JacobianPart([cal_key], np.repeat(rows, 3), np.tile(np.arange(3), self.n_rows), J.ravel()))
+            for cal_key, v in ((RangeOffset(), d.range), (ScanIndex(), d.index)):
+                parts.append(
+                    JacobianPart([cal_key], rows, np.zeros(self.n_rows, np.int64), np.einsum("ni,ni->n", n, v) * w)
+                )
+        parts.append(
+            JacobianPart(
+                self._plane_keys,
+                np.repeat(rows, 3),
+                np.tile(np.arange(3), self.n_rows),
+                (dd * w[:, None]).ravel(),
+                np.repeat(self._local, 3),
+            )
+        )
         return Linearisation(r, parts)
 
 
 class ControlPatchPoints(ObservationGroup):
     """Surveyed points on control patches: normal distance to the patch's plane = 0 (sigma given)."""
 
-    def __init__(self, ids: np.ndarray, patch: np.ndarray, points: np.ndarray, sigma: np.ndarray,
-                 frames: PatchFrames) -> None:
+    def __init__(
+        self, ids: np.ndarray, patch: np.ndarray, points: np.ndarray, sigma: np.ndarray, frames: PatchFrames
+    ) -> None:
         self.name = "control patches"
         self.frames = frames
         self.sigma = np.asarray(sigma, float)
@@ -190,5 +220,15 @@ class ControlPatchPoints(ObservationGroup):
         uvd = _plane_values(self.frames, values, self._local, self._plane_keys)
         f, _, dd = self.frames.distance(self._patch, self.points, uvd)
         rows = np.arange(self.n_rows)
-        return Linearisation(f / self.sigma, [JacobianPart(self._plane_keys, np.repeat(rows, 3), np.tile(np.arange(3), self.n_rows),
-                                                           (dd / self.sigma[:, None]).ravel(), np.repeat(self._local, 3))])
+        return Linearisation(
+            f / self.sigma,
+            [
+                JacobianPart(
+                    self._plane_keys,
+                    np.repeat(rows, 3),
+                    np.tile(np.arange(3), self.n_rows),
+                    (dd / self.sigma[:, None]).ravel(),
+                    np.repeat(self._local, 3),
+                )
+            ],
+        )

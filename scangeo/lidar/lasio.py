@@ -7,6 +7,7 @@ the file. Corrected copies keep the point format, header, CRS and extra dimensio
 coordinates change; they are written under a temporary name and renamed when complete, so an
 interrupted run leaves no file under a final name.
 """
+
 from __future__ import annotations
 
 import logging
@@ -55,8 +56,10 @@ def bounds(path: Path) -> tuple[float, float, float, float]:
 def check_header(path: Path, header, crs) -> None:
     """GPS time present; the CRS, when the file has one, equal to the project's."""
     if "gps_time" not in header.point_format.dimension_names:
-        raise InputFileError(f"{path}: point format {header.point_format.id} has no GPS time; "
-                             "lidar adjust needs the GPS time of every return")
+        raise InputFileError(
+            f"{path}: point format {header.point_format.id} has no GPS time; "
+            "lidar adjust needs the GPS time of every return"
+        )
     try:
         file_crs = header.parse_crs()
     except Exception as exc:  # laspy raises several kinds for broken VLRs
@@ -67,8 +70,10 @@ def check_header(path: Path, header, crs) -> None:
         want = pyproj.CRS.from_user_input(crs)
         got = file_crs.sub_crs_list[0] if file_crs.is_compound else file_crs
         if not got.equals(want, ignore_axis_order=True):
-            raise InputFileError(f"{path}: CRS {got.name} differs from the project's {want.name}; reproject the "
-                                 "strip (e.g. pdal translate with filters.reprojection) or set [project] crs")
+            raise InputFileError(
+                f"{path}: CRS {got.name} differs from the project's {want.name}; reproject the "
+                "strip (e.g. pdal translate with filters.reprojection) or set [project] crs"
+            )
 
 
 def read_strip(strip_id: str, files, point_source_id: int | None = None, crs=None) -> StripCloud:
@@ -79,7 +84,9 @@ def read_strip(strip_id: str, files, point_source_id: int | None = None, crs=Non
             check_header(path, f.header, crs)
             for chunk in f.chunk_iterator(CHUNK):
                 sel = slice(None) if point_source_id is None else np.asarray(chunk.point_source_id) == point_source_id
-                xyz.append(np.column_stack([np.asarray(chunk.x)[sel], np.asarray(chunk.y)[sel], np.asarray(chunk.z)[sel]]))
+                xyz.append(
+                    np.column_stack([np.asarray(chunk.x)[sel], np.asarray(chunk.y)[sel], np.asarray(chunk.z)[sel]])
+                )
                 t.append(np.asarray(chunk.gps_time, float)[sel])
     if not t or sum(a.size for a in t) == 0:
         which = "" if point_source_id is None else f" with point_source_id {point_source_id}"
@@ -87,8 +94,9 @@ def read_strip(strip_id: str, files, point_source_id: int | None = None, crs=Non
     return StripCloud(strip_id, np.concatenate(xyz), np.concatenate(t))
 
 
-def write_corrected(files, point_source_id: int | None, out: Path,
-                    correct: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> int:
+def write_corrected(
+    files, point_source_id: int | None, out: Path, correct: Callable[[np.ndarray, np.ndarray], np.ndarray]
+) -> int:
     """Write the strip's returns to ``out`` with coordinates ``correct(xyz, t)``; returns the count.
 
     The first input file's header (point format, version, scales, VLRs with the CRS, extra

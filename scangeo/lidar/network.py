@@ -98,7 +98,8 @@ def design_scenarios(layout: BlockLayout) -> dict[str, np.ndarray]:
         f"{layout.n_strips} strips, {layout.n_cross} cross strips, 4 corner controls": offset_precision(
             layout, layout.corner_controls()
         )[: layout.n_strips],
-        f"{layout.n_strips} strips, {layout.n_cross} cross strips, controls at both ends of every 4th strip": offset_precision(
+        f"{layout.n_strips} strips, {layout.n_cross} cross strips, "
+        "controls at both ends of every 4th strip": offset_precision(
             layout, layout.ends_controls(4)
         )[: layout.n_strips],
     }

@@ -4,6 +4,7 @@
 and renamed when ``out`` is given) and finds the planar cells of the corrected strips for the strip
 differences. :func:`evaluate` gathers everything the report shows.
 """
+
 from __future__ import annotations
 
 import json
@@ -27,7 +28,9 @@ def _options(block: LaserBlock):
 
     unit = block_unit(block)
     o = block.options
-    popt = replace(o.patches, size=o.patch_size / unit, max_sigma=o.max_patch_sigma / unit, max_offset=o.max_offset / unit)
+    popt = replace(
+        o.patches, size=o.patch_size / unit, max_sigma=o.max_patch_sigma / unit, max_offset=o.max_offset / unit
+    )
     return popt, block.project.sensor.range_sigma_m / unit
 
 
@@ -35,7 +38,9 @@ def block_unit(block: LaserBlock) -> float:
     return 1.0 if block.mode == "trajectory" else map_unit(block.project.crs)
 
 
-def apply(block: LaserBlock, values, out: Path | None = None, callback: ProgressCallback = no_progress) -> dict[str, StripPatches]:
+def apply(
+    block: LaserBlock, values, out: Path | None = None, callback: ProgressCallback = no_progress
+) -> dict[str, StripPatches]:
     """Correct every strip under ``values``; write them to ``out/strips`` when given; planar cells after."""
     popt, prior = _options(block)
     found = {}
@@ -50,7 +55,9 @@ def apply(block: LaserBlock, values, out: Path | None = None, callback: Progress
                 parts.append((new, t))
                 return new
 
-            write_corrected(strip.las, strip.point_source_id, out / "strips" / f"{strip.id}{strip.las[0].suffix.lower()}", keep)
+            write_corrected(
+                strip.las, strip.point_source_id, out / "strips" / f"{strip.id}{strip.las[0].suffix.lower()}", keep
+            )
             cloud = StripCloud(strip.id, np.concatenate([p for p, _ in parts]), np.concatenate([t for _, t in parts]))
         else:
             cloud = read_cloud(block, strip.id)
@@ -81,12 +88,13 @@ def check_patches(block: LaserBlock, values) -> dict[str, float]:
 
 def tie_discrepancies(block: LaserBlock, values) -> np.ndarray:
     """Per (tie patch, strip): the strip's anchor centroid along the patch normal minus the patch's mean."""
-    d, patch = [], []
+    parts, patches = [], []
     for sid, a in block.anchors.items():
         pts = anchor_points(block, sid, values).reshape(-1, 3, 3).mean(axis=1)
         p = a["patch"][::3]
-        d.append(np.einsum("ij,ij->i", pts - block.frames.c0[p], block.frames.n0[p])), patch.append(p)
-    d, patch = np.concatenate(d), np.concatenate(patch)
+        parts.append(np.einsum("ij,ij->i", pts - block.frames.c0[p], block.frames.n0[p]))
+        patches.append(p)
+    d, patch = np.concatenate(parts), np.concatenate(patches)
     tie = np.array([block.kinds[p] == "tie" for p in patch])
     d, patch = d[tie], patch[tie]
     mean = np.bincount(patch, d, len(block.kinds)) / np.maximum(np.bincount(patch, minlength=len(block.kinds)), 1)
@@ -111,13 +119,22 @@ class Evaluation:
     def summary(self) -> dict:
         u = self.unit
         return {
-            "strip_differences_rms_m": {"before": self.before.rms() * u, "after": self.after.rms() * u,
-                                        "cells": int(self.before.dz.size)},
+            "strip_differences_rms_m": {
+                "before": self.before.rms() * u,
+                "after": self.after.rms() * u,
+                "cells": int(self.before.dz.size),
+            },
             "strip_differences_flat_rms_m": {"before": self.before.rms(True) * u, "after": self.after.rms(True) * u},
-            "check_patches_rms_m": {"before": _rms(self.checks_before.values()) * u,
-                                    "after": _rms(self.checks_after.values()) * u, "count": len(self.checks_after)},
+            "check_patches_rms_m": {
+                "before": _rms(self.checks_before.values()) * u,
+                "after": _rms(self.checks_after.values()) * u,
+                "count": len(self.checks_after),
+            },
             "tie_patch_discrepancies_rms_m": {"before": _rms(self.ties_before) * u, "after": _rms(self.ties_after) * u},
-            "pairs_after": {k: {kk: (vv * u if kk != "cells" else vv) for kk, vv in v.items()} for k, v in self.after.per_pair().items()},
+            "pairs_after": {
+                k: {kk: (vv * u if kk != "cells" else vv) for kk, vv in v.items()}
+                for k, v in self.after.per_pair().items()
+            },
         }
 
 
@@ -126,10 +143,18 @@ def evaluate(block: LaserBlock, result: Adjustment, after: dict[str, StripPatche
     final = result.parameters.values()
     popt = _options(block)[0]
     args = (popt.size, popt.flat_deg, popt.max_angle_deg, popt.max_offset)
-    before, after_d = common_rows(strip_differences({s: f.patches for s, f in block.found.items()}, *args),
-                                  strip_differences(after, *args))
-    return Evaluation(before, after_d, check_patches(block, initial), check_patches(block, final),
-                      tie_discrepancies(block, initial), tie_discrepancies(block, final), block_unit(block))
+    before, after_d = common_rows(
+        strip_differences({s: f.patches for s, f in block.found.items()}, *args), strip_differences(after, *args)
+    )
+    return Evaluation(
+        before,
+        after_d,
+        check_patches(block, initial),
+        check_patches(block, final),
+        tie_discrepancies(block, initial),
+        tie_discrepancies(block, final),
+        block_unit(block),
+    )
 
 
 def parameter_table(block: LaserBlock, result: Adjustment) -> list[dict]:
@@ -143,23 +168,41 @@ def parameter_table(block: LaserBlock, result: Adjustment) -> list[dict]:
         if not block_p.free.any():
             continue
         for c in st.significance(key):
-            angular = isinstance(key, (Boresight, ScanIndex)) or (isinstance(key, Correction) and c.component[:-1] in ("roll", "pitch", "heading"))
+            angular = isinstance(key, (Boresight, ScanIndex)) or (
+                isinstance(key, Correction) and c.component[:-1] in ("roll", "pitch", "heading")
+            )
             f = np.degrees(1.0) if angular else (1.0 if isinstance(key, (LeverArm, RangeOffset)) else unit)
-            rows.append({"key": key.label, "component": c.component, "value": c.value * f, "sigma": c.sigma * f,
-                         "unit": "deg" if angular else "m", "t": c.t, "significant": c.significant})
+            rows.append(
+                {
+                    "key": key.label,
+                    "component": c.component,
+                    "value": c.value * f,
+                    "sigma": c.sigma * f,
+                    "unit": "deg" if angular else "m",
+                    "t": c.t,
+                    "significant": c.significant,
+                }
+            )
     return rows
 
 
 def results_dict(block: LaserBlock, result: Adjustment, evaluation: Evaluation | None) -> dict:
     st = result.statistics
-    reg = [{"key": r.key.label, "component": r.component, "sigma": r.sigma, "reason": r.reason}
-           for r in result.solution.regularisation]
+    reg = [
+        {"key": r.key.label, "component": r.component, "sigma": r.sigma, "reason": r.reason}
+        for r in result.solution.regularisation
+    ]
     return {
         "mode": block.mode,
-        "mode_description": ("trajectory: GPS/IMU correction polynomials, calibration, tie planes" if block.mode == "trajectory"
-                             else "points (provisional solution, no trajectory): XYZ correction polynomials in time per strip"),
-        "strips": {s: {"returns": f.count, "t_start": f.t_start, "t_end": f.t_end, "planar_cells": int(f.patches.cells.size)}
-                   for s, f in block.found.items()},
+        "mode_description": (
+            "trajectory: GPS/IMU correction polynomials, calibration, tie planes"
+            if block.mode == "trajectory"
+            else "points (provisional solution, no trajectory): XYZ correction polynomials in time per strip"
+        ),
+        "strips": {
+            s: {"returns": f.count, "t_start": f.t_start, "t_end": f.t_end, "planar_cells": int(f.patches.cells.size)}
+            for s, f in block.found.items()
+        },
         "patches": {k: int(sum(1 for x in block.kinds if x == k)) for k in ("tie", "control", "check")},
         "sigma0": st.sigma0,
         "accounting": st.accounting.as_dict(),
@@ -178,8 +221,14 @@ def write_results(path: Path, data: dict) -> None:
     os.replace(tmp, path)
 
 
-def adjust_project(project_path, out: Path | None, ground: Path | None = None, callback: ProgressCallback = no_progress,
-                   write_strips: bool = True, **overrides) -> dict:
+def adjust_project(
+    project_path,
+    out: Path | None,
+    ground: Path | None = None,
+    callback: ProgressCallback = no_progress,
+    write_strips: bool = True,
+    **overrides,
+) -> dict:
     """The whole of ``scangeo lidar adjust``: set up, adjust, correct the strips, evaluate, report.
 
     ``ground`` defaults to the project's ``ground.csv`` when present; ``overrides`` replace
@@ -198,8 +247,12 @@ def adjust_project(project_path, out: Path | None, ground: Path | None = None, c
     result = run(block, scaled(callback, 0.4, 0.7))
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-    after = apply(block, result.parameters.values(), out if (out is not None and write_strips) else None,
-                  scaled(callback, 0.7, 0.95))
+    after = apply(
+        block,
+        result.parameters.values(),
+        out if (out is not None and write_strips) else None,
+        scaled(callback, 0.7, 0.95),
+    )
     evaluation = evaluate(block, result, after)
     results = results_dict(block, result, evaluation)
     if out is not None:

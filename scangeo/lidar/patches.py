@@ -9,6 +9,7 @@ and whose planes lie within ``max_offset`` of each other along the normal. Patch
 one per exposition class (flat, or roof faces looking to one of 8 directions) per ``thin_cell`` square:
 patches of different exposition tie the strips like points do, and the adjustment stays small.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -54,15 +55,25 @@ def cell_centres(keys: np.ndarray, size: float) -> np.ndarray:
     return np.column_stack([(ix + 0.5) * size, (iy + 0.5) * size])
 
 
-def fit_groups(xyz: np.ndarray, t: np.ndarray, group: np.ndarray, m: int, reference: np.ndarray,
-               options: PatchOptions, prior_sigma: float) -> tuple[Planes, np.ndarray]:
+def fit_groups(
+    xyz: np.ndarray,
+    t: np.ndarray,
+    group: np.ndarray,
+    m: int,
+    reference: np.ndarray,
+    options: PatchOptions,
+    prior_sigma: float,
+) -> tuple[Planes, np.ndarray]:
     """Planes of ``m`` groups (points relative to ``reference[group]``) and which are accepted."""
     rel = xyz - reference[group]
     planes = fit_planes(rel, group, m, prior_sigma, t, options.critical_value)
     planes.centroid = planes.centroid + reference
     total = planes.count + planes.rejected
-    ok = ((planes.count >= options.min_points) & (planes.sigma < options.max_sigma)
-          & (planes.rejected <= options.max_rejected * total))
+    ok = (
+        (planes.count >= options.min_points)
+        & (planes.sigma < options.max_sigma)
+        & (planes.rejected <= options.max_rejected * total)
+    )
     return planes, ok
 
 
@@ -103,7 +114,9 @@ def homologous(found: dict[str, StripPatches], options: PatchOptions, thin: bool
     """Tie patches: the same cell accepted in 2+ strips with compatible planes, thinned."""
     strips = list(found)
     cells = np.concatenate([found[s].cells for s in strips]) if strips else np.zeros(0, np.int64)
-    owner = np.concatenate([np.full(found[s].cells.size, i) for i, s in enumerate(strips)]) if strips else np.zeros(0, int)
+    owner = (
+        np.concatenate([np.full(found[s].cells.size, i) for i, s in enumerate(strips)]) if strips else np.zeros(0, int)
+    )
     index = np.concatenate([np.arange(found[s].cells.size) for s in strips]) if strips else np.zeros(0, int)
     order = np.argsort(cells, kind="stable")
     cells, owner, index = cells[order], owner[order], index[order]
@@ -121,7 +134,7 @@ def homologous(found: dict[str, StripPatches], options: PatchOptions, thin: bool
         n_ref, c_ref = planes[ref].normal[idx[ref]], planes[ref].centroid[idx[ref]]
         members = []
         for j, (p, i) in enumerate(zip(planes, idx)):
-            if (p.normal[i] @ n_ref >= cos_max and abs(n_ref @ (p.centroid[i] - c_ref)) <= options.max_offset):
+            if p.normal[i] @ n_ref >= cos_max and abs(n_ref @ (p.centroid[i] - c_ref)) <= options.max_offset:
                 members.append((strips[owner[starts[k] + j]], i))
         if len(members) >= 2:
             candidates.append((int(cells[starts[k]]), members, n_ref, c_ref, weight[ref]))
@@ -146,8 +159,14 @@ def homologous(found: dict[str, StripPatches], options: PatchOptions, thin: bool
     return out
 
 
-def fit_given_patches(cloud: StripCloud, centres: np.ndarray, axes: np.ndarray, half: np.ndarray,
-                      options: PatchOptions, prior_sigma: float) -> tuple[Planes, np.ndarray]:
+def fit_given_patches(
+    cloud: StripCloud,
+    centres: np.ndarray,
+    axes: np.ndarray,
+    half: np.ndarray,
+    options: PatchOptions,
+    prior_sigma: float,
+) -> tuple[Planes, np.ndarray]:
     """Planes of the strip's returns inside each given box (centre, unit axes (2, 2), half extents)."""
     m = centres.shape[0]
     groups, pts = [], []
@@ -157,7 +176,8 @@ def fit_given_patches(cloud: StripCloud, centres: np.ndarray, axes: np.ndarray, 
         box = np.flatnonzero(np.all((cloud.xyz[:, :2] >= lo) & (cloud.xyz[:, :2] <= hi), axis=1))
         local = (cloud.xyz[box, :2] - centres[k]) @ axes[k].T
         inside = box[np.all(np.abs(local) <= half[k], axis=1)]
-        groups.append(np.full(inside.size, k)), pts.append(inside)
+        groups.append(np.full(inside.size, k))
+        pts.append(inside)
     g, sel = np.concatenate(groups), np.concatenate(pts)
     ref = np.column_stack([centres, np.zeros(m)])
     if sel.size:

@@ -7,6 +7,7 @@ normal distance of each point over the a priori sigma is its w (the redundancy n
 fit to many points are ~1); in every round the point with the largest |w| of each group is removed
 if |w| exceeds the critical value, and the planes are fitted again.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -51,8 +52,15 @@ def _moments(xyz: np.ndarray, group: np.ndarray, m: int, keep: np.ndarray):
     return n, mean, cov
 
 
-def fit_planes(xyz: np.ndarray, group: np.ndarray, m: int, prior_sigma: float, time: np.ndarray | None = None,
-               critical_value: float = 3.29, rounds: int = 5) -> Planes:
+def fit_planes(
+    xyz: np.ndarray,
+    group: np.ndarray,
+    m: int,
+    prior_sigma: float,
+    time: np.ndarray | None = None,
+    critical_value: float = 3.29,
+    rounds: int = 5,
+) -> Planes:
     """Fit a plane to each of the ``m`` groups of points ``xyz`` (n, 3); ``group`` (n,) in 0..m-1.
 
     Coordinates should be small (relative to a reference near each group) for numerical precision.
@@ -100,10 +108,15 @@ def anchors(planes: Planes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """
     phi = np.radians([0.0, 120.0, 240.0])
     a = np.sqrt(2.0) * planes.spread
-    off = (a[:, None, 0, None] * np.cos(phi)[None, :, None] * planes.axes[:, None, 0, :]
-           + a[:, None, 1, None] * np.sin(phi)[None, :, None] * planes.axes[:, None, 1, :])
+    off = (
+        a[:, None, 0, None] * np.cos(phi)[None, :, None] * planes.axes[:, None, 0, :]
+        + a[:, None, 1, None] * np.sin(phi)[None, :, None] * planes.axes[:, None, 1, :]
+    )
     pts = planes.centroid[:, None, :] + off
-    t = (planes.time[:, None] + a[:, 0, None] * np.cos(phi)[None, :] * planes.time_gradient[:, 0, None]
-         + a[:, 1, None] * np.sin(phi)[None, :] * planes.time_gradient[:, 1, None])
+    t = (
+        planes.time[:, None]
+        + a[:, 0, None] * np.cos(phi)[None, :] * planes.time_gradient[:, 0, None]
+        + a[:, 1, None] * np.sin(phi)[None, :] * planes.time_gradient[:, 1, None]
+    )
     sig = planes.sigma * np.sqrt(3.0 / np.maximum(planes.count, 1))
     return pts, t, sig

@@ -19,6 +19,7 @@
 
 Options of the adjustment itself (``[adjustment]``) are documented in :mod:`scangeo.lidar.adjust`.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -44,8 +45,9 @@ class LaserSensor:
     info: dict = field(default_factory=dict)
 
     def calibration(self) -> Calibration:
-        return Calibration.of(np.radians(self.boresight_deg), self.lever_arm_m, self.range_offset_m,
-                              np.radians(self.scan_index_deg))
+        return Calibration.of(
+            np.radians(self.boresight_deg), self.lever_arm_m, self.range_offset_m, np.radians(self.scan_index_deg)
+        )
 
 
 @dataclass(frozen=True)
@@ -88,11 +90,18 @@ class LaserProject:
         kind = s.get("kind", str)
         if kind != "laser":
             raise ProjectFileError(f"{file} [sensor] kind: expected 'laser' for scangeo lidar adjust, found {kind!r}")
-        info = {k: s.get(k, (int, float, str), None) for k in ("fov_deg", "pulse_rate_hz", "scan_rate_hz", "scan_pattern")}
-        sensor = LaserSensor(tuple(s.vector("boresight_deg", 3, [0.0, 0.0, 0.0])), tuple(s.vector("lever_arm_m", 3, [0.0, 0.0, 0.0])),
-                             s.get("range_sigma_m", float, 0.02), s.get("angle_sigma_deg", float, 0.005),
-                             s.get("range_offset_m", float, 0.0), s.get("scan_index_deg", float, 0.0),
-                             {k: v for k, v in info.items() if v is not None})
+        info = {
+            k: s.get(k, (int, float, str), None) for k in ("fov_deg", "pulse_rate_hz", "scan_rate_hz", "scan_pattern")
+        }
+        sensor = LaserSensor(
+            tuple(s.vector("boresight_deg", 3, [0.0, 0.0, 0.0])),
+            tuple(s.vector("lever_arm_m", 3, [0.0, 0.0, 0.0])),
+            s.get("range_sigma_m", float, 0.02),
+            s.get("angle_sigma_deg", float, 0.005),
+            s.get("range_offset_m", float, 0.0),
+            s.get("scan_index_deg", float, 0.0),
+            {k: v for k, v in info.items() if v is not None},
+        )
         s.finish()
         raw = data.get("strips", [])
         if not isinstance(raw, list) or not raw:

@@ -6,6 +6,7 @@ the trajectory-free mode) of the first overlapping strip pair of every planar ce
 parameters with precision and significance, regularisation notes, data snooping, patch and strip
 figures before/after.
 """
+
 from __future__ import annotations
 
 import html
@@ -24,8 +25,17 @@ def write_difference_grid(path: Path, before: Differences, after: Differences, c
     gb, (x0, y1), rows, cols = mosaic(before)
     ga, *_ = mosaic(after)
     tmp = path.with_name(path.name + ".part.tif")
-    profile = dict(driver="GTiff", width=cols, height=rows, count=2, dtype="float32", nodata=np.nan, crs=crs,
-                   transform=Affine(before.size, 0.0, x0, 0.0, -before.size, y1), compress="deflate")
+    profile = dict(
+        driver="GTiff",
+        width=cols,
+        height=rows,
+        count=2,
+        dtype="float32",
+        nodata=np.nan,
+        crs=crs,
+        transform=Affine(before.size, 0.0, x0, 0.0, -before.size, y1),
+        compress="deflate",
+    )
     with rasterio.open(tmp, "w", **profile) as dst:
         dst.write(gb, 1)
         dst.write(ga, 2)
@@ -68,31 +78,56 @@ def _table(rows: list[dict], columns: list[str]) -> str:
 
 def write_html(path: Path, results: dict, figure: str | None) -> None:
     ev = results.get("evaluation") or {}
-    parts = [f"<h1>scangeo lidar adjust</h1><p><b>mode:</b> {html.escape(results['mode_description'])}</p>",
-             f"<p>sigma0 = {results['sigma0']:.3f}; converged: {results['converged']}</p>",
-             "<h2>Accounting</h2>", _table([results["accounting"]], list(results["accounting"])),
-             "<h2>Strips</h2>", _table([{"strip": s, **v} for s, v in results["strips"].items()],
-                                       ["strip", "returns", "t_start", "t_end", "planar_cells"]),
-             "<h2>Patches</h2>", _table([results["patches"]], ["tie", "control", "check"])]
+    parts = [
+        f"<h1>scangeo lidar adjust</h1><p><b>mode:</b> {html.escape(results['mode_description'])}</p>",
+        f"<p>sigma0 = {results['sigma0']:.3f}; converged: {results['converged']}</p>",
+        "<h2>Accounting</h2>",
+        _table([results["accounting"]], list(results["accounting"])),
+        "<h2>Strips</h2>",
+        _table(
+            [{"strip": s, **v} for s, v in results["strips"].items()],
+            ["strip", "returns", "t_start", "t_end", "planar_cells"],
+        ),
+        "<h2>Patches</h2>",
+        _table([results["patches"]], ["tie", "control", "check"]),
+    ]
     if ev:
-        rows = [{"figure": k, **{kk: vv for kk, vv in v.items() if kk in ("before", "after", "cells", "count")}}
-                for k, v in ev.items() if k != "pairs_after"]
-        parts += ["<h2>Before and after</h2>", _table(rows, ["figure", "before", "after", "cells", "count"]),
-                  "<h2>Strip pairs after</h2>", _table([{"pair": k, **v} for k, v in ev["pairs_after"].items()],
-                                                       ["pair", "cells", "rms", "mean"])]
+        rows = [
+            {"figure": k, **{kk: vv for kk, vv in v.items() if kk in ("before", "after", "cells", "count")}}
+            for k, v in ev.items()
+            if k != "pairs_after"
+        ]
+        parts += [
+            "<h2>Before and after</h2>",
+            _table(rows, ["figure", "before", "after", "cells", "count"]),
+            "<h2>Strip pairs after</h2>",
+            _table([{"pair": k, **v} for k, v in ev["pairs_after"].items()], ["pair", "cells", "rms", "mean"]),
+        ]
     if figure:
-        parts.append(f'<img src="{html.escape(figure)}" alt="strip differences before and after" style="max-width:100%">')
-    parts += ["<h2>Estimated parameters</h2>",
-              _table(results["parameters"], ["key", "component", "value", "sigma", "unit", "t", "significant"])]
+        parts.append(
+            f'<img src="{html.escape(figure)}" alt="strip differences before and after" style="max-width:100%">'
+        )
+    parts += [
+        "<h2>Estimated parameters</h2>",
+        _table(results["parameters"], ["key", "component", "value", "sigma", "unit", "t", "significant"]),
+    ]
     reg = results["regularisation"]
-    parts.append("<h2>Regularisation</h2>" + (_table(reg, ["key", "component", "sigma", "reason"]) if reg
-                                                 else "<p>none: every unknown is determined</p>"))
+    parts.append(
+        "<h2>Regularisation</h2>"
+        + (_table(reg, ["key", "component", "sigma", "reason"]) if reg else "<p>none: every unknown is determined</p>")
+    )
     rej = results["rejections"]
-    parts.append("<h2>Data snooping</h2>" + (_table(rej, ["group", "patch", "w", "round"]) if rej else "<p>nothing rejected</p>"))
+    parts.append(
+        "<h2>Data snooping</h2>" + (_table(rej, ["group", "patch", "w", "round"]) if rej else "<p>nothing rejected</p>")
+    )
     parts.append("<h2>Notes</h2><ul>" + "".join(f"<li>{html.escape(n)}</li>" for n in results["notes"]) + "</ul>")
-    style = "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse}" \
-            "td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px}</style>"
+    style = (
+        "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse}"
+        "td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px}</style>"
+    )
     tmp = path.with_name(path.name + ".part")
-    tmp.write_text(f"<!doctype html><html><head><meta charset='utf-8'><title>lidar adjust</title>{style}</head>"
-                   f"<body>{''.join(parts)}</body></html>")
+    tmp.write_text(
+        f"<!doctype html><html><head><meta charset='utf-8'><title>lidar adjust</title>{style}</head>"
+        f"<body>{''.join(parts)}</body></html>"
+    )
     os.replace(tmp, path)

@@ -10,6 +10,7 @@ GPS/IMU and the nominal calibration; the trajectory CSVs are the measured GPS/IM
 patches (four surveyed points each on flat ground or roof faces) go to ground.csv; ``truth.json``
 holds every injected error, with ``c = true - measured`` as the adjustment estimates it.
 """
+
 from __future__ import annotations
 
 import json
@@ -59,7 +60,7 @@ class LaserBlockConfig:
     control_patches: int = 8
     check_patches: int = 6
     control_sigma: float = 0.01
-    moved_roof: tuple[float, ...] = ()   # (strip index, dz m): one roof in that strip moved (a blunder)
+    moved_roof: tuple[float, ...] = ()  # (strip index, dz m): one roof in that strip moved (a blunder)
     trajectory_rate_hz: float = 200.0
     time_start: float = 400000.0
 
@@ -69,7 +70,7 @@ class LaserTruth:
     """What the simulation injected (JSON-ready)."""
 
     boresight_error_deg: list
-    strips: dict = field(default_factory=dict)    # id -> {t_start, t_end, position [[a0],[a1]], attitude_deg}
+    strips: dict = field(default_factory=dict)  # id -> {t_start, t_end, position [[a0],[a1]], attitude_deg}
     moved_roof: dict | None = None
 
 
@@ -111,8 +112,8 @@ def _triangle(t: np.ndarray, rate: float) -> np.ndarray:
 @dataclass
 class StripPlan:
     id: str
-    start: np.ndarray      # (2,) project x, y
-    heading: float         # rad, clockwise from north
+    start: np.ndarray  # (2,) project x, y
+    heading: float  # rad, clockwise from north
     t0: float
     duration: float
 
@@ -137,8 +138,13 @@ def _true_trajectory(plan: StripPlan, cfg: LaserBlockConfig, t: np.ndarray, phas
     pos = np.column_stack([plan.start[0] + s * d[0], plan.start[1] + s * d[1], np.full(t.shape, cfg.height)])
     w = np.radians(cfg.attitude_wobble_deg)
     tt = t - plan.t0
-    ang = np.column_stack([w[0] * np.sin(2 * np.pi * tt / 7.0 + phase[0]), w[1] * np.sin(2 * np.pi * tt / 11.0 + phase[1]),
-                           plan.heading + w[2] * np.sin(2 * np.pi * tt / 13.0 + phase[2])])
+    ang = np.column_stack(
+        [
+            w[0] * np.sin(2 * np.pi * tt / 7.0 + phase[0]),
+            w[1] * np.sin(2 * np.pi * tt / 11.0 + phase[1]),
+            plan.heading + w[2] * np.sin(2 * np.pi * tt / 13.0 + phase[2]),
+        ]
+    )
     return pos, ang
 
 
@@ -166,8 +172,13 @@ def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = 
     if cfg.moved_roof:
         k = int(np.argmin(np.hypot(scene.buildings.x - 0.5 * cfg.strip_spacing, scene.buildings.y)))
         moved = (str(int(cfg.moved_roof[0]) + 1), k, float(cfg.moved_roof[1]))
-        truth.moved_roof = {"strip": moved[0], "building": k, "dz": moved[2],
-                            "x": float(scene.buildings.x[k]), "y": float(scene.buildings.y[k])}
+        truth.moved_roof = {
+            "strip": moved[0],
+            "building": k,
+            "dz": moved[2],
+            "x": float(scene.buildings.x[k]),
+            "y": float(scene.buildings.y[k]),
+        }
     strips_toml = []
     for plan in _plans(cfg):
         n = int(plan.duration * cfg.pulse_rate_hz)
@@ -190,9 +201,16 @@ def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = 
         # the GPS/IMU errors, c = true - measured, linear in tau over the strip's span
         t_lo, t_hi = float(t[0]), float(t[-1])
         pos_coef = np.vstack([rng.normal(0, cfg.gps_shift_sigma), rng.normal(0, cfg.gps_drift_sigma)])
-        att_coef = np.radians(np.vstack([rng.normal(0, cfg.imu_offset_sigma_deg, 3), rng.normal(0, cfg.imu_drift_sigma_deg, 3)]))
-        truth.strips[plan.id] = {"t_start": t_lo, "t_end": t_hi, "position_m": pos_coef.tolist(),
-                                 "attitude_deg": np.degrees(att_coef).tolist(), "returns": int(t.size)}
+        att_coef = np.radians(
+            np.vstack([rng.normal(0, cfg.imu_offset_sigma_deg, 3), rng.normal(0, cfg.imu_drift_sigma_deg, 3)])
+        )
+        truth.strips[plan.id] = {
+            "t_start": t_lo,
+            "t_end": t_hi,
+            "position_m": pos_coef.tolist(),
+            "attitude_deg": np.degrees(att_coef).tolist(),
+            "returns": int(t.size),
+        }
         pos_m = pos[ok] - _correction(pos_coef, t, t_lo, t_hi)
         ang_m = ang[ok] - _correction(att_coef, t, t_lo, t_hi)
         p_las = georeference(pos_m, ang_m, Polar(t, rho, theta, np.zeros_like(t)), nominal)
@@ -219,15 +237,17 @@ def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = 
         R = R_ENU_NED @ rph_to_matrix(an[:, 0], an[:, 1], an[:, 2])
         stream = GpsImuStream.from_project(ProjectTrajectory.from_rotations(tn, pn, R), frame.frame)
         write_trajectory_csv(out / "nav" / f"{plan.id}.csv", stream)
-        strips_toml.append(f'[[strips]]\nid = "{plan.id}"\nlas = "strips/{plan.id}{las_extension}"\n'
-                           f'trajectory = "nav/{plan.id}.csv"\n')
+        strips_toml.append(
+            f'[[strips]]\nid = "{plan.id}"\nlas = "strips/{plan.id}{las_extension}"\ntrajectory = "nav/{plan.id}.csv"\n'
+        )
     _write_ground(out, scene, frame, cfg, rng)
     lat0, lon0 = np.degrees(frame.frame.lat0), np.degrees(frame.frame.lon0)
-    project = (f'[project]\ncrs = "{cfg.crs}"\norigin = [{lat0:.10f}, {lon0:.10f}, {frame.frame.h0:.4f}]\n\n'
-               f'[sensor]\nkind = "laser"\nfov_deg = {cfg.fov_deg}\npulse_rate_hz = {cfg.pulse_rate_hz}\n'
-               f'scan_rate_hz = {cfg.scan_rate_hz}\nrange_sigma_m = {cfg.range_sigma}\n'
-               f'boresight_deg = {list(cfg.boresight_deg)}\nlever_arm_m = {list(cfg.lever_arm)}\n\n'
-               + "\n".join(strips_toml))
+    project = (
+        f'[project]\ncrs = "{cfg.crs}"\norigin = [{lat0:.10f}, {lon0:.10f}, {frame.frame.h0:.4f}]\n\n'
+        f'[sensor]\nkind = "laser"\nfov_deg = {cfg.fov_deg}\npulse_rate_hz = {cfg.pulse_rate_hz}\n'
+        f"scan_rate_hz = {cfg.scan_rate_hz}\nrange_sigma_m = {cfg.range_sigma}\n"
+        f"boresight_deg = {list(cfg.boresight_deg)}\nlever_arm_m = {list(cfg.lever_arm)}\n\n" + "\n".join(strips_toml)
+    )
     (out / "project.toml").write_text(project)
     summary = {"config": asdict(cfg), "truth": asdict(truth), "buildings": scene.buildings.count}
     (out / "truth.json").write_text(json.dumps(summary, indent=1))
@@ -249,7 +269,7 @@ def _write_ground(out: Path, scene: LaserScene, frame: MapFrame, cfg: LaserBlock
     ring = 8.0 * np.array([[np.cos(a), np.sin(a)] for a in np.linspace(0, 2 * np.pi, 13)] + [[0.0, 0.0]])
     n_roof = 0
     for i in range(total):
-        if i % 3 == 2 or n_roof >= len(roofs):   # every third patch on flat ground
+        if i % 3 == 2 or n_roof >= len(roofs):  # every third patch on flat ground
             for _ in range(1000):
                 c = rng.uniform(-half, half, 2)
                 if np.all(scene.building_at(c[0] + ring[:, 0], c[1] + ring[:, 1])[0] < 0):
@@ -268,7 +288,9 @@ def _write_ground(out: Path, scene: LaserScene, frame: MapFrame, cfg: LaserBlock
             xy = c + 2.5 * su * e1 + 2.0 * sv * e2
             z = scene.height(np.array([xy[0]]), np.array([xy[1]]))[0] + rng.normal(0, cfg.control_sigma)
             X, Y, Z = frame.project_to_map(np.array([[xy[0], xy[1], z]]))
-            rows.append(f"{pid}.{j + 1},{pid},{X[0]:.4f},{Y[0]:.4f},{Z[0]:.4f},{cfg.control_sigma},{cfg.control_sigma},{role}")
+            rows.append(
+                f"{pid}.{j + 1},{pid},{X[0]:.4f},{Y[0]:.4f},{Z[0]:.4f},{cfg.control_sigma},{cfg.control_sigma},{role}"
+            )
     tmp = out / "ground.csv.part"
     tmp.write_text("point,patch,x,y,z,sigma_xy,sigma_z,role\n" + "\n".join(rows) + "\n")
     os.replace(tmp, out / "ground.csv")

@@ -6,6 +6,7 @@ of any point is found without a search: the lattice cell gives the only candidat
 Returns are cast onto the surface by a fixed-point iteration on the height; returns that do not
 converge (they graze a wall) are dropped as occluded.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -41,12 +42,19 @@ class LaserScene:
     spacing: float
     origin: tuple[float, float]
     shape: tuple[int, int]
-    slot: np.ndarray            # (ny, nx) building index of each lattice cell, -1 when empty
+    slot: np.ndarray  # (ny, nx) building index of each lattice cell, -1 when empty
     buildings: Buildings
 
     @classmethod
-    def random(cls, bounds: tuple[float, float, float, float], rng: np.random.Generator, spacing: float = 50.0,
-               fill: float = 0.5, z0: float = 0.0, slope: tuple[float, float] = (0.005, -0.003)) -> LaserScene:
+    def random(
+        cls,
+        bounds: tuple[float, float, float, float],
+        rng: np.random.Generator,
+        spacing: float = 50.0,
+        fill: float = 0.5,
+        z0: float = 0.0,
+        slope: tuple[float, float] = (0.005, -0.003),
+    ) -> LaserScene:
         x0, y0, x1, y1 = bounds
         nx, ny = int(np.ceil((x1 - x0) / spacing)), int(np.ceil((y1 - y0) / spacing))
         take = rng.random((ny, nx)) < fill
@@ -61,8 +69,15 @@ class LaserScene:
         pitch = np.radians(rng.uniform(25.0, 40.0, n))
         slot = np.full((ny, nx), -1, dtype=np.int64)
         slot[iy, ix] = np.arange(n)
-        b = Buildings(x0 + (ix + 0.5) * spacing + jitter[:, 0], y0 + (iy + 0.5) * spacing + jitter[:, 1], azimuth,
-                      half_l, half_w, eave, eave + half_w * np.tan(pitch))
+        b = Buildings(
+            x0 + (ix + 0.5) * spacing + jitter[:, 0],
+            y0 + (iy + 0.5) * spacing + jitter[:, 1],
+            azimuth,
+            half_l,
+            half_w,
+            eave,
+            eave + half_w * np.tan(pitch),
+        )
         return cls(z0, slope[0], slope[1], spacing, (x0, y0), (ny, nx), slot, b)
 
     def ground(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -107,8 +122,9 @@ class LaserScene:
         n = np.array([-grad[0], -grad[1], 1.0])
         return np.array([x, y, float(self.height(np.array([x]), np.array([y]))[0])]), n / np.linalg.norm(n)
 
-    def cast(self, origin: np.ndarray, direction: np.ndarray, iterations: int = 12,
-             tolerance: float = 1e-4) -> tuple[np.ndarray, np.ndarray]:
+    def cast(
+        self, origin: np.ndarray, direction: np.ndarray, iterations: int = 12, tolerance: float = 1e-4
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Ranges along unit rays (downward) to the surface, and which rays converged."""
         o, d = np.asarray(origin, float), np.asarray(direction, float)
         z = self.ground(o[:, 0], o[:, 1])

@@ -1,4 +1,5 @@
 """scangeo lidar adjust on a small simulated laser block with known truth (issue 16)."""
+
 from __future__ import annotations
 
 import json
@@ -10,18 +11,19 @@ import pytest
 
 from scangeo.adjustment.checks import check_jacobian
 from scangeo.adjustment.keys import Boresight, Correction, LeverArm, Plane, RangeOffset, ScanIndex
+from scangeo.adjustment.models import GpsImuModel, ModelSet
 from scangeo.cli import main
 from scangeo.lidar.adjust import LaserOptions, build, run
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, georeference, recover
 from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors
 from scangeo.lidar.outputs import apply, evaluate
 from scangeo.lidar.project import LaserProject
-from scangeo.adjustment.models import GpsImuModel, ModelSet
 from scangeo.simulate.laser import LaserBlockConfig, simulate_laser
 from scangeo.trajectory.stream import ProjectTrajectory
 
-SMALL = LaserBlockConfig(strip_length=500.0, pulse_rate_hz=10000.0, moved_roof=(1.0, 0.4), control_patches=6,
-                         check_patches=5)
+SMALL = LaserBlockConfig(
+    strip_length=500.0, pulse_rate_hz=10000.0, moved_roof=(1.0, 0.4), control_patches=6, check_patches=5
+)
 
 
 @pytest.fixture(scope="module")
@@ -43,22 +45,26 @@ def truth_values(block, truth):
     values = block.parameters.values()
     values[Boresight()] = values[Boresight()] + np.radians(truth["boresight_error_deg"])
     for sid, s in truth["strips"].items():
-        values[Correction(sid)] = np.r_[s["position_m"][0], s["position_m"][1], np.radians(s["attitude_deg"][0]),
-                                        np.radians(s["attitude_deg"][1])]
+        values[Correction(sid)] = np.r_[
+            s["position_m"][0], s["position_m"][1], np.radians(s["attitude_deg"][0]), np.radians(s["attitude_deg"][1])
+        ]
     return values
 
 
 def test_recovered_observations_reproduce_the_points():
     t = np.linspace(0.0, 10.0, 2001)
-    traj = ProjectTrajectory(t, np.column_stack([0 * t, 60 * t, 0 * t + 500]),
-                             np.column_stack([0.01 * np.sin(t), 0.02 * np.cos(t), 0 * t + 0.1]))
+    traj = ProjectTrajectory(
+        t,
+        np.column_stack([0 * t, 60 * t, 0 * t + 500]),
+        np.column_stack([0.01 * np.sin(t), 0.02 * np.cos(t), 0 * t + 0.1]),
+    )
     sampler = TrajectorySampler(traj)
     cal = Calibration.of([0.001, -0.002, 0.003], [0.1, 0.2, -0.3], 0.05, 0.001)
     rng = np.random.default_rng(1)
     tt = rng.uniform(1, 9, 40)
     polar = Polar(tt, rng.uniform(450, 550, 40), rng.uniform(-0.3, 0.3, 40), np.zeros(40))
     pts = georeference(*sampler.at(tt), polar, cal)
-    rec = recover(pts, tt + 0.05, sampler, cal, solve_time=True)   # time found from the scan plane
+    rec = recover(pts, tt + 0.05, sampler, cal, solve_time=True)  # time found from the scan plane
     assert np.abs(rec.time - tt).max() < 1e-9
     assert np.abs(rec.range - polar.range).max() < 1e-8
     assert np.abs(rec.angle - polar.angle).max() < 1e-11
@@ -67,8 +73,11 @@ def test_recovered_observations_reproduce_the_points():
 def test_jacobians_match_finite_differences():
     rng = np.random.default_rng(2)
     t = np.linspace(0.0, 10.0, 2001)
-    traj = ProjectTrajectory(t, np.column_stack([0 * t, 60 * t, 0 * t + 500]),
-                             np.column_stack([0.01 * np.sin(t), 0.02 * np.cos(t), 0 * t + 0.1]))
+    traj = ProjectTrajectory(
+        t,
+        np.column_stack([0 * t, 60 * t, 0 * t + 500]),
+        np.column_stack([0.01 * np.sin(t), 0.02 * np.cos(t), 0 * t + 0.1]),
+    )
     sampler = TrajectorySampler(traj)
     n = 12
     tt = rng.uniform(1, 9, n)
@@ -79,16 +88,23 @@ def test_jacobians_match_finite_differences():
     normals = rng.normal(0, 0.3, (4, 3)) + [0, 0, 1]
     frames = PatchFrames.from_points([f"p{i}" for i in range(4)], pts[::3] + 0.5, normals)
     models = ModelSet([GpsImuModel("s", ("s",), 0.0, 10.0, 2, 1, False, np.zeros(3), None, {"s": (-np.inf, np.inf)})])
-    values = {Correction("s"): rng.normal(0, 1e-3, models.models["s"].size), Boresight(): cal.boresight + 1e-3,
-              LeverArm(): cal.lever_arm, RangeOffset(): np.array([0.02]), ScanIndex(): np.array([1e-4])}
+    values = {
+        Correction("s"): rng.normal(0, 1e-3, models.models["s"].size),
+        Boresight(): cal.boresight + 1e-3,
+        LeverArm(): cal.lever_arm,
+        RangeOffset(): np.array([0.02]),
+        ScanIndex(): np.array([1e-4]),
+    }
     values.update({k: rng.normal(0, 0.01, 3) for k in frames.keys})
     position_only = replace_models_points(models)
-    for group in (StripAnchors("s", patch, patch, np.full(n, 0.01), frames, models, pts, tt, polar, sampler),
-                  StripAnchors("s", patch, patch, np.full(n, 0.01), frames, position_only, pts, tt),
-                  ControlPatchPoints(np.arange(n).astype(str), patch, pts, np.full(n, 0.01), frames)):
+    for group in (
+        StripAnchors("s", patch, patch, np.full(n, 0.01), frames, models, pts, tt, polar, sampler),
+        StripAnchors("s", patch, patch, np.full(n, 0.01), frames, position_only, pts, tt),
+        ControlPatchPoints(np.arange(n).astype(str), patch, pts, np.full(n, 0.01), frames),
+    ):
         vals = {k: values[k] for k in group.keys()}
         if getattr(group, "trajectory", True) is False:
-            vals[Correction("s")] = values[Correction("s")][:position_only.models["s"].size]
+            vals[Correction("s")] = values[Correction("s")][: position_only.models["s"].size]
         check = check_jacobian(group, vals, {**{k: 1e-7 for k in vals}, Correction("s"): 1e-6})
         assert check.max_relative_error < 1e-5, check.worst()
 
@@ -113,7 +129,7 @@ def test_simulated_block_recovers_the_truth(block_dir, adjusted):
     after = apply(block, v)
     ev = evaluate(block, result, after)
     noise = evaluate(block, result, apply(block, true))
-    assert ev.before.rms(True) > 0.05                      # dm-level discrepancies before
+    assert ev.before.rms(True) > 0.05  # dm-level discrepancies before
     assert ev.after.rms(True) < 1.2 * noise.after.rms(True)  # within 20 % of the range noise alone
     checks_after = np.sqrt(np.mean(np.square(list(ev.checks_after.values()))))
     checks_before = np.sqrt(np.mean(np.square(list(ev.checks_before.values()))))
@@ -133,9 +149,16 @@ def test_moved_roof_is_found_by_data_snooping(block_dir, adjusted):
 
 def test_too_high_degree_completes_with_a_regularisation_note(block_dir, adjusted):
     project = LaserProject.load(block_dir)
-    options = LaserOptions(position_degree=8, attitude_degree=8, coefficient_sigma_m=1e6, coefficient_sigma_deg=1e6,
-                           constant_sigma_deg=0, calibrate=("boresight", "lever_arm"), snooping=False)
-    block = build(project, options, found=adjusted[0].found)   # no control: the datum is undetermined too
+    options = LaserOptions(
+        position_degree=8,
+        attitude_degree=8,
+        coefficient_sigma_m=1e6,
+        coefficient_sigma_deg=1e6,
+        constant_sigma_deg=0,
+        calibrate=("boresight", "lever_arm"),
+        snooping=False,
+    )
+    block = build(project, options, found=adjusted[0].found)  # no control: the datum is undetermined too
     result = run(block)
     names = {r.key for r in result.solution.regularisation}
     assert any(isinstance(k, (Correction, Boresight, LeverArm)) for k in names)

@@ -1,0 +1,89 @@
+"""Benchmark: scangeo lidar adjust on a simulated block of laser strips (issue 16 targets).
+
+Default: 9 parallel strips + 1 cross strip of ~2 million returns each (100 kHz, 1200 m at 60 m/s).
+Measures patch finding over all strips with ``--workers`` processes, and one strip alone in this
+process (the serial baseline: ratio = strips x one-strip time / parallel time), the adjustment
+(set-up of groups and priors, Gauss-Newton, data snooping, statistics), and the peak memory
+(max RSS of this process and of the worker processes).
+
+Run:  python tests/benchmarks/lidar_adjust.py [--strips 9] [--pulse-rate 100000] [--workers 2] [--dir DIR]
+The simulated block is kept in DIR (default /tmp/scangeo-lidar-bench-...) and reused.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import time
+from pathlib import Path
+
+from scangeo.lidar.adjust import LaserOptions, _pass1, build, find_all, run
+from scangeo.lidar.project import LaserProject
+from scangeo.simulate.laser import LaserBlockConfig, simulate_laser
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--strips", type=int, default=9, help="parallel strips (plus one cross strip)")
+    ap.add_argument("--pulse-rate", type=float, default=100000.0)
+    ap.add_argument("--length", type=float, default=1200.0)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--dir", type=Path, default=None)
+    a = ap.parse_args()
+    cfg = LaserBlockConfig(
+        strips=a.strips,
+        strip_length=a.length,
+        pulse_rate_hz=a.pulse_rate,
+        strip_spacing=220.0,
+        control_patches=12,
+        check_patches=8,
+    )
+    root = a.dir or Path(f"/tmp/scangeo-lidar-bench-{a.strips}-{int(a.pulse_rate)}-{int(a.length)}")
+    if not (root / "project.toml").exists():
+        t = time.perf_counter()
+        summary = simulate_laser(root, cfg)
+        print(f"simulated {len(summary['truth']['strips'])} strips in {time.perf_counter() - t:.1f} s")
+    truth = json.loads((root / "truth.json").read_text())["truth"]
+    returns = sum(s["returns"] for s in truth["strips"].values())
+    print(
+        f"block: {len(truth['strips'])} strips, {returns / 1e6:.2f} M returns "
+        f"({returns / len(truth['strips']) / 1e6:.2f} M per strip)"
+    )
+    project = LaserProject.load(root)
+    options = LaserOptions(workers=a.workers)
+    popt, prior = options.patches, project.sensor.range_sigma_m
+    from scangeo.lidar.adjust import read_patch_ground
+
+    given = read_patch_ground(root / "ground.csv")
+    t = time.perf_counter()
+    _pass1((project.strips[0], project.crs, popt, prior, given))
+    one = time.perf_counter() - t
+    t = time.perf_counter()
+    found = find_all(project, popt, prior, given, a.workers)
+    par = time.perf_counter() - t
+    n = len(project.strips)
+    print(
+        f"patch finding: one strip {one:.1f} s in this process; all {n} strips with {a.workers} workers {par:.1f} s "
+        f"(serial estimate {n * one:.1f} s, ratio {n * one / par:.2f}); target < 60 s"
+    )
+    t = time.perf_counter()
+    block = build(project, options, root / "ground.csv", found=found)
+    setup = time.perf_counter() - t
+    t = time.perf_counter()
+    result = run(block)
+    adj = time.perf_counter() - t
+    acc = result.statistics.accounting
+    print(
+        f"adjustment: set-up {setup:.1f} s, solve + snooping + statistics {adj:.1f} s (total {setup + adj:.1f} s; "
+        f"target < 30 s); {acc.observations} observations, {acc.unknowns} unknowns, "
+        f"{len(result.rejections)} rejected, {result.full_solutions} full solutions, "
+        f"sigma0 {result.statistics.sigma0:.3f}"
+    )
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024**2
+    print(f"peak memory: this process {own:.2f} GB, largest worker {kids:.2f} GB; target < 4 GB")
+
+
+if __name__ == "__main__":
+    main()
