@@ -15,7 +15,7 @@ from itertools import product
 import numba as nb
 import numpy as np
 
-from scangeo.errors import ScangeoError
+from scangeo.errors import GeometryError
 
 
 def _exponents(degree: int) -> np.ndarray:
@@ -92,7 +92,7 @@ class LocalPolynomialMap:
             if err < tolerance:
                 return best
         assert best is not None  # max_degree >= 1: at least one fit was tried
-        raise ScangeoError(
+        raise GeometryError(
             f"no polynomial up to degree {max_degree} reproduces the map conversion over the block to "
             f"{tolerance * 1000:.2f} mm (best {best.max_error * 1000:.2f} mm); the block is too large"
         )

@@ -9,7 +9,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from scangeo.errors import ProjectFileError, ScangeoError
+from scangeo.errors import OptionsError, ProjectFileError, ScangeoError
 
 #: wavelength range of the default matching bands, nm (visible and red edge: never thermal)
 DEFAULT_BAND_RANGE_NM = (400.0, 760.0)
@@ -88,7 +88,7 @@ class MatchOptions:
         ]
         for ok, key, expected in checks:
             if not ok:
-                raise ScangeoError(f"match: {key} must be {expected}, got {getattr(self, key)!r}")
+                raise OptionsError(f"match: {key} must be {expected}, got {getattr(self, key)!r}")
         object.__setattr__(self, "bands", tuple(int(b) for b in self.bands))
         object.__setattr__(self, "reference_bands", tuple(int(b) for b in self.reference_bands))
 

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from scangeo.dtm import DTM
-from scangeo.errors import ProjectFileError, ScangeoError
+from scangeo.errors import GeometryError, MissingDependencyError, ProjectFileError
 from scangeo.io.project import Project
 from scangeo.match.consistency import local_affine_inliers, precision_from_loo
 from scangeo.match.options import MatchOptions
@@ -155,7 +155,7 @@ def match_project(project_path: str | Path, variant: str = "DG", references: Seq
         for r in refs:
             r.close()
     if not tasks:
-        raise ScangeoError(f"{project.root}: no strips overlap and no reference covers a strip: nothing to match "
+        raise GeometryError(f"{project.root}: no strips overlap and no reference covers a strip: nothing to match "
                            f"(strips: {', '.join(ids)})")
     results = run_tasks(tasks, workers, scheduler, progress)
     dtm = project.dtm if reference_dtm is None else DTM.open(reference_dtm, project.map_frame)
@@ -306,7 +306,7 @@ def _run_dask(tasks: list[MatchTask], address: str, on_done) -> list[TaskResult]
         from dask.distributed import Client
         from dask.distributed import as_completed as dask_completed
     except ImportError as exc:  # pragma: no cover - depends on the installation
-        raise ScangeoError("--scheduler needs dask[distributed] (pip install 'scangeo[cluster]')") from exc
+        raise MissingDependencyError("--scheduler needs dask[distributed] (pip install 'scangeo[cluster]')") from exc
     with Client(address) as client:
         futures = [client.submit(run_task, t, pure=False, key=f"match-{t.kind}-{t.name}-{i}")
                    for i, t in enumerate(tasks)]

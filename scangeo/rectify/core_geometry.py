@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 from scangeo.dtm import DTM
-from scangeo.errors import ScangeoError
+from scangeo.errors import GeometryError, ScangeoError
 from scangeo.frames import MapFrame
 from scangeo.localmap import LocalPolynomialMap, poly_eval_point
 from scangeo.sensors import StripGeometry as CoreGeometry
@@ -151,7 +151,7 @@ class CoreStripGeometry:
                               max_iter: int = 8):
         """``ground_to_image_near`` for project-frame points (n, 3)."""
         if not self.monotonic:
-            raise ScangeoError("ground_to_image_near: the strip over-scans; use ground_to_image")
+            raise GeometryError("ground_to_image_near: the strip over-scans; use ground_to_image")
         line, pixel, status, steps = self.core.ground_to_image_near(
             p_P, np.asarray(line0, dtype=float).ravel(), np.asarray(pixel0, dtype=float).ravel(), tol_line,
             max_step_lines, max_iter)

@@ -17,7 +17,7 @@ import numpy as np
 import rasterio
 import rasterio.shutil
 
-from scangeo.errors import ScangeoError
+from scangeo.errors import RectifyOptionsError
 from scangeo.io.schema import setting
 from scangeo.rectify.output_grid import OutputGrid
 
@@ -53,9 +53,10 @@ class GeoTiffProfile:
 
     def __post_init__(self) -> None:
         if self.compress not in _COMPRESSIONS:
-            raise ScangeoError(f"GeoTIFF profile: compress {self.compress!r} is not one of {', '.join(_COMPRESSIONS)}")
+            raise RectifyOptionsError(
+                f"GeoTIFF profile: compress {self.compress!r} is not one of {', '.join(_COMPRESSIONS)}")
         if self.blocksize < 16 or self.blocksize % 16:
-            raise ScangeoError(f"GeoTIFF profile: blocksize must be a multiple of 16, got {self.blocksize}")
+            raise RectifyOptionsError(f"GeoTIFF profile: blocksize must be a multiple of 16, got {self.blocksize}")
 
     def creation_options(self, dtype: np.dtype) -> dict:
         """GDAL creation options for the final file."""

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scangeo.errors import ScangeoError
+from scangeo.errors import RectifyOptionsError
 
 #: ``ground_to_image(x, y, H) -> (line, pixel)``: map points to fractional image coordinates.
 GroundToImage = Callable[[np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
@@ -50,13 +50,14 @@ class InverseMapOptions:
 
     def __post_init__(self) -> None:
         if not self.max_error_px > 0:
-            raise ScangeoError(f"inverse map: max_error_px must be positive, got {self.max_error_px}")
+            raise RectifyOptionsError(f"inverse map: max_error_px must be positive, got {self.max_error_px}")
         if self.coarse_step < 1:
-            raise ScangeoError(f"inverse map: coarse_step must be at least 1, got {self.coarse_step}")
+            raise RectifyOptionsError(f"inverse map: coarse_step must be at least 1, got {self.coarse_step}")
         if not (0 < self.tol_line <= min(0.1, self.max_error_px)):
-            raise ScangeoError(f"inverse map: tol_line must be in (0, min(0.1, max_error_px)], got {self.tol_line}")
+            raise RectifyOptionsError(
+                f"inverse map: tol_line must be in (0, min(0.1, max_error_px)], got {self.tol_line}")
         if not (self.max_step_lines > 0 and self.max_iter >= 1):
-            raise ScangeoError("inverse map: max_step_lines must be positive and max_iter at least 1")
+            raise RectifyOptionsError("inverse map: max_step_lines must be positive and max_iter at least 1")
 
 
 @dataclass

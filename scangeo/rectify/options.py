@@ -11,7 +11,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from scangeo.errors import ScangeoError
+from scangeo.errors import ProjectFileError, RectifyOptionsError
 from scangeo.io.schema import read, setting
 from scangeo.rectify.geotiff import GeoTiffProfile
 from scangeo.rectify.inverse_map import InverseMapOptions
@@ -71,14 +71,14 @@ class RectifyOptions:
     def __post_init__(self) -> None:
         check_resampling(self.resampling)
         if self.resolution is not None and not (self.resolution > 0 and math.isfinite(self.resolution)):
-            raise ScangeoError(f"rectify: resolution must be a positive number, got {self.resolution!r}")
+            raise RectifyOptionsError(f"rectify: resolution must be a positive number, got {self.resolution!r}")
         unknown = [name for name in self.layers if name not in LAYERS]
         if unknown:
-            raise ScangeoError(f"rectify: unknown layer {unknown[0]!r} (expected one of {', '.join(LAYERS)})")
+            raise RectifyOptionsError(f"rectify: unknown layer {unknown[0]!r} (expected one of {', '.join(LAYERS)})")
         if self.memory_budget_mb < 16:
-            raise ScangeoError(f"rectify: memory_budget_mb {self.memory_budget_mb} is below 16 MiB")
+            raise RectifyOptionsError(f"rectify: memory_budget_mb {self.memory_budget_mb} is below 16 MiB")
         if self.tile_size is not None and (self.tile_size < 16 or self.tile_size % 16):
-            raise ScangeoError(f"rectify: tile_size must be a multiple of 16, got {self.tile_size}")
+            raise RectifyOptionsError(f"rectify: tile_size must be a multiple of 16, got {self.tile_size}")
         object.__setattr__(self, "layers", tuple(self.layers))
         if self.bounds is not None:
             object.__setattr__(self, "bounds", tuple(float(v) for v in self.bounds))
@@ -101,4 +101,7 @@ class RectifyOptions:
     def from_dict(cls, table: dict, source: str = "rectify options") -> RectifyOptions:
         """Options from a ``[rectify]`` TOML table; every key checked (:mod:`scangeo.io.schema`),
         errors naming ``source`` (the file) and the key."""
-        return read(cls, table, source, "rectify")
+        try:
+            return read(cls, table, source, "rectify")
+        except ProjectFileError as exc:
+            raise RectifyOptionsError(str(exc)) from exc

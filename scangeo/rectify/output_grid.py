@@ -16,7 +16,7 @@ import numpy as np
 from affine import Affine
 from rasterio.windows import Window
 
-from scangeo.errors import ScangeoError
+from scangeo.errors import GeometryError, RectifyOptionsError
 
 
 @dataclass(frozen=True)
@@ -41,9 +41,9 @@ class OutputGrid:
 
     def __post_init__(self) -> None:
         if not (self.resolution > 0 and math.isfinite(self.resolution)):
-            raise ScangeoError(f"output grid: resolution must be a positive number, got {self.resolution!r}")
+            raise RectifyOptionsError(f"output grid: resolution must be a positive number, got {self.resolution!r}")
         if self.width < 1 or self.height < 1:
-            raise ScangeoError(f"output grid: empty grid ({self.width} x {self.height} cells)")
+            raise GeometryError(f"output grid: empty grid ({self.width} x {self.height} cells)")
 
     @classmethod
     def from_bounds(
@@ -55,9 +55,9 @@ class OutputGrid:
         """
         xmin, ymin, xmax, ymax = (float(v) for v in bounds)
         if not (resolution > 0):
-            raise ScangeoError(f"output grid: resolution must be positive, got {resolution!r}")
+            raise RectifyOptionsError(f"output grid: resolution must be positive, got {resolution!r}")
         if not all(math.isfinite(v) for v in (xmin, ymin, xmax, ymax)) or xmax <= xmin or ymax <= ymin:
-            raise ScangeoError(f"output grid: invalid bounds {bounds!r} (need xmin < xmax, ymin < ymax)")
+            raise RectifyOptionsError(f"output grid: invalid bounds {bounds!r} (need xmin < xmax, ymin < ymax)")
         eps = 1e-9
         x0 = math.floor(xmin / resolution + eps) * resolution
         y0 = math.floor(ymin / resolution + eps) * resolution
@@ -111,20 +111,20 @@ class OutputGrid:
     def offset_in(self, other: OutputGrid) -> tuple[int, int]:
         """(row, col) of this grid's top-left cell in ``other`` (both aligned, same resolution)."""
         if not math.isclose(self.resolution, other.resolution, rel_tol=1e-12):
-            raise ScangeoError(
+            raise GeometryError(
                 f"output grids differ in resolution ({self.resolution} and {other.resolution})"
             )
         col = (self.xmin - other.xmin) / self.resolution
         row = (other.ymax - self.ymax) / self.resolution
         if abs(col - round(col)) > 1e-6 or abs(row - round(row)) > 1e-6:
-            raise ScangeoError("output grids are not aligned to a common origin")
+            raise GeometryError("output grids are not aligned to a common origin")
         return int(round(row)), int(round(col))
 
     @classmethod
     def union(cls, grids: list[OutputGrid]) -> OutputGrid:
         """The aligned grid covering all ``grids`` (same CRS and resolution)."""
         if not grids:
-            raise ScangeoError("output grid union of no grids")
+            raise GeometryError("output grid union of no grids")
         b = np.array([g.bounds for g in grids])
         return cls.from_bounds(
             grids[0].crs, (b[:, 0].min(), b[:, 1].min(), b[:, 2].max(), b[:, 3].max()), grids[0].resolution
@@ -143,6 +143,6 @@ class OutputGrid:
 def nice_resolution(value: float) -> float:
     """``value`` rounded to two significant digits (2.487 -> 2.5, 0.3142 -> 0.31)."""
     if not (value > 0 and math.isfinite(value)):
-        raise ScangeoError(f"cannot derive a resolution from the ground pixel size {value!r}")
+        raise GeometryError(f"cannot derive a resolution from the ground pixel size {value!r}")
     exponent = math.floor(math.log10(value)) - 1
     return float(round(value, -exponent))

@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 from rasterio.windows import Window
 
-from scangeo.errors import ScangeoError
+from scangeo.errors import RectifyOptionsError
 
 #: resampling name -> (OpenCV interpolation flag, kernel radius in pixels)
 RESAMPLING = {
@@ -27,7 +27,7 @@ _REMAP_DTYPES = {np.dtype(t) for t in ("uint8", "uint16", "int16", "float32", "f
 
 def check_resampling(name: str) -> str:
     if name not in RESAMPLING:
-        raise ScangeoError(f"resampling {name!r} is not one of {', '.join(RESAMPLING)}")
+        raise RectifyOptionsError(f"resampling {name!r} is not one of {', '.join(RESAMPLING)}")
     return name
 
 

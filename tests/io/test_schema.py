@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from scangeo.adjustment.variants import read_variants
-from scangeo.errors import ProjectFileError
+from scangeo.errors import ProjectFileError, RectifyOptionsError
 from scangeo.io.project_schema import read_project_file
 from scangeo.io.schema import keys, read, setting, type_text
 from scangeo.rectify.options import RectifyOptions
@@ -92,7 +92,7 @@ def test_units_ranges_and_types_are_metadata():
     ({"geotiff": {"blocksize": "512"}}, "geotiff.blocksize", "expected an integer >= 16, found '512'"),
 ])
 def test_rectify_options(table, key, expected):
-    with pytest.raises(ProjectFileError) as info:
+    with pytest.raises(RectifyOptionsError) as info:
         RectifyOptions.from_dict(table, "rectify.toml")
     assert str(info.value).startswith(f"rectify.toml [rectify.{key}]: {expected}")
 
