@@ -91,7 +91,8 @@ class PushbroomPlane:
         """Pixel of ``tan(across)`` and ``dpixel / dtan(across)``."""
         sen = self.sensor
         pixel = sen.pixel_of(np.column_stack([np.zeros_like(tx), tx, np.ones_like(tx)]))
-        if sen.focal_length is not None:  # pinhole: x_u = x_d (1 + k1 r^2 + k2 r^4) = f tan(across), pixel = x_d / pitch + pp
+        # pinhole: x_u = x_d (1 + k1 r^2 + k2 r^4) = f tan(across), pixel = x_d / pitch + pp
+        if sen.focal_length is not None:
             assert sen.principal_point is not None
             xd = (pixel - sen.principal_point) * sen.pitch
             r2 = xd * xd + sen.line_offset**2

@@ -16,7 +16,7 @@ import numpy as np
 import rasterio
 from rasterio.windows import Window
 
-from scangeo.errors import ScangeoError
+from scangeo.errors import InputFileError
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify.geotiff import GeoTiffProfile, describe, finalise, remove_partials, working_profile
 from scangeo.rectify.output_grid import OutputGrid
@@ -32,14 +32,14 @@ def _grid_of(src) -> OutputGrid:
 def _view_zenith_band(layers) -> int:
     names = (layers.tags().get("layers") or "").split()
     if "view_zenith" not in names:
-        raise ScangeoError(f"{layers.name}: no view_zenith layer (rectify with the mosaic option)")
+        raise InputFileError(f"{layers.name}: no view_zenith layer (rectify with the mosaic option)")
     return names.index("view_zenith") + 1
 
 
 def build_mosaic(
     orthos: list[Path],
     output: Path,
-    profile: GeoTiffProfile = GeoTiffProfile(),
+    profile: GeoTiffProfile = GeoTiffProfile(),  # noqa: B008 (a frozen profile)
     progress: ProgressCallback = no_progress,
 ) -> Path:
     """Mosaic the orthoimages ``orthos`` (with their ``.layers.tif``) into ``output``."""

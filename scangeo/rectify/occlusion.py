@@ -113,14 +113,14 @@ def _splat(line, pixel, rng, half_l, half_p, zbuf):
     lines, pixels = zbuf.shape
     n = line.size
     for i in range(n):
-        l, p, r = line[i], pixel[i], rng[i]
-        if not (np.isfinite(l) and np.isfinite(p) and np.isfinite(r)):
+        ln, p, r = line[i], pixel[i], rng[i]
+        if not (np.isfinite(ln) and np.isfinite(p) and np.isfinite(r)):
             continue
         hl = min(half_l[i], MAX_HALF_EXTENT) if np.isfinite(half_l[i]) else 0.5
         hp = min(half_p[i], MAX_HALF_EXTENT) if np.isfinite(half_p[i]) else 0.5
         # the cell's own pixel, and every pixel whose centre lies inside the footprint box
-        a0 = max(min(int(np.ceil(l - hl)), int(np.floor(l + 0.5))), 0)
-        a1 = min(max(int(np.floor(l + hl)), int(np.floor(l + 0.5))), lines - 1)
+        a0 = max(min(int(np.ceil(ln - hl)), int(np.floor(ln + 0.5))), 0)
+        a1 = min(max(int(np.floor(ln + hl)), int(np.floor(ln + 0.5))), lines - 1)
         b0 = max(min(int(np.ceil(p - hp)), int(np.floor(p + 0.5))), 0)
         b1 = min(max(int(np.floor(p + hp)), int(np.floor(p + 0.5))), pixels - 1)
         for a in range(a0, a1 + 1):
@@ -133,9 +133,9 @@ def _splat(line, pixel, rng, half_l, half_p, zbuf):
 def _lookup(line, pixel, zbuf, out):
     lines, pixels = zbuf.shape
     for i in range(line.size):
-        l, p = line[i], pixel[i]
-        if np.isfinite(l) and np.isfinite(p):
-            a = int(np.floor(l + 0.5))
+        ln, p = line[i], pixel[i]
+        if np.isfinite(ln) and np.isfinite(p):
+            a = int(np.floor(ln + 0.5))
             b = int(np.floor(p + 0.5))
             if 0 <= a < lines and 0 <= b < pixels:
                 out[i] = zbuf[a, b]

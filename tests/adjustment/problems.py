@@ -40,7 +40,7 @@ class Distances(ObservationGroup):
 
     name = "distances"
 
-    def __init__(self, stations, d, sigma, key=Unknown("P")) -> None:
+    def __init__(self, stations, d, sigma, key=Unknown("P")) -> None:  # noqa: B008 (keys are frozen)
         self.stations = np.asarray(stations, float)
         self.d = np.asarray(d, float)
         self.sigma = np.broadcast_to(np.asarray(sigma, float), self.d.shape).copy()
@@ -65,7 +65,7 @@ class Polynomial(ObservationGroup):
 
     name = "polynomial"
 
-    def __init__(self, x, y, sigma, degree, key=Unknown("c")) -> None:
+    def __init__(self, x, y, sigma, degree, key=Unknown("c")) -> None:  # noqa: B008 (keys are frozen)
         self.x, self.y = np.asarray(x, float), np.asarray(y, float)
         self.sigma = np.full(self.x.size, float(sigma))
         self.V = self.x[:, None] ** np.arange(degree + 1)[None, :]

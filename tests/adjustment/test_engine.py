@@ -29,15 +29,15 @@ def test_levelling_matches_dense_least_squares(backend):
     names = [n for n in truth if n != "P0"]
     A_all = dense_design(group, list(truth))
     A = A_all[:, 1:]
-    l = group.dh / group.sigma + A_all[:, 0] * truth["P0"] * -1.0
-    x, *_ = np.linalg.lstsq(A, l, rcond=None)
+    obs = group.dh / group.sigma + A_all[:, 0] * truth["P0"] * -1.0
+    x, *_ = np.linalg.lstsq(A, obs, rcond=None)
     got = np.array([result.parameters[Unknown(n)].values[0] for n in names])
     np.testing.assert_allclose(got, x, atol=1e-9)
     # the estimate is close to the truth (2 mm levelling)
     assert np.max(np.abs(got - np.array([truth[n] for n in names]))) < 0.02
     # statistics against dense formulas
     stats = result.statistics
-    v = A @ x - l
+    v = A @ x - obs
     f = A.shape[0] - A.shape[1]
     assert stats.redundancy == f == stats.accounting.observations - stats.accounting.unknowns
     assert stats.sigma0 == pytest.approx(np.sqrt(v @ v / f), rel=1e-9)

@@ -31,7 +31,8 @@ PIXELS = 800
 
 
 def look_angle_table(pixels: int = PIXELS) -> np.ndarray:
-    """``pixel, along_deg, across_deg``: +-20.5 deg across (slightly nonlinear), a smile of 0.05 deg (about a line at the edges)."""
+    """``pixel, along_deg, across_deg``: +-20.5 deg across (slightly nonlinear), a smile of 0.05 deg
+    (about a line at the edges)."""
     u = (np.arange(pixels) - (pixels - 1) / 2) / ((pixels - 1) / 2)
     across = 20.0 * u + 0.5 * u**3
     along = 0.15 + 0.05 * u**2

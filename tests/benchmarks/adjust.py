@@ -56,7 +56,8 @@ t0 = time.perf_counter()
 r = run_variant(sys.argv[1], sys.argv[2], sys.argv[3] if len(sys.argv) > 3 else None)
 sol, st = r.adjustment.solution, r.adjustment.statistics
 print(json.dumps({"seconds": time.perf_counter() - t0, "iterations": len(sol.iterations),
-    "solves": getattr(r.adjustment, "full_solutions", r.adjustment.snooping_rounds + 1), "rounds": r.adjustment.snooping_rounds, "per_iteration": [round(i.seconds, 3) for i in sol.iterations],
+    "solves": getattr(r.adjustment, "full_solutions", r.adjustment.snooping_rounds + 1),
+    "rounds": r.adjustment.snooping_rounds, "per_iteration": [round(i.seconds, 3) for i in sol.iterations],
     "unknowns": st.accounting.unknowns, "observations": st.accounting.observations, "backend": sol.factor.backend,
     "sigma0": st.sigma0, "rejected": len(r.adjustment.rejections),
     "cpu_s": sum(resource.getrusage(resource.RUSAGE_SELF)[:2]),

@@ -61,7 +61,8 @@ def main() -> None:
     files = write_report(root)
     print(f"write_report ({files.figures} figures, GeoPackage)        {time.perf_counter() - t:6.1f} s", flush=True)
     print(
-        f"peak resident memory of this process           {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:6.0f} MiB"
+        "peak resident memory of this process           "
+        f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:6.0f} MiB"
     )
     if args.demo:
         from scangeo.reports.demo import run_demo

@@ -34,7 +34,8 @@ def main() -> None:
     inner = (traj.time > traj.time[0] + 1) & (traj.time < traj.time[-1] - 1)
     print(f"{len(stream)} samples, {stream.rate_hz:.0f} Hz, {traj.time[-1] - traj.time[0]:.1f} s")
     print(
-        "| knot spacing | fit: position rms / max (mm) | fit: roll, pitch, heading rms (urad) | fit: attitude max (urad) "
+        "| knot spacing | fit: position rms / max (mm) | fit: roll, pitch, heading rms (urad) "
+        "| fit: attitude max (urad) "
         "| 50 Hz held out: position rms / max (mm) | held out: attitude rms / max (urad) |"
     )
     print("|---|---|---|---|---|---|")
