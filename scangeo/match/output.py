@@ -3,8 +3,9 @@
 ``points.csv`` and ``ground.csv`` (docs/formats.md) keep every row whose id does not carry a
 matched prefix, byte for byte; the rows of the kinds measured again (ties always, control and check
 when a reference was given) are replaced. Both files are written to a temporary name and renamed.
-The match report goes beside them: ``match_report.json`` (everything) and ``match_cells.csv``
-(one row per cell: where the points are).
+The match report goes beside them: ``match_report.json`` (everything), ``match_cells.csv``
+(one row per cell: where the points are) and ``match_points.csv`` (one row per matched point: its
+ground position, kind and number of strips; for GIS).
 """
 from __future__ import annotations
 

@@ -41,6 +41,7 @@ log = logging.getLogger(__name__)
 
 REPORT = "match_report.json"
 CELLS = "match_cells.csv"
+POINTS_CSV = "match_points.csv"
 
 
 @dataclass
@@ -206,7 +207,7 @@ def _tie_rows(task: MatchTask, res_t: TaskResult, res: float, options: MatchOpti
         pid = f"{options.tie_prefix}{a}_{b}_{n:04d}"
         for sid, m in p.strips.items():
             result.point_rows.append(_point_row(pid, sid, m, p.sigma[sid]))
-        report.setdefault("_positions", []).append([p.x, p.y, "tie", len(p.strips)])
+        report.setdefault("_positions", []).append([p.x, p.y, "tie", len(p.strips), pid])
 
 
 def _point_row(pid: str, sid: str, m, sigma: float) -> dict:
@@ -240,7 +241,7 @@ def _control_rows(task: MatchTask, res_t: TaskResult, res: float, options: Match
         result.ground_rows.append({"point": pid, "x": f"{p.x:.4f}", "y": f"{p.y:.4f}", "z": f"{z[n]:.4f}",
                                    "sigma_xy": f"{sigma_xy:.3g}", "sigma_z": f"{sigma_z:.3g}", "role": role})
         result.point_rows.append(_point_row(pid, sid, p.strips[sid], p.sigma[sid]))
-        report.setdefault("_positions", []).append([p.x, p.y, role, 1])
+        report.setdefault("_positions", []).append([p.x, p.y, role, 1, pid])
 
 
 def _summary(report: dict, result: MatchResult, res: float) -> None:
@@ -272,6 +273,8 @@ def _write_cells(path: Path, report: dict) -> None:
         for (x, y), n in zip(o.get("cell_centres", []), o.get("points_per_cell", [])):
             rows.append([name, f"{x:.1f}", f"{y:.1f}", n])
     write_csv(path, ["overlap", "x", "y", "points"], rows)
+    write_csv(path.with_name(POINTS_CSV), ["point", "kind", "x", "y", "strips"],
+              ([p[4], p[2], f"{p[0]:.3f}", f"{p[1]:.3f}", p[3]] for p in report["positions"]))
 
 
 def run_tasks(tasks: list[MatchTask], workers: int, scheduler: str | None, progress: ProgressCallback

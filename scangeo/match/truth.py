@@ -67,3 +67,25 @@ def match_errors(project_dir: str | Path, prefix: str = "M") -> MatchErrors:
                 ids.append(pid)
     return MatchErrors(np.array(ties).reshape(-1, 2), np.array(ids, dtype=object),
                        np.array(control).reshape(-1, 2))
+
+
+def matched_points_project(source: str | Path, target: str | Path, prefix: str = "M",
+                           check_prefix: str = "K") -> Path:
+    """A copy of a simulated project whose points are only the matched ones plus the simulator's
+    check points (ids starting with ``check_prefix``, kept as role ``check``): the project on which
+    an adjustment with matched points is compared with the same adjustment on the simulator's points.
+    """
+    import shutil
+
+    source, target = Path(source), Path(target)
+    shutil.copytree(source, target, ignore=shutil.ignore_patterns("results", "variants.toml"))
+    pts = ImagePoints.read(source / "points.csv")
+    ground = GroundPoints.read(source / "ground.csv")
+    keep = np.array([str(p).startswith((prefix, check_prefix)) for p in pts.point])
+    ImagePoints(pts.point[keep], pts.strip[keep], pts.line[keep], pts.pixel[keep], pts.sigma_px[keep],
+                pts.file_line[keep]).write(target / "points.csv")
+    keep_g = np.array([str(p).startswith(prefix) or (str(p).startswith(check_prefix) and r == "check")
+                       for p, r in zip(ground.point, ground.role)])
+    GroundPoints(ground.point[keep_g], ground.xyz[keep_g], ground.sigma_xy[keep_g], ground.sigma_z[keep_g],
+                 ground.role[keep_g], ground.file_line[keep_g]).write(target / "ground.csv")
+    return target
