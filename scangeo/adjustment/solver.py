@@ -112,11 +112,14 @@ def prior_group(parameters: Parameters) -> PseudoObservations | None:
     """The pseudo-observations of every free component that has a finite prior sigma."""
     keys, comps, vals, sig, names = [], [], [], [], []
     for b in parameters:
-        if b.prior_sigma is None:
+        if b.prior_sigma is None or b.prior_values is None:
             continue
         for i in np.flatnonzero(b.free & np.isfinite(b.prior_sigma)):
-            keys.append(b.key), comps.append(i), vals.append(b.prior_values[i])
-            sig.append(b.prior_sigma[i]), names.append(b.names[i])
+            keys.append(b.key)
+            comps.append(i)
+            vals.append(b.prior_values[i])
+            sig.append(b.prior_sigma[i])
+            names.append(b.names[i])
     if not keys:
         return None
     return PseudoObservations("priors", keys, np.array(comps), np.array(vals), np.array(sig), names)
@@ -164,7 +167,8 @@ class Solver:
             r = np.where(act, lin.residuals, 0.0)
             if not act.all():  # zero the rejected rows' entries (in place: no sparse product)
                 J.data *= np.repeat(act, np.diff(J.indptr))
-            res.append(r), jac.append(J)
+            res.append(r)
+            jac.append(J)
             slices.append(slice(start, start + group.n_rows))
             start += group.n_rows
         J = sp.vstack(jac, format="csr") if jac else sp.csr_matrix((0, self.layout.n))
@@ -185,9 +189,13 @@ class Solver:
         for col in columns:
             key, i = self.layout.locate(int(col))
             block = self.parameters[key]
-            sigma = float(block.regularisation_sigma[i]) / tighten
-            keys.append(key), comps.append(i), vals.append(values[key][i])
-            sig.append(sigma), names.append(block.names[i])
+            reg = block.regularisation_sigma
+            sigma = (float(reg[i]) if reg is not None else 1.0) / tighten
+            keys.append(key)
+            comps.append(i)
+            vals.append(values[key][i])
+            sig.append(sigma)
+            names.append(block.names[i])
             self.regularisation.append(RegularisationNote(key, block.names[i], sigma, reason))
             self._regularised[int(col)] = self._regularised.get(int(col), -1) + 1
             log.warning("regularised %s[%s] with sigma %g: %s", key.label, block.names[i], sigma, reason)
