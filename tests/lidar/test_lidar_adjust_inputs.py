@@ -150,5 +150,6 @@ def test_leeward_recovered_observations_reproduce_the_returns_to_the_documented_
 def pyproj_latlon(las, zone: int):
     import pyproj
 
-    lon, lat = pyproj.Transformer.from_crs(32600 + zone, 4326, always_xy=True).transform(np.asarray(las.x), np.asarray(las.y))
+    to_geo = pyproj.Transformer.from_crs(32600 + zone, 4326, always_xy=True)
+    lon, lat = to_geo.transform(np.asarray(las.x), np.asarray(las.y))
     return np.asarray(lat), np.asarray(lon)
