@@ -10,7 +10,7 @@ import fnmatch
 from dataclasses import dataclass
 from pathlib import Path
 
-from scangeo.errors import ProjectFileError
+from scangeo.errors import MissingFileError, ProjectFileError
 from scangeo.io.schema import read, setting
 from scangeo.io.toml_config import load_toml
 
@@ -132,7 +132,7 @@ def find_variant(project_root, name: str, variants_file=None) -> Variant:
     if path.exists():
         variants.update(read_variants(path))
     elif variants_file:
-        raise ProjectFileError(f"{path}: no such variants file")
+        raise MissingFileError(f"{path}: no such variants file")
     if name not in variants:
         raise ProjectFileError(f"{path}: no variant {name!r} (variants: {', '.join(variants)})")
     return variants[name]

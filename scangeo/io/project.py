@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scangeo.errors import ProjectFileError
+from scangeo.errors import MissingFileError, ProjectFileError
 from scangeo.frames import Geoid, MapFrame, ProjectFrame, parse_crs
 from scangeo.io.project_schema import SensorKeys, StripKeys, read_project_file
 from scangeo.io.toml_config import load_toml
@@ -106,7 +106,7 @@ class Project:
         path = Path(path)
         file = path / "project.toml" if path.is_dir() else path
         if not file.exists():
-            raise ProjectFileError(f"{file}: no such project file")
+            raise MissingFileError(f"{file}: no such project file")
         root = file.parent
         keys = read_project_file(load_toml(file), file)  # every key checked (scangeo.io.schema)
         p = keys.project

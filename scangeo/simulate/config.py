@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from importlib.resources.abc import Traversable
 from pathlib import Path
 
-from scangeo.errors import ProjectFileError
+from scangeo.errors import MissingFileError, ProjectFileError
 from scangeo.io.schema import Setting, read, setting
 from scangeo.resources import preset_file, preset_names
 
@@ -241,7 +241,7 @@ def preset_path(name: str | Path) -> Path | Traversable:
     candidate = Path(name)
     if candidate.suffix == ".toml" or candidate.exists():
         if not candidate.is_file():
-            raise ProjectFileError(f"{candidate}: preset file not found")
+            raise MissingFileError(f"{candidate}: preset file not found")
         return candidate
     path = preset_file(str(name))
     if path is None:
