@@ -35,6 +35,7 @@ from scangeo.progress import ProgressCallback, no_progress
 from scangeo.reports import figures, html
 from scangeo.reports.comparison import Comparison
 from scangeo.reports.corrections import breaks_of, correction_series, gpsimu_series, problem_strips, true_gps_error
+from scangeo.reports.diagnosis_section import diagnosis_section
 from scangeo.reports.geopackage import write_geopackage
 from scangeo.reports.reliability import reliability_section
 from scangeo.reports.residual_vectors import ResidualVectors, check_vectors
@@ -290,6 +291,7 @@ def write_report(
     ):
         step(title)
         sections.append(make())
+    sections.insert(1, diagnosis_section(root, comparison))  # scangeo diagnose, recommendation, correlations
     sections.append(_notes_section(project, comparison))
     shown = [n for n in dict.fromkeys([comparison.reference, comparison.best]) if n in names]
     sections.append(reliability_section(project.root / "results", shown))  # MDB and external reliability maps
