@@ -19,6 +19,8 @@ def add_parser(subparsers, common) -> None:
     p.add_argument("--seed", type=int, default=None, help="random seed (default: the preset's)")
     p.add_argument("--no-rectify", dest="rectify", action="store_false", help="skip the rectification")
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
+    p.add_argument("--matched", action="store_true",
+                   help="also compare the strategies on points measured by 'scangeo match' (a second table)")
     p.set_defaults(func=run)
 
 
@@ -29,8 +31,11 @@ def run(args) -> int:
 
     preset = "quick" if args.quick else args.preset
     result = run_demo(args.out, preset, seed=args.seed, rectify=args.rectify, overwrite=args.overwrite,
-                      callback=progress_of(args))
+                      matched=args.matched, callback=progress_of(args))
     print(text_table(*markdown_tables(result.comparison)["check points"]))
+    if result.matched is not None:
+        print("\nthe same on matched ties and control (scangeo match; OUT/matched):")
+        print(text_table(*markdown_tables(result.matched)["check points"]))
     print(f"best variant: {result.best}")
     if result.ortho:
         print(f"orthoimages: {result.ortho}")

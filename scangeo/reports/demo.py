@@ -1,7 +1,7 @@
 """The demo: simulate the reference block, compare every strategy, rectify with the best, write the report.
 
 :func:`run_demo` is what ``scangeo demo`` does (docs/reports.md): the ``vienna2000`` preset (three
-strips of 7,000 lines, the middle one the problem strip; DESIGN section 7) simulated with images
+strips of 7,000 lines, the middle one the problem strip; the reference case of docs/reports.md) simulated with images
 into OUT, the default variants compared (``OUT/results/comparison.*``), the strips rectified with
 the best variant's orientation (``OUT/results/BEST/ortho/``), and the HTML report with the
 GeoPackage of residual vectors (``OUT/results/report.html``, ``residuals.gpkg``).
@@ -32,10 +32,11 @@ class DemoResult:
     geopackage: Path | None
     ortho: Path | None = None
     seconds: dict[str, float] = field(default_factory=dict)
+    matched: object = None  # the comparison on matched points (``matched=True``)
 
 
 def run_demo(out="demo", preset: str = "vienna2000", *, seed: int | None = None, rectify: bool = True,
-             overwrite: bool = False, overrides: dict | None = None,
+             overwrite: bool = False, overrides: dict | None = None, matched: bool = False,
              callback: ProgressCallback = no_progress) -> DemoResult:
     """Simulate ``preset`` into ``out``, compare the default variants, rectify with the best, report.
 
@@ -46,6 +47,9 @@ def run_demo(out="demo", preset: str = "vienna2000", *, seed: int | None = None,
     seed : overrides the preset's seed.
     rectify : rectify the strips with the best variant (needs the images).
     overrides : nested preset overrides (``scangeo.simulate.config.load_preset``).
+    matched : also measure ties and control with ``scangeo match`` (the truth orthoimage as the
+        reference) and compare the same variants on a copy ``OUT/matched`` whose points are only the
+        matched ones plus the simulator's check points (docs/match.md).
     callback : progress ``callback(done, total, message)`` over the whole run.
     """
     from scangeo.reports.comparison import compare_project
@@ -62,7 +66,7 @@ def run_demo(out="demo", preset: str = "vienna2000", *, seed: int | None = None,
         return scaled(callback, a, b, 1.0)
 
     t = time.perf_counter()
-    config = load_preset(preset, merge({"output": {"truth_ortho": False}}, overrides or {}))
+    config = load_preset(preset, merge({"output": {"truth_ortho": matched}}, overrides or {}))
     simulate(root, config, seed=seed, overwrite=overwrite, progress=stage("simulate"))
     seconds["simulate"] = time.perf_counter() - t
 
@@ -71,6 +75,17 @@ def run_demo(out="demo", preset: str = "vienna2000", *, seed: int | None = None,
     write_comparison(comparison)
     seconds["compare"] = time.perf_counter() - t
     best = comparison.best
+    on_matched = None
+    if matched:
+        t = time.perf_counter()
+        from scangeo.match import match_project
+        from scangeo.match.truth import matched_points_project
+
+        match_project(root, references=[root / "truth" / "ortho.tif"], workers=2)
+        copy = matched_points_project(root, root / "matched")
+        on_matched = compare_project(copy)
+        write_comparison(on_matched)
+        seconds["match"] = time.perf_counter() - t
 
     ortho = None
     if rectify and best is not None and config.output.images:
@@ -85,7 +100,7 @@ def run_demo(out="demo", preset: str = "vienna2000", *, seed: int | None = None,
     files = write_report(root, callback=stage("report"))
     seconds["report"] = time.perf_counter() - t
     callback(1.0, 1.0, "demo: done")
-    return DemoResult(root, comparison, best, files.html, files.geopackage, ortho, seconds)
+    return DemoResult(root, comparison, best, files.html, files.geopackage, ortho, seconds, on_matched)
 
 
 __all__ = ["DemoResult", "STAGES", "run_demo"]
