@@ -1,7 +1,7 @@
 """scangeo: georeferencing of airborne line-scanner imagery.
 
 Orientation spline, GPS/IMU models with correction functions, hybrid least-squares adjustment,
-ground <-> image on a DTM, and rectification. See docs/ and ../shared/DESIGN.md.
+ground <-> image on a DTM, and rectification. The documentation is in docs/ of the source tree.
 
 Importing scangeo makes numba use its ``workqueue`` threading layer unless the user chose one
 (``NUMBA_THREADING_LAYER``): the OpenMP layer's threads spin after every parallel region and take

@@ -1,6 +1,6 @@
 """Rotation matrices from roll, pitch, heading and back; their derivatives.
 
-Convention (DESIGN section 2): ``R_LB = Rz(heading) Ry(pitch) Rx(roll)`` rotates body-frame vectors
+Convention (docs/conventions.md): ``R_LB = Rz(heading) Ry(pitch) Rx(roll)`` rotates body-frame vectors
 (x forward, y right, z down) into a north-east-down frame. Angles in radians. All functions are
 vectorised: angles of shape ``(n,)`` give matrices of shape ``(n, 3, 3)``.
 """

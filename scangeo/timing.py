@@ -1,6 +1,6 @@
 """Line <-> time: ``t0 + line / line_rate`` or a per-line time table (linear between entries).
 
-A line's time is the time of its centre pixel (DESIGN section 3). Lines are 0-based, fractional
+A line's time is the time of its centre pixel (docs/conventions.md). Lines are 0-based, fractional
 lines are allowed; times outside the table are extrapolated with the first/last line interval.
 """
 from __future__ import annotations

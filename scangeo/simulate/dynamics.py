@@ -8,8 +8,8 @@ position (metres). Two kinds:
   frequencies between the configured periods, amplitudes falling as 1/f (a turbulence-like
   spectrum), scaled to the configured standard deviation; smooth, so a cubic spline at the GPS/IMU
   rate represents it to far below a millimetre.
-* ``ReplayDynamics``: roll, pitch, heading and height deviations of a real trajectory (e.g. the
-  SBET text in ../shared/data/trajectory), taken from a straight part of it, high-passed (a moving
+* ``ReplayDynamics``: roll, pitch, heading and height deviations of a real trajectory (e.g. an
+  SBET text export), taken from a straight part of it, high-passed (a moving
   average of ``period_s[1]`` removed) and mirrored end to end to cover any duration; the other
   channels spectral.
 """
