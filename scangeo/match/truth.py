@@ -81,11 +81,13 @@ def matched_points_project(source: str | Path, target: str | Path, prefix: str =
     shutil.copytree(source, target, ignore=shutil.ignore_patterns("results", "variants.toml"))
     pts = ImagePoints.read(source / "points.csv")
     ground = GroundPoints.read(source / "ground.csv")
-    keep = np.array([str(p).startswith((prefix, check_prefix)) for p in pts.point])
+    # the matched check points go: both projects are judged on the same (simulator's) check points
+    matched_check = {str(p) for p, r in zip(ground.point, ground.role) if str(p).startswith(prefix) and r == "check"}
+    keep = np.array([str(p).startswith((prefix, check_prefix)) and str(p) not in matched_check for p in pts.point])
     ImagePoints(pts.point[keep], pts.strip[keep], pts.line[keep], pts.pixel[keep], pts.sigma_px[keep],
                 pts.file_line[keep]).write(target / "points.csv")
-    keep_g = np.array([str(p).startswith(prefix) or (str(p).startswith(check_prefix) and r == "check")
-                       for p, r in zip(ground.point, ground.role)])
+    keep_g = np.array([(str(p).startswith(prefix) and r != "check")
+                       or (str(p).startswith(check_prefix) and r == "check") for p, r in zip(ground.point, ground.role)])
     GroundPoints(ground.point[keep_g], ground.xyz[keep_g], ground.sigma_xy[keep_g], ground.sigma_z[keep_g],
                  ground.role[keep_g], ground.file_line[keep_g]).write(target / "ground.csv")
     return target
