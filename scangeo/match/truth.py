@@ -87,7 +87,8 @@ def matched_points_project(source: str | Path, target: str | Path, prefix: str =
     ImagePoints(pts.point[keep], pts.strip[keep], pts.line[keep], pts.pixel[keep], pts.sigma_px[keep],
                 pts.file_line[keep]).write(target / "points.csv")
     keep_g = np.array([(str(p).startswith(prefix) and r != "check")
-                       or (str(p).startswith(check_prefix) and r == "check") for p, r in zip(ground.point, ground.role)])
+                       or (str(p).startswith(check_prefix) and r == "check")
+                       for p, r in zip(ground.point, ground.role)])
     GroundPoints(ground.point[keep_g], ground.xyz[keep_g], ground.sigma_xy[keep_g], ground.sigma_z[keep_g],
                  ground.role[keep_g], ground.file_line[keep_g]).write(target / "ground.csv")
     return target
