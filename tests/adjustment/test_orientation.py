@@ -1,6 +1,6 @@
 """orientation.json: the adjusted orientation as a file, and the one builder of adjusted geometry.
 
-A variant with a split GPS/IMU model and a calibrated boresight and scan index is adjusted and
+A variant with a split GPS/IMU model and a calibrated boresight and scan scale is adjusted and
 written; the geometry rebuilt from orientation.json alone (no adjustment objects: the project,
 points.csv, ground.csv and the file) reproduces the variant's check-point residuals; ``locate
 --variant`` answers with it; bad files are named with their key.
@@ -38,7 +38,7 @@ from scangeo.simulate.config import load_preset
 from scangeo.timing import LineTiming
 
 VARIANT = Variant("S2CAL", "S", strips=(StripModels("01", position_degree=1, breaks_lines=(200.0,)),),
-                  calibrate=("boresight", "index_error"))
+                  calibrate=("boresight", "scale_error"))
 
 
 @pytest.fixture(scope="module")
@@ -55,7 +55,7 @@ def adjusted(tmp_path_factory):
 def test_geometry_from_the_file_alone_reproduces_the_check_residuals(adjusted):
     root, result = adjusted
     doc = read_orientation(root / "results" / VARIANT.name / "orientation.json")
-    assert doc.variant == VARIANT.name and doc.adjusted and doc.calibrated == ("boresight", "index_error")
+    assert doc.variant == VARIANT.name and doc.adjusted and doc.calibrated == ("boresight", "scale_error")
     # only the project, its point files and orientation.json
     project = Project.load(root)
     points, ground = ImagePoints.read(root / "points.csv"), GroundPoints.read(root / "ground.csv")
@@ -79,10 +79,10 @@ def test_the_file_holds_the_adjusted_values_in_si_units(adjusted):
     data = json.loads((root / "results" / VARIANT.name / "orientation.json").read_text())
     assert data["schema"] == SCHEMA and data["units"] == {"length": "m", "angle": "rad", "time": "s"}
     p = result.adjustment.parameters
-    from scangeo.adjustment.keys import Boresight, Knots, ScanIndex
+    from scangeo.adjustment.keys import Boresight, Knots, ScanScale
 
     assert data["mounting"]["boresight"] == p[Boresight()].values.tolist()  # radians, exactly
-    assert data["sensor"]["index_error"] == float(p[ScanIndex()].values[0])
+    assert data["sensor"]["scale_error"] == float(p[ScanScale()].values[0]) != 0.0
     strip = next(s for s in data["strips"] if s["id"] == "01")
     assert np.array_equal(np.reshape(strip["spline"]["coefficients"], -1), p[Knots("01")].values)
     models = {m["id"]: m for m in data["gpsimu_models"]}
