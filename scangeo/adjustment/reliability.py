@@ -19,7 +19,9 @@ With whitened rows (residual / sigma, Jacobian / sigma), ``N = J^T J`` and the r
   :class:`OrientationProbe`), and Baarda's bias-to-noise ratio ``sqrt_lambda = delta0 sqrt((1 - r) / r)``:
   no function ``f`` of the unknowns moves by more than ``sqrt_lambda * sigma_f`` (a priori).
 
-Everything comes from the factor of the last solution: one solve per row (in chunks), never a dense
+Everything comes from the factor of the last solution and its selected inverse: the effects on the
+ground points from the selected inverse (the unknowns of one observation share its pattern), the
+effects on the strips' ground positions by one solve per probe position and axis, never a dense
 inverse. Rejected rows and pseudo-observations get NaN.
 """
 from __future__ import annotations
@@ -108,7 +110,7 @@ def _ground_columns(solution: Solution, groups, rows_of_group: list[np.ndarray])
 
 def compute_reliability(solution: Solution, statistics: Statistics, probes: Sequence[OrientationProbe] = (),
                         alpha0: float = ALPHA0, beta: float = BETA, external: bool = True,
-                        chunk: int = 256) -> Reliability:
+                        chunk: int = 2048) -> Reliability:
     """Redundancy numbers, MDBs and external reliability of every active observation row.
 
     Parameters
@@ -117,7 +119,7 @@ def compute_reliability(solution: Solution, statistics: Statistics, probes: Sequ
     probes : per strip, the map of the unknowns to its ground positions (``ext_orientation_m``); none:
         NaN.
     external : False skips the external reliability (no solves; MDBs only).
-    chunk : right-hand sides per solve.
+    chunk : rows per block of the effects on the ground positions (memory: chunk x 2 positions).
     """
     d0 = delta0(alpha0, beta)
     groups = solution.groups
@@ -144,45 +146,61 @@ def compute_reliability(solution: Solution, statistics: Statistics, probes: Sequ
         return out
     # the effects of an MDB-sized blunder in every controlled observation row
     rows_of_group = [np.flatnonzero(np.isfinite(m)) for m in mdb]
-    gcols = _ground_columns(solution, groups, rows_of_group)
-    Js = scaled_jacobian(solution)
+    glob = np.concatenate([slices[gi].start + rows for gi, rows in enumerate(rows_of_group)])
+    owner_group = np.concatenate([np.full(rows.size, gi) for gi, rows in enumerate(rows_of_group)])
+    local = np.concatenate(rows_of_group)
+    size = d0 / np.sqrt(np.concatenate([red[gi][rows] for gi, rows in enumerate(rows_of_group)]))  # whitened
+    Js = scaled_jacobian(solution)[glob]
     scale = solution.system.scale
-    if probes:
-        P = (sp.vstack([p.matrix for p in probes]).tocsr() @ sp.diags(1.0 / scale)).tocsr()
-        owner = np.concatenate([np.full(p.matrix.shape[0] // 2, k) for k, p in enumerate(probes)])
-        position_max = np.zeros(owner.size)
-    todo = [(gi, k, int(i)) for gi, rows in enumerate(rows_of_group) for k, i in enumerate(rows)]
-    strip_best: dict[str, tuple[float, int, int]] = {}
-    for start in range(0, len(todo), chunk):
-        part = todo[start:start + chunk]
-        glob = np.array([slices[gi].start + i for gi, _, i in part], dtype=np.int64)
-        size = np.array([d0 / np.sqrt(red[gi][i]) for gi, _, i in part])      # MDB in sigmas (whitened)
-        B = Js[glob].toarray().T
-        dx_s = np.asarray(solution.factor.solve(B)).reshape(B.shape) * size[None, :]   # scaled unknowns
-        for j, (gi, k, i) in enumerate(part):
-            c = gcols[gi][k]
-            ext_p[gi][i] = float(np.linalg.norm(dx_s[c, j] / scale[c])) if (c >= 0).all() else np.nan
-        if not probes:
-            for gi, _, i in part:
-                ext_o[gi][i] = np.nan
-            continue
-        shift = P @ dx_s                                            # (2 K, chunk) metres
-        length = np.hypot(shift[0::2], shift[1::2])                 # (K, chunk)
-        per_strip = np.zeros((len(probes), len(part)))
-        np.maximum.at(per_strip, owner, length)
-        tested = np.array([groups[gi].snooped for gi, _, _ in part])
+    gcols = np.concatenate(_ground_columns(solution, groups, rows_of_group)) if glob.size else np.zeros((0, 3), int)
+    point = _point_effects(statistics, solution.factor, Js, gcols, size, scale)
+    for gi in range(len(groups)):
+        sel = owner_group == gi
+        ext_p[gi][local[sel]] = point[sel]
+        ext_o[gi][local[sel]] = np.nan if not probes else 0.0
+    tested = np.array([groups[gi].snooped for gi in owner_group], dtype=bool)
+    for probe in probes:   # the strip's ground positions: N^-1 P^T by one solve per position and axis
+        Ps = (probe.matrix @ sp.diags(1.0 / scale)).tocsr()
+        W = np.asarray(solution.factor.solve(Ps.T.toarray())).reshape(Ps.shape[1], Ps.shape[0])
+        length = np.zeros((glob.size, Ps.shape[0] // 2))
+        for a in range(0, glob.size, chunk):
+            shift = (Js[a:a + chunk] @ W) * size[a:a + chunk, None]          # (rows, 2 K) metres
+            length[a:a + chunk] = np.hypot(shift[:, 0::2], shift[:, 1::2])
+        per_row = length.max(axis=1, initial=0.0)
+        for gi in range(len(groups)):
+            sel = owner_group == gi
+            ext_o[gi][local[sel]] = np.maximum(ext_o[gi][local[sel]], per_row[sel])
         if tested.any():
-            np.maximum(position_max, length[:, tested].max(axis=1), out=position_max)
-        for j, (gi, _, i) in enumerate(part):
-            ext_o[gi][i] = float(per_strip[:, j].max())
-            if not tested[j]:
-                continue
-            for s, probe in enumerate(probes):
-                if per_strip[s, j] > strip_best.get(probe.strip, (-1.0, 0, 0))[0]:
-                    strip_best[probe.strip] = (float(per_strip[s, j]), gi, i)
-    out.ext_strip = strip_best
-    if probes:
-        out.ext_positions = {p.strip: position_max[owner == k] for k, p in enumerate(probes)}
+            out.ext_positions[probe.strip] = length[tested].max(axis=0)
+            j = int(np.argmax(np.where(tested, per_row, -1.0)))
+            out.ext_strip[probe.strip] = (float(per_row[j]), int(owner_group[j]), int(local[j]))
+    return out
+
+
+def _point_effects(statistics: Statistics, factor, Js: sp.csr_matrix, gcols: np.ndarray, size: np.ndarray,
+                   scale: np.ndarray) -> np.ndarray:
+    """Per row of ``Js``, the length (m) of the shift of its ground point (columns ``gcols``, -1:
+    none, NaN) by a blunder of ``size`` sigmas: ``Z[g, c] j`` from the selected inverse ``Z`` (the
+    row's columns usually share an observation, so the entries are on the factor's pattern; rows
+    with a pair outside it are solved with ``factor``)."""
+    out = np.full(Js.shape[0], np.nan)
+    has = np.flatnonzero((gcols >= 0).all(axis=1))
+    if not has.size:
+        return out
+    J = Js[has].tocoo()
+    rows = np.repeat(J.row, 3)
+    g = gcols[has][rows, np.tile(np.arange(3), J.nnz)]
+    z = statistics.inverse.entries(g, np.repeat(J.col, 3))
+    dx = np.zeros((has.size, 3))
+    np.add.at(dx, (rows, np.tile(np.arange(3), J.nnz)), z * np.repeat(J.data, 3))
+    missing = np.unique(rows[np.isnan(z)])     # a pair outside the pattern (no observation couples it): solve
+    for a in range(0, missing.size, 256):
+        k = missing[a:a + 256]
+        B = Js[has[k]].toarray().T
+        X = np.asarray(factor.solve(B)).reshape(B.shape)
+        dx[k] = X[gcols[has[k]], np.arange(k.size)[:, None]]
+    dx *= size[has, None] / scale[gcols[has]]
+    out[has] = np.linalg.norm(dx, axis=1)
     return out
 
 
