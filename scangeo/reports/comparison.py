@@ -14,6 +14,7 @@ import logging
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from scangeo.adjustment.block import CONTROL_COMPONENTS
 from scangeo.adjustment.ground import DtmHeights
@@ -154,9 +155,10 @@ class Comparison:
 
     def as_dict(self) -> dict:
         """Everything, with the percentages of the reference filled in (the JSON of the comparison)."""
-        out = {"project": self.project, "variants_file": self.variants_file, "reference": self.reference,
-               "best": self.best, "recommended": self.recommended, "strips": self.strips, "truth": self.truth,
-               "crossvalidation": self.crossvalidation, "variants": []}
+        out: dict[str, Any] = {
+            "project": self.project, "variants_file": self.variants_file, "reference": self.reference,
+            "best": self.best, "recommended": self.recommended, "strips": self.strips, "truth": self.truth,
+            "crossvalidation": self.crossvalidation, "variants": []}
         for v in self.variants:
             d = v.as_dict()
             d["sigma0_percent"] = self.sigma0_percent(v)
