@@ -188,7 +188,25 @@ def write_results(result: VariantResult, out_dir=None) -> Path:
     tmp = out.with_name(f".{out.name}.tmp")
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
-    frame = project.map_frame.frame
+    try:
+        _write_folder(result, tmp)
+    except BaseException:  # a full disk, an interrupt: no partial folder left behind
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    if out.exists():
+        old = out.with_name(f".{out.name}.old")
+        shutil.rmtree(old, ignore_errors=True)
+        os.replace(out, old)
+        os.replace(tmp, out)
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        os.replace(tmp, out)
+    return out
+
+
+def _write_folder(result: VariantResult, tmp: Path) -> None:
+    """The files of :func:`write_results` into the (temporary) folder ``tmp``."""
+    frame = result.block.project.map_frame.frame
     for sid, strip in result.block.strips.items():
         spline = result.spline(sid)
         t = strip.trajectory.time
@@ -201,15 +219,6 @@ def write_results(result: VariantResult, out_dir=None) -> Path:
     with open(tmp / "residuals.csv", "w", newline="") as f:
         csv.writer(f).writerows(residual_rows(result))
     (tmp / "report.json").write_text(json.dumps(report_dict(result), indent=1))
-    if out.exists():
-        old = out.with_name(f".{out.name}.old")
-        shutil.rmtree(old, ignore_errors=True)
-        os.replace(out, old)
-        os.replace(tmp, out)
-        shutil.rmtree(old, ignore_errors=True)
-    else:
-        os.replace(tmp, out)
-    return out
 
 
 __all__ = ["coefficient_table", "report_dict", "residual_rows", "write_results"]
