@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import shutil
 
 import numpy as np
@@ -314,3 +315,26 @@ def test_results_hold_the_reliability(clean, tmp_path):
     section = reliability_section(tmp_path, ["out"])
     text = "".join(section.parts)
     assert text.count("<img") == 2 and "external reliability" in text and "r = 0" in text
+
+
+@pytest.mark.scale
+def test_three_strip_block_rejects_separable_blunders_themselves(tmp_path):
+    # 60 % sidelap: tie points in three strips, where a blunder in one ray is separable and that ray is
+    # rejected itself; one seed in CI, three with SCANGEO_SCALE=full
+    seeds = 3 if os.environ.get("SCANGEO_SCALE", "").lower() == "full" else 1
+    root = _simulate(tmp_path / "three", {**SHIFT_ONLY, "flight": {"strips": 3, "sidelap": 0.6, "lines": 400},
+                                          "points": {"tie_per_overlap": 12, "control_band_lines": 60.0}})
+    clean = run_variant(root, VARIANT)
+    assert clean.adjustment.rejections == []
+    caught, detectable, separable = 0, 0, 0
+    for seed in range(seeds):
+        blunders = inject(root, tmp_path / f"b{seed}", seed)
+        rejections = run_variant(tmp_path / f"b{seed}", VARIANT).adjustment.rejections
+        for p, s in _detectable(clean, blunders):
+            detectable += 1
+            caught += any(r.id == p and (not r.separable or r.group == f"image {s}") for r in rejections)
+        for r in rejections:
+            assert not r.separable or (r.group.startswith("image ") and (r.id, r.group[6:]) in blunders), r
+            separable += r.separable
+    assert caught >= 0.95 * detectable and detectable >= 5 * seeds
+    assert separable >= 1
