@@ -34,6 +34,9 @@ def add_parser(subparsers, common) -> None:
     p.add_argument("--max-error", type=float, default=None, dest="max_error_px",
                    help="tolerated inverse-map error on the validation sample, pixels (default 0.05)")
     p.add_argument("--memory", type=float, default=None, dest="memory_budget_mb", help="memory budget per strip, MiB")
+    p.add_argument("--overviews", action=argparse.BooleanOptionalAction, default=None,
+                   help="internal overviews in the GeoTIFFs (default: for outputs larger than 2048 cells, "
+                        "[rectify.geotiff] overviews = \"auto\")")
     p.add_argument("--config", default=None, help="TOML file with a [rectify] table of settings")
     p.add_argument("--workers", type=int, default=1, help="strips rectified at once (local processes)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="run the strips on a Dask distributed scheduler")
@@ -62,6 +65,8 @@ def options_of(args: argparse.Namespace):
         value = getattr(args, key)
         if value is not None:
             table[key] = value
+    if args.overviews is not None:
+        table["geotiff"] = {**table.get("geotiff", {}), "overviews": args.overviews}
     return RectifyOptions.from_dict(table, source=args.config or "rectify options")
 
 

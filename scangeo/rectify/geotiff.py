@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import rasterio
+import rasterio.enums
 import rasterio.shutil
 
 from scangeo.errors import RectifyOptionsError
@@ -22,6 +23,10 @@ from scangeo.io.schema import setting
 from scangeo.rectify.output_grid import OutputGrid
 
 _COMPRESSIONS = ("deflate", "zstd", "lzw", "none")
+#: With ``overviews = "auto"`` an output whose larger side exceeds this many cells gets internal
+#: overviews: a viewer (QGIS) zoomed out on a larger raster reads every cell without them
+#: (docs/rectify.md, the cost measured in docs/performance.md).
+OVERVIEW_MIN_SIZE = 2048
 
 
 @dataclass(frozen=True)
@@ -36,8 +41,9 @@ class GeoTiffProfile:
         11-band uint16 Daedalus strip deflate 1 wrote 115 MB in 0.93 s against GDAL's default 6,
         116 MB in 1.20 s; zstd 1 117 MB in 0.48 s; docs/performance.md).
     predictor : horizontal differencing for integers, floating-point predictor for floats.
-    overviews : build internal overviews (off by default: on a 10,000-line Daedalus strip they
-        cost about 4 s of the COG copy's 5.6 s; the mosaic and viewers benefit most).
+    overviews : internal overviews (averaged, halving until a level fits one block): ``"auto"``
+        (default) for outputs whose larger side exceeds :data:`OVERVIEW_MIN_SIZE` cells, ``True``
+        always, ``False`` never.
     cog : write with GDAL's COG driver (cloud-optimised layout); else a plain tiled GeoTIFF.
     threads : compression threads (``ALL_CPUS`` or a number).
     """
@@ -47,7 +53,8 @@ class GeoTiffProfile:
     level: int | None = setting(None, ge=1, le=22, unit="1", default_doc="1 for deflate and zstd",
                                 doc="compression level")
     predictor: bool = setting(True, doc="horizontal differencing (integers), floating-point predictor (floats)")
-    overviews: bool = setting(False, doc="build internal overviews")
+    overviews: bool | str = setting("auto", choices=("auto",),
+                                    doc=f"internal overviews: auto (above {OVERVIEW_MIN_SIZE} cells), true, false")
     cog: bool = setting(True, doc="write with GDAL's COG driver (cloud-optimised layout)")
     threads: str = setting("ALL_CPUS", doc="compression threads: ALL_CPUS or a number")
 
@@ -55,11 +62,22 @@ class GeoTiffProfile:
         if self.compress not in _COMPRESSIONS:
             raise RectifyOptionsError(
                 f"GeoTIFF profile: compress {self.compress!r} is not one of {', '.join(_COMPRESSIONS)}")
+        if isinstance(self.overviews, str) and self.overviews != "auto":
+            raise RectifyOptionsError(
+                f"GeoTIFF profile: overviews must be 'auto', true or false, got {self.overviews!r}")
         if self.blocksize < 16 or self.blocksize % 16:
             raise RectifyOptionsError(f"GeoTIFF profile: blocksize must be a multiple of 16, got {self.blocksize}")
 
-    def creation_options(self, dtype: np.dtype) -> dict:
-        """GDAL creation options for the final file."""
+    def wants_overviews(self, width: int, height: int) -> bool:
+        """Whether an output of ``width`` x ``height`` cells gets internal overviews."""
+        if self.overviews == "auto":
+            return max(width, height) > OVERVIEW_MIN_SIZE
+        return bool(self.overviews)
+
+    def creation_options(self, dtype: np.dtype, overviews: bool | None = None) -> dict:
+        """GDAL creation options for the final file (``overviews``: the decision of
+        :meth:`wants_overviews`; None: ``overviews is True``)."""
+        overviews = self.overviews is True if overviews is None else overviews
         opts: dict = {"BIGTIFF": "IF_SAFER", "NUM_THREADS": self.threads, "COMPRESS": self.compress.upper()}
         if self.compress != "none":
             level = self.level if self.level is not None else (1 if self.compress in ("deflate", "zstd") else None)
@@ -73,10 +91,22 @@ class GeoTiffProfile:
                     opts["PREDICTOR"] = "3" if floating else "2"
         if self.cog:
             opts["BLOCKSIZE"] = str(self.blocksize)
-            opts["OVERVIEWS"] = "AUTO" if self.overviews else "NONE"
+            opts["OVERVIEWS"] = "AUTO" if overviews else "NONE"
+            if overviews:
+                opts["OVERVIEW_RESAMPLING"] = "AVERAGE"
         else:
             opts.update(TILED="YES", BLOCKXSIZE=str(self.blocksize), BLOCKYSIZE=str(self.blocksize))
         return opts
+
+
+def overview_factors(width: int, height: int, blocksize: int) -> list[int]:
+    """Decimation factors 2, 4, 8, ... until the smallest level fits one ``blocksize`` block."""
+    factors = []
+    f = 2
+    while max(width, height) / (f // 2) > blocksize:
+        factors.append(f)
+        f *= 2
+    return factors
 
 
 def _level_key(compress: str) -> str:
@@ -169,8 +199,14 @@ def finalise(working: Path, final: Path, profile: GeoTiffProfile, dtype) -> None
     final = Path(final)
     tmp = partial_path(final, ".tif")
     driver = "COG" if profile.cog else "GTiff"
+    with rasterio.open(working) as src:
+        overviews = profile.wants_overviews(src.width, src.height)
     try:
-        rasterio.shutil.copy(str(working), str(tmp), driver=driver, **profile.creation_options(dtype))
+        rasterio.shutil.copy(str(working), str(tmp), driver=driver, **profile.creation_options(dtype, overviews))
+        if overviews and not profile.cog:  # the COG driver builds them while copying
+            with rasterio.open(tmp, "r+") as dst:
+                dst.build_overviews(overview_factors(dst.width, dst.height, profile.blocksize),
+                                    rasterio.enums.Resampling.average)
         os.replace(tmp, final)
     finally:
         if tmp.exists():
