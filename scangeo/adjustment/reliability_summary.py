@@ -258,8 +258,10 @@ def reliability_dict(vr: VariantReliability) -> dict:
     strips = {}
     for sid, (size, gi, i) in sorted(rel.ext_strip.items()):
         g = groups[gi]
-        strips[sid] = {"ext_orientation_max_m": _num(size), "by": f"{g.name} {g.ids[i]} {g.components[i]}",
-                       "mdb": _num(rel.mdb[gi][i]), "unit": str(g.units[i])}
+        by = size > 0   # 0: the orientation is not adjusted (DG), no blunder moves it
+        label = f"{g.name} {g.ids[i]} {g.components[i]}"
+        strips[sid] = {"ext_orientation_max_m": _num(size), "by": label if by else None,
+                       "mdb": _num(rel.mdb[gi][i]) if by else None, "unit": str(g.units[i]) if by else None}
     positions = {p.strip: [[_num(x), _num(y), _num(e)] for (x, y), e in zip(p.xy, rel.ext_positions[p.strip])]
                  for p in vr.probes if p.xy is not None and p.strip in rel.ext_positions}
     return {"alpha0": rel.alpha0, "beta": rel.beta, "delta0": rel.delta0, "lambda0": rel.delta0 ** 2,

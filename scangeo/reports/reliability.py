@@ -83,8 +83,11 @@ def interpretation(name: str, summary: dict, rows: list[dict]) -> str:
              f"(MDB; alpha0 = {100 * summary['alpha0']:g} %, power {100 * summary['beta']:g} %)"]
     if strips:
         sid, worst = max(strips.items(), key=lambda kv: kv[1]["ext_orientation_max_m"] or 0.0)
-        parts.append(f"one undetected would shift strip {sid}'s ground positions by up to "
-                     f"{worst['ext_orientation_max_m']:.2f} m (the worst case: {worst['by']})")
+        if worst["by"]:
+            parts.append(f"one undetected would shift strip {sid}'s ground positions by up to "
+                         f"{worst['ext_orientation_max_m']:.2f} m (the worst case: {worst['by']})")
+        else:
+            parts.append("the orientation is not adjusted, so an undetected blunder moves only its own point")
     unc = sorted({r["point"] for r in rows if r["status"] == "uncontrolled"})
     if unc:
         parts.append(f"{len(unc)} points have measurements no other observation checks (r = 0: "
