@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -78,7 +79,7 @@ class Orientation:
     adjusted: bool
     sensor: SensorModel
     mounting: Mounting
-    strips: dict[str, StripOrientation]
+    strips: Mapping[str, StripOrientation]
     reference: MapReference
     models: tuple[GpsImuModel, ...] = ()
     coefficients: dict[str, np.ndarray] = field(default_factory=dict)
@@ -123,14 +124,35 @@ def map_reference(project: Project) -> MapReference:
                         project.geoid.path)
 
 
+class _DirectStrips(Mapping[str, StripOrientation]):
+    """The strips of direct georeferencing, each fitted to its GPS/IMU when first asked for (a
+    worker rectifying one strip reads one trajectory)."""
+
+    def __init__(self, project: Project) -> None:
+        self.project = project
+        self.ids = [s.id for s in project.strips]
+        self.cache: dict[str, StripOrientation] = {}
+
+    def __getitem__(self, strip_id: str) -> StripOrientation:
+        if strip_id not in self.ids:
+            raise KeyError(strip_id)
+        if strip_id not in self.cache:
+            g = self.project.geometry(strip_id)
+            self.cache[strip_id] = StripOrientation(strip_id, g.n_lines, g.timing, g.spline)
+        return self.cache[strip_id]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.ids)
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+
 def direct_orientation(project: Project) -> Orientation:
-    """Direct georeferencing: per strip the spline fitted to the GPS/IMU as measured, the
-    project's sensor and mounting."""
-    strips = {}
-    for s in project.strips:
-        g = project.geometry(s.id)
-        strips[s.id] = StripOrientation(s.id, g.n_lines, g.timing, g.spline)
-    return Orientation(DIRECT, False, project.sensor.model, project.sensor.mounting, strips, map_reference(project))
+    """Direct georeferencing: per strip the spline fitted to the GPS/IMU as measured (when first
+    used), the project's sensor and mounting."""
+    return Orientation(DIRECT, False, project.sensor.model, project.sensor.mounting, _DirectStrips(project),
+                       map_reference(project))
 
 
 def results_folder(project: Project, variant: str) -> Path:

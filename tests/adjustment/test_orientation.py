@@ -38,7 +38,8 @@ from scangeo.simulate.config import load_preset
 from scangeo.timing import LineTiming
 
 VARIANT = Variant("S2CAL", "S", strips=(StripModels("01", position_degree=1, breaks_lines=(200.0,)),),
-                  calibrate=("boresight", "scale_error"))
+                  calibrate=("boresight", "scale_error"), attitude_degree=-1)  # boresight separable: no
+                                                                                 # attitude corrections
 
 
 @pytest.fixture(scope="module")
