@@ -37,9 +37,9 @@ from scangeo.simulate.block import simulate
 from scangeo.simulate.config import load_preset
 from scangeo.timing import LineTiming
 
+# no attitude corrections, so that the boresight is determined (not a per-strip roll offset)
 VARIANT = Variant("S2CAL", "S", strips=(StripModels("01", position_degree=1, breaks_lines=(200.0,)),),
-                  calibrate=("boresight", "scale_error"), attitude_degree=-1)  # boresight separable: no
-                                                                                 # attitude corrections
+                  calibrate=("boresight", "scale_error"), attitude_degree=-1)
 
 
 @pytest.fixture(scope="module")
