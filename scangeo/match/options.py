@@ -1,7 +1,8 @@
 """Settings of automatic point measurement: a typed frozen dataclass, readable from a TOML table.
 
 A ``[match]`` table (in a separate settings file given with ``--config``) holds the keys of
-:class:`MatchOptions`; an unknown key is an error naming it.
+:class:`MatchOptions`, a settings dataclass of :mod:`scangeo.io.schema`: every key's type and range is
+checked, and an error names the file and the key.
 """
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import math
 from dataclasses import dataclass
 
 from scangeo.errors import OptionsError, ProjectFileError, ScangeoError
+from scangeo.io.schema import read, setting
 
 #: wavelength range of the default matching bands, nm (visible and red edge: never thermal)
 DEFAULT_BAND_RANGE_NM = (400.0, 760.0)
@@ -46,24 +48,28 @@ class MatchOptions:
     seed : seed of the choice of check points.
     """
 
-    per_overlap: int = 60
-    per_cell: int = 2
-    control_per_strip: int = 30
-    check_share: float = 0.3
-    template_px: int = 25
-    search_px: int = 16
-    min_correlation: float = 0.7
-    max_second_peak: float = 0.99
-    max_sigma_px: float = 0.5
-    ransac_px: float = 1.0
-    neighbours: int = 12
-    min_sigma_px: float = 0.1
-    smooth_cells: float = 1.0
-    bands: tuple[int, ...] = ()
-    reference_bands: tuple[int, ...] = ()
-    resolution: float | None = None
-    id_prefix: str = "M"
-    seed: int = 0
+    per_overlap: int = setting(60, ge=1, unit="1", doc="target number of tie points per overlap")
+    per_cell: int = setting(2, ge=1, unit="1", doc="target number of points per cell")
+    control_per_strip: int = setting(30, ge=0, unit="1", doc="target control and check points per strip and reference")
+    check_share: float = setting(0.3, ge=0, lt=1, unit="1", doc="share of the control points held back as check")
+    template_px: int = setting(25, ge=7, unit="cell", doc="side of the matching template (odd)")
+    search_px: int = setting(16, ge=1, unit="cell", doc="search radius around the predicted position")
+    min_correlation: float = setting(0.7, gt=-1, lt=1, unit="1", doc="smallest accepted correlation peak")
+    max_second_peak: float = setting(0.99, gt=0, le=1, unit="1",
+                                     doc="largest accepted second local maximum, as a share of the peak")
+    max_sigma_px: float = setting(0.5, gt=0, unit="cell", doc="largest accepted least-squares matching sigma")
+    ransac_px: float = setting(1.0, gt=0, unit="cell", doc="inlier threshold of the local affine consistency test")
+    neighbours: int = setting(12, ge=4, unit="1", doc="matches per local affine fit")
+    min_sigma_px: float = setting(0.1, gt=0, unit="px", doc="smallest sigma_px written for a measurement")
+    smooth_cells: float = setting(1.0, ge=0, le=5, unit="cell", doc="Gaussian sigma applied to the chips")
+    bands: tuple[int, ...] = setting((), ge=1, default_doc="bands of 400-760 nm, never thermal",
+                                     doc="1-based strip bands averaged into the matching image")
+    reference_bands: tuple[int, ...] = setting((), ge=1, default_doc="the first 3",
+                                               doc="1-based bands of the reference orthoimage")
+    resolution: float | None = setting(None, gt=0, unit="map unit", default_doc="nadir ground pixel",
+                                       doc="chip cell size")
+    id_prefix: str = setting("M", doc="first letters of matched point ids")
+    seed: int = setting(0, unit="1", doc="seed of the choice of check points")
 
     def __post_init__(self) -> None:
         checks = [
@@ -104,13 +110,13 @@ class MatchOptions:
         return dataclasses.replace(self, **changes)
 
     @classmethod
-    def from_dict(cls, table: dict, source: str = "[match]") -> MatchOptions:
-        """Options from a TOML table; unknown keys are errors naming ``source`` and the key."""
-        names = {f.name for f in dataclasses.fields(cls)}
-        for key in table:
-            if key not in names:
-                raise ProjectFileError(f"{source}: unknown key {key!r} (expected one of {', '.join(sorted(names))})")
+    def from_dict(cls, table: dict, source: str = "match options") -> MatchOptions:
+        """Options from a ``[match]`` TOML table; every key checked (:mod:`scangeo.io.schema`), errors
+        naming ``source`` (the file) and the key."""
         try:
-            return cls(**table)
-        except (ScangeoError, TypeError, ValueError) as exc:
-            raise ProjectFileError(f"{source}: {exc}") from exc
+            return read(cls, table, source, "match")
+        except (ProjectFileError, ScangeoError) as exc:
+            text = str(exc)
+            if not text.startswith(source):
+                text = f"{source} [match]: {text.removeprefix('match: ')}"
+            raise OptionsError(text) from exc

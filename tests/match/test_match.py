@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from scangeo.cli import main
-from scangeo.errors import ProjectFileError
+from scangeo.errors import OptionsError
 from scangeo.match import MatchOptions, match_project
 from scangeo.match.truth import match_errors
 from tests.session_projects import copy_project
@@ -127,5 +127,5 @@ def test_bad_settings_name_the_key(tmp_path, landcover_block, capsys):
     cfg.write_text("[match]\ntemplate_size = 21\n")
     assert main(["match", str(landcover_block), "--config", str(cfg)]) == 1
     assert "template_size" in capsys.readouterr().err
-    with pytest.raises(ProjectFileError, match="template_px"):
-        MatchOptions.from_dict({"template_px": 20})
+    with pytest.raises(OptionsError, match=r"x.toml \[match\]: template_px must be an odd number"):
+        MatchOptions.from_dict({"template_px": 20}, "x.toml")
