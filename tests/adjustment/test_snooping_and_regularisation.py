@@ -6,14 +6,14 @@ import pytest
 
 from scangeo.adjustment import Parameters, SnoopingOptions, Solver, SolverOptions, Statistics, Unknown, adjust
 from scangeo.adjustment import factor as factor_module
-from scangeo.adjustment.factor import available_backends
 from scangeo.adjustment.removal import RemovalUpdate
 
+from .backends import BACKENDS
 from .problems import Distances, HeightDifferences, levelling_network
 from .test_engine import NO_SNOOPING, levelling_parameters
 
 
-@pytest.mark.parametrize("backend", available_backends())
+@pytest.mark.parametrize("backend", BACKENDS)
 def test_blunders_are_flagged_and_good_observations_kept(backend):
     flagged_bad, flagged_good, n_bad, n_good = 0, 0, 0, 0
     for seed in range(5):
@@ -51,7 +51,7 @@ def test_snooping_critical_value_is_configurable():
     assert lax.rejections == []
 
 
-@pytest.mark.parametrize("backend", available_backends())
+@pytest.mark.parametrize("backend", BACKENDS)
 def test_datum_defect_is_regularised_not_fatal(backend):
     rng = np.random.default_rng(3)
     truth, group = levelling_network(rng, n_points=8, n_lines=20)
