@@ -42,6 +42,8 @@ class LineTiming:
             data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
         except (OSError, ValueError) as exc:
             raise ProjectFileError(f"{path}: cannot read the line time table ({exc})") from exc
+        if data.shape[0] < 2 or not np.isfinite(data).all():
+            raise ProjectFileError(f"{path}: expected a header line and 2 or more lines of finite times")
         times = data[:, -1]
         if data.shape[1] > 1 and not np.array_equal(data[:, 0], np.arange(len(times))):
             raise ProjectFileError(f"{path}: lines must be 0, 1, 2, ... in order")

@@ -27,6 +27,10 @@ def read_rows(path: Path, required: list[str], optional: list[str]) -> tuple[lis
             rows = list(reader)
     except OSError as exc:
         raise ProjectFileError(f"{path}: cannot read ({exc.strerror})") from exc
+    except UnicodeDecodeError as exc:
+        raise ProjectFileError(f"{path}: not UTF-8 text at byte {exc.start} (expected a CSV file)") from None
+    except csv.Error as exc:
+        raise ProjectFileError(f"{path}: not a CSV file ({exc})") from None
     if not rows:
         raise ProjectFileError(f"{path}: empty (expected a header {','.join(required)})")
     header = [h.strip().lower() for h in rows[0]]

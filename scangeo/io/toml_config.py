@@ -17,6 +17,8 @@ def load_toml(path: Path) -> dict:
         raise ProjectFileError(f"{path}: cannot read ({exc.strerror})") from exc
     except tomllib.TOMLDecodeError as exc:
         raise ProjectFileError(f"{path}: not valid TOML ({exc})") from exc
+    except UnicodeDecodeError as exc:
+        raise ProjectFileError(f"{path}: not UTF-8 text at byte {exc.start} (expected a TOML file)") from None
 
 
 class Table:

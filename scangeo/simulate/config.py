@@ -259,9 +259,11 @@ def load_preset(name: str | Path, overrides: dict | None = None) -> SimulationCo
     """Read a preset (name or TOML path), apply nested ``overrides`` (same keys as the file)."""
     path = preset_path(name)
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise ProjectFileError(f"{path}: not valid TOML ({exc})") from exc
+    except UnicodeDecodeError as exc:
+        raise ProjectFileError(f"{path}: not UTF-8 text at byte {exc.start} (expected a TOML preset)") from None
     if overrides:
         data = merge(data, overrides)
     return config_from_dict(data, source=str(path))
