@@ -284,10 +284,11 @@ def select_breaks(data: PatternData, options: SelectionOptions = SelectionOption
         constant = set(best[1])
         breaks = refine(data, [list(x) for x in best[0].breaks], None, options, constant)
         current = evaluate(data, breaks, None, options.degree, constant)
-    if not options.serial_correlation or len(constant) == ns:
+    if len(constant) == ns:
         return current
     # the serial correlation of what the richest model leaves is the noise's: prune what it does not pay for
-    rho = residual_correlation(data, current)
+    # (and what it adds nothing to: a function another strip's can take over does not raise the rank)
+    rho = residual_correlation(data, current) if options.serial_correlation else {}
     current = evaluate(data, breaks, rho, options.degree, constant)
     while len(constant) < ns:
         trials = []
@@ -301,8 +302,8 @@ def select_breaks(data: PatternData, options: SelectionOptions = SelectionOption
                 del trial[s][j]
                 trials.append(evaluate(data, refine(data, trial, rho, options, constant), rho, options.degree,
                                        constant))
-        pruned = min(trials, key=lambda f: f.bic)
-        if pruned.bic >= current.bic:
+        pruned = min(trials, key=lambda f: (f.bic, f.k))
+        if pruned.bic > current.bic + 1e-6:
             break
         breaks = [list(x) for x in pruned.breaks]
         constant = set(pruned.constant)
