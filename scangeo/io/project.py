@@ -170,6 +170,7 @@ class Project:
         s = self.strip(strip_id)
         if s.line_times is not None:
             return LineTiming.from_table_file(s.line_times)
+        assert s.first_line_time is not None  # project_schema: exactly one of the two
         return LineTiming(s.first_line_time, self.sensor.line_rate)
 
     def n_lines(self, strip_id: str) -> int:
@@ -177,7 +178,9 @@ class Project:
         if s.lines is not None:
             return s.lines
         if s.line_times is not None:
-            return len(self.timing(strip_id).table)
+            table = self.timing(strip_id).table
+            assert table is not None  # a timing read from a line time table has one
+            return len(table)
         if s.image is None:
             raise ProjectFileError(f"strip {strip_id}: give lines = N or an image to count them")
         import warnings

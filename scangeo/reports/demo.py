@@ -12,8 +12,12 @@ import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from scangeo.progress import ProgressCallback, no_progress, scaled
+
+if TYPE_CHECKING:
+    from scangeo.reports.comparison import Comparison
 
 log = logging.getLogger(__name__)
 
@@ -26,13 +30,13 @@ class DemoResult:
     """What the demo made: the project, the comparison, the best variant and the output files."""
 
     root: Path
-    comparison: object
+    comparison: Comparison
     best: str | None
     report: Path
     geopackage: Path | None
     ortho: Path | None = None
     seconds: dict[str, float] = field(default_factory=dict)
-    matched: object = None  # the comparison on matched points (``matched=True``)
+    matched: Comparison | None = None  # the comparison on matched points (``matched=True``)
 
 
 def run_demo(out="demo", preset: str = "vienna2000", *, seed: int | None = None, rectify: bool = True,
