@@ -43,8 +43,15 @@ def _open(path: Path):
 
     try:
         return laspy.open(str(path))
-    except (OSError, laspy.errors.LaspyException) as exc:
+    except (OSError, ValueError, laspy.errors.LaspyException) as exc:
         raise InputFileError(f"{path}: cannot read as LAS/LAZ ({exc})") from exc
+
+
+def laspy_errors() -> type[Exception]:
+    """laspy's own exception class (laspy is imported lazily)."""
+    import laspy
+
+    return laspy.errors.LaspyException
 
 
 def bounds(path: Path) -> tuple[float, float, float, float]:
@@ -82,12 +89,16 @@ def read_strip(strip_id: str, files, point_source_id: int | None = None, crs=Non
     for path in map(Path, files):
         with _open(path) as f:
             check_header(path, f.header, crs)
-            for chunk in f.chunk_iterator(CHUNK):
-                sel = slice(None) if point_source_id is None else np.asarray(chunk.point_source_id) == point_source_id
-                xyz.append(
-                    np.column_stack([np.asarray(chunk.x)[sel], np.asarray(chunk.y)[sel], np.asarray(chunk.z)[sel]])
-                )
-                t.append(np.asarray(chunk.gps_time, float)[sel])
+            try:
+                for chunk in f.chunk_iterator(CHUNK):
+                    ids = None if point_source_id is None else np.asarray(chunk.point_source_id)
+                    sel = slice(None) if ids is None else ids == point_source_id
+                    xyz.append(
+                        np.column_stack([np.asarray(chunk.x)[sel], np.asarray(chunk.y)[sel], np.asarray(chunk.z)[sel]])
+                    )
+                    t.append(np.asarray(chunk.gps_time, float)[sel])
+            except (OSError, ValueError, laspy_errors()) as exc:
+                raise InputFileError(f"{path}: cannot read the returns; truncated or corrupted? ({exc})") from exc
     if not t or sum(a.size for a in t) == 0:
         which = "" if point_source_id is None else f" with point_source_id {point_source_id}"
         raise InputFileError(f"{', '.join(map(str, files))}: no returns{which} for strip {strip_id}")

@@ -77,7 +77,14 @@ def load_returns(sbet: str | Path, las: str | Path, utm_zone: int, heading: str 
     import laspy
 
     nav = read_sbet_records(sbet)
-    cloud = laspy.read(str(las))
+    try:
+        cloud = laspy.read(str(las))
+    except (OSError, ValueError, laspy.errors.LaspyException) as exc:
+        raise InputFileError(f"{las}: cannot read as LAS/LAZ; truncated or corrupted? ({exc})") from exc
+    if "gps_time" not in cloud.point_format.dimension_names:
+        raise InputFileError(f"{las}: point format {cloud.point_format.id} has no GPS time (needed for every return)")
+    if len(cloud.points) == 0:
+        raise InputFileError(f"{las}: no returns")
     t = np.asarray(cloud.gps_time, dtype=float)
     if t.min() < nav["time"][0] or t.max() > nav["time"][-1]:
         raise InputFileError(
