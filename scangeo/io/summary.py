@@ -63,8 +63,12 @@ def _is_binary(path: Path) -> bool:
 
 
 def _text_kind(path: Path) -> str:
-    with open(path, encoding="utf-8-sig") as f:
-        header = f.readline()
+    try:
+        with open(path, encoding="utf-8-sig") as f:
+            header = f.readline()
+    except UnicodeDecodeError as exc:
+        raise InputFileError(f"{path}: not UTF-8 text at byte {exc.start} (expected a CSV with a header line; "
+                             "an Applanix SBET needs the extension .out or .sbet)") from None
     names = {c.strip().strip("\"'").strip().lower() for c in header.replace("\t", ",").replace(" ", ",").split(",")}
     if "point" in names:
         return "ground" if {"x", "y", "z"} <= names else "points"
