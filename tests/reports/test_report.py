@@ -145,11 +145,14 @@ def test_report_opens_in_a_browser(compared_small, tmp_path):
     # the table, the rms chart; per strip residual vectors, corrections, GPS/IMU; the problem strip's
     # height corrections; the map of the tracks
     n = len(c.strips)
+    # the reliability maps of the reference and the best variant, per strip
+    reliability_figures = [f"fig-rel-{v}-{s}" for v in dict.fromkeys([c.reference, c.best]) if v for s in c.strips]
     assert sorted(figure_ids) == sorted(
         ["fig-rms", "fig-tracks", "fig-height-02"]
         + [f"fig-{k}-{s}" for k in ("vectors", "corr", "gpsimu") for s in c.strips]
+        + reliability_figures
     )
-    assert len(figure_ids) == 3 + 3 * n
+    assert len(figure_ids) == 3 + 3 * n + len(reliability_figures)
     assert sections == [
         "Comparison of strategies",
         "Residual vectors at the check points",
@@ -157,6 +160,7 @@ def test_report_opens_in_a_browser(compared_small, tmp_path):
         "GPS/IMU data",
         "Unknowns, observations and conditions",
         "Regularisation and blunders",
+        "Reliability",
         "Files",
     ]
     from PIL import Image
