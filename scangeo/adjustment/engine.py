@@ -22,10 +22,11 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from scangeo.adjustment.keys import Ground
 from scangeo.adjustment.observations import ObservationGroup
 from scangeo.adjustment.parameters import Parameters
 from scangeo.adjustment.removal import RemovalUpdate
@@ -190,4 +191,8 @@ def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
         stats = Statistics(solution)
         full += 1
     callback(1.0, 1.0, "adjustment done")
+    hidden = {r.id for r in rejections if not r.separable}   # say why their ground points are regularised
+    solution.regularisation = [replace(n, reason=f"every measurement of the point removed ({NOTE})")
+                               if isinstance(n.key, Ground) and n.key.point in hidden else n
+                               for n in solution.regularisation]
     return Adjustment(solution, stats, rejections, rounds, full)
