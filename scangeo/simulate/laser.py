@@ -16,13 +16,14 @@ from __future__ import annotations
 import json
 import os
 import tomllib
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from scangeo.errors import ProjectFileError
 from scangeo.frames import MapFrame
+from scangeo.io.schema import read
 from scangeo.lidar.georeference import Calibration, Polar, beam, body_rotations, georeference
 from scangeo.rotation import R_ENU_NED, rph_to_matrix
 from scangeo.simulate.laser_scene import LaserScene
@@ -80,20 +81,12 @@ def load_laser_config(path, overrides: dict | None = None) -> LaserBlockConfig:
         data = tomllib.loads(path.read_text())
     except (OSError, tomllib.TOMLDecodeError) as exc:
         raise ProjectFileError(f"{path}: cannot read the laser preset ({exc})") from exc
+    unknown = sorted(set(data) - {"laser"})
+    if unknown:
+        raise ProjectFileError(f"{path}: unknown table [{unknown[0]}] (a laser preset has only [laser])")
     table = dict(data.get("laser", {}))
     table.update(overrides or {})
-    known = {f.name: f for f in fields(LaserBlockConfig)}
-    for key, value in table.items():
-        if key not in known:
-            raise ProjectFileError(f"{path} [laser] {key}: unknown key")
-        if isinstance(value, list):
-            table[key] = tuple(float(v) for v in value)
-        default = known[key].default
-        if isinstance(default, float) and isinstance(value, int):
-            table[key] = float(value)
-        elif not isinstance(table[key], type(default)):
-            raise ProjectFileError(f"{path} [laser] {key}: expected {type(default).__name__}, found {value!r}")
-    return LaserBlockConfig(**table)
+    return read(LaserBlockConfig, table, str(path), "laser")  # every key typed (scangeo.io.schema)
 
 
 def is_laser_preset(path) -> bool:
