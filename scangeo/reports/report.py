@@ -29,6 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from scangeo import __version__
+from scangeo.adjustment.orientation import FILE_NAME as ORIENTATION_FILE
+from scangeo.adjustment.orientation import read_orientation
 from scangeo.io.project import Project
 from scangeo.match.figure import match_section
 from scangeo.progress import ProgressCallback, no_progress
@@ -194,21 +196,11 @@ def _accounting_section(project: Project, c: Comparison) -> html.Section:
     )
     rows = []
     for v in c.variants:
-        for m in _variant_report(project, v.name).get("models", []):
-            rows.append(
-                [
-                    v.name,
-                    m["id"],
-                    ", ".join(m.get("strips", [])),
-                    f"{m['t_end'] - m['t_start']:.1f}",
-                    str(m["position_degree"]),
-                    str(m["attitude_degree"]),
-                    "yes" if m.get("rotation") else "",
-                    m.get("follows") or "",
-                    str(m["unknowns"]),
-                    str(m["conditions"]),
-                ]
-            )
+        written = project.root / "results" / v.name / ORIENTATION_FILE
+        for m in read_orientation(written).models if written.exists() else ():
+            rows.append([v.name, m.id, ", ".join(m.strips), f"{m.t_end - m.t_start:.1f}", str(m.position_degree),
+                         str(m.attitude_degree), "yes" if m.rotation else "", m.follows or "", str(m.size),
+                         str(m.conditions)])
     if rows:
         sec.parts.append("<h3>GPS/IMU models</h3>")
         sec.parts.append(
@@ -308,7 +300,7 @@ def write_report(
             if gpkg
             else []
         ),
-        "NAME/: every variant's adjusted trajectories, splines, residuals.csv and report.json",
+        "NAME/: every variant's orientation.json, adjusted trajectories, residuals.csv and report.json",
     ]
     sections.append(html.Section("Files", "files", [html.bullet_list(files)]))
     stamp = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
