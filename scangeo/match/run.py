@@ -280,6 +280,9 @@ def _write_cells(path: Path, report: dict) -> None:
 def run_tasks(tasks: list[MatchTask], workers: int, scheduler: str | None, progress: ProgressCallback
               ) -> list[TaskResult]:
     """Run tasks in this process, a process pool or on a Dask scheduler; results in task order."""
+    from scangeo.match.tasks import _CACHE
+
+    _CACHE.clear()  # files may have changed since an earlier run in this process
     total = len(tasks)
     progress(0, total, "match")
     if scheduler:

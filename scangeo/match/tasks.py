@@ -141,11 +141,37 @@ def _measure(point_cell: int, grid: ChipGrid, col: int, row: int, matches: dict,
     m = Measured(point_cell, float(x), float(y))
     for sid, match in matches.items():
         tx, ty = grid.to_map(match.x, match.y)
-        line, pixel = strips[sid].image_of(np.array([tx]), np.array([ty]))
         scale = chips[sid].scale_at(int(round(match.x)), int(round(match.y)))
-        m.strips[sid] = (float(tx), float(ty), float(line[0]), float(pixel[0]), float(scale),
-                         float(match.correlation), float(match.sigma))
+        # (line, pixel) filled in by _back_project, for all points of a task at once
+        m.strips[sid] = (float(tx), float(ty), np.nan, np.nan, float(scale), float(match.correlation),
+                         float(match.sigma))
     return m
+
+
+def _back_project(points: list[Measured], strips: dict[str, MatchStrip]) -> None:
+    """Every matched ground position into its strip's raw (line, pixel): exact ground -> image on the DTM."""
+    for sid, strip in strips.items():
+        todo = [(p, p.strips[sid]) for p in points if sid in p.strips and np.isnan(p.strips[sid][2])]
+        if not todo:
+            continue
+        line, pixel = strip.image_of(np.array([m[0] for _, m in todo]), np.array([m[1] for _, m in todo]))
+        for (p, m), ln, px in zip(todo, line, pixel):
+            p.strips[sid] = (m[0], m[1], float(ln), float(px), *m[4:])
+    for p in points:
+        p.strips = {sid: m for sid, m in p.strips.items() if np.isfinite(m[2]) and np.isfinite(m[3])}
+
+
+#: strips of the last task in this process (a worker runs several tasks of one project)
+_CACHE: dict[tuple, MatchStrip] = {}
+
+
+def _strip(project: Project, task: MatchTask, sid: str) -> MatchStrip:
+    key = (task.project, task.variant, sid, task.options.bands, task.options.smooth_cells)
+    if key not in _CACHE:
+        if len(_CACHE) >= 4:
+            _CACHE.pop(next(iter(_CACHE)))
+        _CACHE[key] = MatchStrip(project, task.variant, sid, task.options)
+    return _CACHE[key]
 
 
 def _inner(grid: ChipGrid, cell: Cell) -> np.ndarray:
@@ -158,7 +184,7 @@ def run_task(task: MatchTask) -> TaskResult:
     """Match one task's cells (in whatever process runs this)."""
     project = Project.load(task.project)
     options = task.options
-    strips = {sid: MatchStrip(project, task.variant, sid, options) for sid in task.strips}
+    strips = {sid: _strip(project, task, sid) for sid in task.strips}
     margin = margin_cells(options)
     rejected: Counter = Counter()
     points: list[Measured] = []
@@ -203,4 +229,7 @@ def run_task(task: MatchTask) -> TaskResult:
     finally:
         if reference is not None:
             reference.close()
+    _back_project(points, strips)
+    need = 2 if task.kind == "tie" else 1
+    points = [p for p in points if len(p.strips) >= need]
     return TaskResult(task.kind, task.name, task.strips, points, rejected, candidates, len(task.cells), empty)
