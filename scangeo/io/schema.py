@@ -5,9 +5,9 @@ dataclasses whose fields are :func:`setting` s: the field's annotation is the ke
 setting adds its unit, range, allowed values and meaning. :func:`read` turns a parsed TOML table
 into the dataclass, checking every key, and every error names the file and the dotted key::
 
-    project.toml [sensor.pixels]: expected an integer, found 716.0
+    project.toml [sensor.pixels]: expected an integer >= 1 (px), found 716.0
     rectify.toml [rectify.igm]: expected true or false, found 'false'
-    small.toml [flight.sidelap]: expected a number in [0, 0.9], found 1.2
+    small.toml [flight.sidelap]: expected a number in [0, 0.9), found 1.2
 
 The tables of docs/formats.md are generated from the same settings
 (``python -m scangeo.io.schema_docs docs/formats.md``), so the docs and the checks cannot drift.
@@ -187,7 +187,8 @@ def read(cls: type, table: Any, file: str, path: str = "", **internal: Any) -> A
             if k.required and k.name in applicable:
                 raise ProjectFileError(f"{where}: missing (required)")
             continue
-        value = convert(table[k.name], k.hint, k.setting, where, file, _join(path, k.name))
+        s = dataclasses.replace(k.setting, unit=k.unit)  # errors state the unit (inferred from the name)
+        value = convert(table[k.name], k.hint, s, where, file, _join(path, k.name))
         if k.setting.parse is not None:
             value = k.setting.parse(value, where)
         values[k.field] = value
@@ -246,7 +247,7 @@ def _tuple(value: Any, args: tuple, s: Setting, where: str, file: str, path: str
         fail(where, "a list" if not dataclasses.is_dataclass(item) else "an array of tables", value)
     length = s.length if s.length is not None else (len(args) if Ellipsis not in args else None)
     if length is not None and len(value) != length:
-        fail(where, f"{length} {_type_name(item, plural=True)}", value)
+        fail(where, f"{length} {_type_name(item, plural=True)}{_unit(s) if item in (int, float) else ''}", value)
     if dataclasses.is_dataclass(item):
         return tuple(read(item, v, file, f"{path}[{i}]") for i, v in enumerate(value))  # type: ignore[arg-type]
     types_ = [a for a in args if a is not Ellipsis]
@@ -263,7 +264,8 @@ def _list_text(length: int | None, item: Any, s: Setting) -> str:
     count = f"{length} " if length is not None else "a list of "
     text = count + _type_name(item, plural=True)
     extra = _constraint_text(s)
-    return text + (f" {extra}" if extra else "")
+    text += f" {extra}" if extra else ""
+    return text + (_unit(s) if item in (int, float) else "")
 
 
 def _type_name(hint: Any, plural: bool = False) -> str:
@@ -286,14 +288,14 @@ def _scalar(value: Any, hint: Any, s: Setting, where: str) -> Any:
         return value
     if hint is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            fail(where, "an integer" + _with(s), value)
+            fail(where, "an integer" + _with(s) + _unit(s), value)
         if s.choices and value not in s.choices:
             fail(where, "one of " + ", ".join(str(c) for c in s.choices), value)
         _check_range(value, s, where, "an integer")
         return value
     if hint is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            fail(where, "a number" + _with(s), value)
+            fail(where, "a number" + _with(s) + _unit(s), value)
         if math.isnan(value):
             fail(where, "a number", value)
         _check_range(value, s, where, "a number")
@@ -309,6 +311,10 @@ def _scalar(value: Any, hint: Any, s: Setting, where: str) -> Any:
     raise TypeError(f"{where}: unsupported setting type {hint!r}")  # a programming error
 
 
+def _unit(s: Setting) -> str:
+    return f" ({s.unit})" if s.unit and s.unit != "1" else ""
+
+
 def _with(s: Setting) -> str:
     text = _constraint_text(s)
     return f" {text}" if text else ""
@@ -318,7 +324,7 @@ def _check_range(value: float, s: Setting, where: str, kind: str) -> None:
     ok = ((s.ge is None or value >= s.ge) and (s.gt is None or value > s.gt)
           and (s.le is None or value <= s.le) and (s.lt is None or value < s.lt))
     if not ok:
-        fail(where, f"{kind} {_constraint_text(s)}", value)
+        fail(where, f"{kind} {_constraint_text(s)}{_unit(s)}", value)
 
 
 def type_text(hint: Any, s: Setting | None = None) -> str:

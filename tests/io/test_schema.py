@@ -42,8 +42,8 @@ class Demo:
     ({"count": 2.0}, "count", "expected an integer >= 1, found 2.0"),
     ({"count": True}, "count", "expected an integer >= 1, found True"),
     ({"count": 0}, "count", "expected an integer >= 1, found 0"),
-    ({"size_m": "0.1"}, "size_m", "expected a number in (0, 10), found '0.1'"),
-    ({"size_m": 10}, "size_m", "expected a number in (0, 10), found 10"),
+    ({"size_m": "0.1"}, "size_m", "expected a number in (0, 10) (m), found '0.1'"),
+    ({"size_m": 10}, "size_m", "expected a number in (0, 10) (m), found 10"),
     ({"size_m": float("nan")}, "size_m", "expected a number, found nan"),
     ({"name": "c"}, "name", "expected one of a, b, found 'c'"),
     ({"name": 1}, "name", "expected a string (one of a, b), found 1"),
@@ -83,13 +83,13 @@ def test_units_ranges_and_types_are_metadata():
 
 @pytest.mark.parametrize("table, key, expected", [
     ({"igm": "false"}, "igm", "expected true or false, found 'false'"),
-    ({"max_error_px": "0.1"}, "max_error_px", "expected a number > 0, found '0.1'"),
-    ({"max_error_px": 0}, "max_error_px", "expected a number > 0, found 0"),
-    ({"memory_budget_mb": 8}, "memory_budget_mb", "expected a number >= 16, found 8"),
+    ({"max_error_px": "0.1"}, "max_error_px", "expected a number > 0 (px), found '0.1'"),
+    ({"max_error_px": 0}, "max_error_px", "expected a number > 0 (px), found 0"),
+    ({"memory_budget_mb": 8}, "memory_budget_mb", "expected a number >= 16 (MiB), found 8"),
     ({"layers": ["time", "colour"]}, "layers", "expected a list of strings (one of"),
-    ({"bounds": [0, 0, 1]}, "bounds", "expected 4 numbers, found [0, 0, 1]"),
+    ({"bounds": [0, 0, 1]}, "bounds", "expected 4 numbers (map unit), found [0, 0, 1]"),
     ({"geotiff": {"compress": "jpeg"}}, "geotiff.compress", "expected one of deflate, zstd, lzw, none, found 'jpeg'"),
-    ({"geotiff": {"blocksize": "512"}}, "geotiff.blocksize", "expected an integer >= 16, found '512'"),
+    ({"geotiff": {"blocksize": "512"}}, "geotiff.blocksize", "expected an integer >= 16 (px), found '512'"),
 ])
 def test_rectify_options(table, key, expected):
     with pytest.raises(RectifyOptionsError) as info:
@@ -109,8 +109,8 @@ def test_project_file(tmp_path):
     pf = read_project_file(tomllib.loads(text), "project.toml")
     assert [s.id for s in pf.strips] == ["01", "02"] and pf.sensor.fov_deg == 42.9
     for old, new, expected in [
-        ("pixels = 716", "pixels = 716.0", "project.toml [sensor.pixels]: expected an integer >= 1, found 716.0"),
-        ("fov_deg = 42.9", "fov_deg = \"42.9\"", "project.toml [sensor.fov_deg]: expected a number in (0, 180)"),
+        ("pixels = 716", "pixels = 716.0", "project.toml [sensor.pixels]: expected an integer >= 1 (px), found 716.0"),
+        ("fov_deg = 42.9", "fov_deg = \"42.9\"", "project.toml [sensor.fov_deg]: expected a number in (0, 180) (deg)"),
         ("fov_deg = 42.9", "fov_deg = 42.9\nfocal_length_mm = 50", "project.toml [sensor.focal_length_mm]: not a key"),
         ('kind = "whiskbroom"', 'kind = "frame"', "project.toml [sensor.kind]: expected one of whiskbroom, pushbroom"),
         ('crs = "EPSG:32633"', "crs = 32633", "project.toml [project.crs]: expected a string, found 32633"),
@@ -118,7 +118,7 @@ def test_project_file(tmp_path):
         ('id = "02"', "id = 2.5", "project.toml [strips[1].id]: expected a string or an integer, found 2.5"),
         ('id = "02"', 'id = "01"', "project.toml: strip id '01' appears more than once"),
         ("first_line_time = 300155.96", 'first_line_time = "300155.96"',
-         "project.toml [strips[1].first_line_time]: expected a number, found '300155.96'"),
+         "project.toml [strips[1].first_line_time]: expected a number (s), found '300155.96'"),
         ("[sensor]", "[sensr]\na = 1\n[sensor]", "project.toml: unknown table [sensr]"),
     ]:
         assert old in text
