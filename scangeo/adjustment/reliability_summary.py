@@ -175,6 +175,7 @@ def check_columns(sigma: float, ok: bool, failed: bool, alpha0: float, beta: flo
 
 #: Unit status, worst first.
 _ORDER = ("not separable", "rejected", "failed", "uncontrolled", "untested", "verified")
+_CHECK = ("check", "check failed", "not projected")
 UNIT_COLUMNS = ["group", "point", "strip", "kind", "x", "y", "H", "components", "unit", "redundancy", "mdb",
                 "ext_point_m", "ext_orientation_m", "status"]
 
@@ -215,7 +216,8 @@ def _max(a: np.ndarray) -> float:
 
 def summary(vr: VariantReliability) -> list[dict]:
     """Per strip (``-`` for block-wide groups), kind of point and unit: counts by status, median and
-    largest MDB, largest effect on the own point and on the strips' ground positions."""
+    largest MDB, largest effect on the own point and on the strips' ground positions. Check points
+    are listed with the MDB of their own test (``delta0 sigma``) and no external reliability."""
     sol = vr.result.adjustment.solution
     rel = vr.reliability
     acc: dict[tuple[str, str, str], list] = {}
@@ -227,13 +229,20 @@ def summary(vr: VariantReliability) -> list[dict]:
             k = (strip, str(vr.kind[gi][i]), str(g.units[i]))
             acc.setdefault(k, []).append((float(rel.mdb[gi][i]), float(rel.ext_point_m[gi][i]),
                                           float(rel.ext_orientation_m[gi][i]), str(vr.status[gi][i])))
+    c = vr.result.checks   # check points: outside the adjustment, their own test against sigma only
+    crit = vr.result.variant.critical_value
+    sigmas = c.sigma_px if c.sigma_px is not None else np.full(c.point.size, np.nan)
+    for sid, dl, dp, st, sig in zip(c.strip, c.line, c.pixel, c.status, sigmas):
+        for unit, v in (("line", dl), ("px", dp)):
+            verdict = "not projected" if st != 0 else "check failed" if abs(v / sig) > crit else "check"
+            acc.setdefault((str(sid), "check", unit), []).append((rel.delta0 * float(sig), math.nan, math.nan, verdict))
     out = []
     for (strip, kind, unit), items in sorted(acc.items()):
         mdb = np.array([x[0] for x in items])
         fin = mdb[np.isfinite(mdb)]
         status = [x[3] for x in items]
         out.append({"strip": strip, "kind": kind, "unit": unit, "rows": len(items),
-                    **{s.replace(" ", "_"): status.count(s) for s in _ORDER if status.count(s)},
+                    **{s.replace(" ", "_"): status.count(s) for s in _ORDER + _CHECK if status.count(s)},
                     "mdb_median": _num(np.median(fin)) if fin.size else None,
                     "mdb_max": _num(fin.max()) if fin.size else None,
                     "ext_point_max_m": _finite_max([x[1] for x in items]),

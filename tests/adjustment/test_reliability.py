@@ -311,7 +311,9 @@ def test_results_hold_the_reliability(clean, tmp_path):
     summary = json.loads((out / "reliability.json").read_text())
     assert summary["delta0"] == pytest.approx(D0)
     assert set(summary["strips"]) == {"01", "02"} and set(summary["positions"]) == {"01", "02"}
-    assert {s["kind"] for s in summary["summary"]} >= {"control", "tie", "dtm", "gpsimu"}
+    assert {s["kind"] for s in summary["summary"]} >= {"control", "tie", "dtm", "gpsimu", "check"}
+    check = next(s for s in summary["summary"] if s["kind"] == "check" and s["unit"] == "px")
+    assert check["mdb_max"] == pytest.approx(D0 * 0.3) and check["ext_point_max_m"] is None
     section = reliability_section(tmp_path, ["out"])
     text = "".join(section.parts)
     assert text.count("<img") == 2 and "external reliability" in text and "r = 0" in text
