@@ -18,10 +18,10 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -41,6 +41,7 @@ FILE_NAME = "orientation.json"
 DIRECT = "DG"
 
 SensorModel = Whiskbroom | Pushbroom
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -317,7 +318,7 @@ class _Reader:
         return a
 
 
-def _read_sensor(r: _Reader, node: Any) -> SensorModel:
+def _read_sensor(r: _Reader, node: Any, where: str = "sensor") -> SensorModel:
     kind = r.get(node, "kind", "sensor", str)
     n = r.get(node, "pixels", "sensor", int)
     if kind == "whiskbroom":
@@ -354,15 +355,29 @@ def _read_strip(r: _Reader, node: Any, where: str) -> StripOrientation:
 def _read_model(r: _Reader, node: Any, where: str) -> tuple[GpsImuModel, np.ndarray]:
     windows = {}
     for sid, span in r.get(node, "windows", where, dict).items():
-        if not (isinstance(span, list) and len(span) == 2):
-            raise r.fail(f"{where}.windows.{sid}", "expected [start, end] (null: unbounded)")
+        if not (isinstance(span, list) and len(span) == 2
+                and all(v is None or (isinstance(v, (int, float)) and not isinstance(v, bool)) for v in span)):
+            raise r.fail(f"{where}.windows.{sid}", f"expected [start, end] (numbers; null: unbounded), got {span!r}")
         windows[sid] = (-np.inf if span[0] is None else float(span[0]), np.inf if span[1] is None else float(span[1]))
+    strips = r.get(node, "strips", where, list)
+    if not all(isinstance(sid, str) for sid in strips):
+        raise r.fail(f"{where}.strips", "expected strip ids (strings)")
     model = GpsImuModel(
-        r.get(node, "id", where, str), tuple(r.get(node, "strips", where, list)), r.get(node, "t_start", where, float),
+        r.get(node, "id", where, str), tuple(strips), r.get(node, "t_start", where, float),
         r.get(node, "t_end", where, float), r.get(node, "position_degree", where, int),
         r.get(node, "attitude_degree", where, int), r.get(node, "rotation", where, bool),
         r.array(node, "centre", where, (3,)), r.get(node, "follows", where, (str, type(None))), windows)
     return model, r.array(node, "coefficients", where, (model.size,))
+
+
+def _checked(r: _Reader, where: str, read: Callable[[_Reader, Any, str], T], node: Any) -> T:
+    """``read(r, node, where)``, a value the models refuse named by ``where``."""
+    try:
+        return read(r, node, where)
+    except OrientationFileError:
+        raise
+    except ScangeoError as exc:
+        raise r.fail(where, str(exc)) from exc
 
 
 def orientation_from_dict(data: Any, path: Path | str | None = None) -> Orientation:
@@ -385,16 +400,16 @@ def orientation_from_dict(data: Any, path: Path | str | None = None) -> Orientat
                             r.get(mount, "time_offset", "mounting", float))
         strips = {}
         for k, node in enumerate(r.get(data, "strips", "", list)):
-            s = _read_strip(r, node, f"strips[{k}]")
+            s = _checked(r, f"strips[{k}]", _read_strip, node)
             strips[s.id] = s
         models, coefficients = [], {}
         for k, node in enumerate(r.get(data, "gpsimu_models", "", list)):
-            m, c = _read_model(r, node, f"gpsimu_models[{k}]")
+            m, c = _checked(r, f"gpsimu_models[{k}]", _read_model, node)
             models.append(m)
             coefficients[m.id] = c
         return Orientation(
             r.get(data, "variant", "", str), r.get(data, "adjusted", "", bool),
-            _read_sensor(r, r.get(data, "sensor", "", dict)),
+            _checked(r, "sensor", _read_sensor, r.get(data, "sensor", "", dict)),
             mounting, strips, reference, tuple(models), coefficients,
             tuple(r.get(data, "calibrated", "", list)), r.get(data, "sigma0", "", (float, type(None))),
             Path(path) if path is not None else None)

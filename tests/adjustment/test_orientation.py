@@ -133,6 +133,8 @@ def _broken(tmp_path, adjusted, edit):
     (lambda d: d["sensor"].update(fov="42"), "[sensor.fov]", "expected float, got str"),
     (lambda d: d["gpsimu_models"][0].update(coefficients=[1.0]), "[gpsimu_models[0].coefficients]", "shape"),
     (lambda d: d["sensor"].update(kind="frame"), "[sensor.kind]", "unknown sensor kind 'frame'"),
+    (lambda d: d["strips"][0]["spline"].update(spacing=-0.2), "[strips[0]]", "knot spacing must be positive"),
+    (lambda d: d["gpsimu_models"][1].update(position_degree=11), "[gpsimu_models[1]]", "position_degree"),
 ])
 def test_a_bad_file_is_named_with_its_key(tmp_path, adjusted, edit, key, text):
     path = _broken(tmp_path, adjusted, edit)
