@@ -66,7 +66,7 @@ def run_adjust(args: argparse.Namespace) -> int:
         ("check_patches_rms_m", "check patches rms"),
         ("tie_patch_discrepancies_rms_m", "tie patch discrepancies rms"),
     ):
-        if key in ev:
+        if key in ev and ev[key]["before"] == ev[key]["before"]:  # NaN: no such patches
             print(f"{label:28s} {100 * ev[key]['before']:8.2f} cm -> {100 * ev[key]['after']:8.2f} cm")
     for p in results["parameters"]:
         if p["key"] in ("Boresight()", "LeverArm()", "RangeOffset()", "ScanIndex()"):

@@ -71,7 +71,7 @@ class LaserOptions:
     attitude_degree: int = 1
     calibrate: tuple[str, ...] = ("boresight",)
     coefficient_sigma_m: float = 0.5
-    coefficient_sigma_deg: float = 0.05
+    coefficient_sigma_deg: float = 0.01
     #: prior sigma of the constant position terms; None: none with a trajectory, 0.3 m without one (flat
     #: patches do not determine horizontal shifts: the provisional solution keeps them near 0 unless tied)
     constant_sigma_m: float | None = None
