@@ -64,7 +64,7 @@ TOML = [
     case("toml-unknown-table", lambda r: (r / PT).open("a").write("\n[extra]\na = 1\n"), "project.toml", "[extra]"),
     case("toml-wrong-type", replace(PT, "pixels = 100", 'pixels = "many"'), "project.toml", "pixels", "int"),
     case("toml-bool-for-float", replace(PT, "fov_deg = 42.9", "fov_deg = true"), "project.toml", "fov_deg"),
-    case("toml-bad-crs", replace(PT, "EPSG:32633", "EPSG:999999"), "project.toml", "[project] crs", "EPSG:999999"),
+    case("toml-bad-crs", replace(PT, "EPSG:32633", "EPSG:999999"), "project.toml", "[project.crs]", "EPSG:999999"),
     case("toml-bad-kind", replace(PT, '"whiskbroom"', '"frame"'), "project.toml", "kind", "frame"),
     case("toml-short-vector", replace(PT, "lever_arm_m = [0.35, 0.1, -0.8]", "lever_arm_m = [0.35, 0.1]"),
          "project.toml", "lever_arm_m"),
