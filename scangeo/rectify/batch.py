@@ -8,7 +8,9 @@ carries the current fingerprint is complete and is skipped on a rerun. Anything 
 
 A strip is a task (:class:`StripTask`, picklable: paths and settings only) that a worker turns
 into outputs with :func:`run_strip_task`; the same function runs in-process, in a process pool
-(``workers > 1``) or on a Dask distributed cluster (``scheduler``).
+(``workers > 1``) or on a Dask distributed cluster (``scheduler``). In-process, the strips are
+pipelined: a :class:`~scangeo.rectify.strip.Finaliser` thread compresses and writes one strip's
+orthoimage while the next strip's inverse map is computed.
 """
 from __future__ import annotations
 
@@ -27,7 +29,7 @@ from rasterio.windows import Window
 
 from scangeo import __version__
 from scangeo.adjustment.orientation import Orientation, load_orientation, results_folder
-from scangeo.errors import ProjectFileError, ScangeoError
+from scangeo.errors import MissingDependencyError, ProjectFileError
 from scangeo.io.project import Project
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify.core_geometry import CoreStripGeometry
@@ -36,7 +38,7 @@ from scangeo.rectify.geometry import nadir_ground_pixel
 from scangeo.rectify.geotiff import BandInfo, remove_partials
 from scangeo.rectify.options import RectifyOptions
 from scangeo.rectify.output_grid import OutputGrid, nice_resolution
-from scangeo.rectify.strip import rectify_strip
+from scangeo.rectify.strip import Finaliser, StripResult, rectify_strip
 
 log = logging.getLogger(__name__)
 
@@ -120,6 +122,13 @@ def _band_info(project: Project, image: Path) -> list[BandInfo] | None:
 
 def run_strip_task(task: StripTask, progress: ProgressCallback = no_progress) -> dict:
     """Rectify one strip (in whatever process runs this) and return its summary."""
+    return {"strip": task.strip, "status": "done", **start_strip_task(task, progress).summary()}
+
+
+def start_strip_task(task: StripTask, progress: ProgressCallback = no_progress,
+                     finaliser: Finaliser | None = None) -> StripResult:
+    """Rectify one strip; with a finaliser the result's outputs are written in its thread
+    (``result.wait()``)."""
     if task.threads:
         import cv2
         import numba
@@ -151,8 +160,8 @@ def run_strip_task(task: StripTask, progress: ProgressCallback = no_progress) ->
         "sigma0": "" if source.sigma0 is None else f"{source.sigma0:.6g}",
         "scangeo_fingerprint": task.fingerprint,
     }
-    result = rectify_strip(geometry, cfg.image, output, task.options, tags=tags, bands=bands, progress=progress)
-    return {"strip": task.strip, "status": "done", **result.summary()}
+    return rectify_strip(geometry, cfg.image, output, task.options, tags=tags, bands=bands, progress=progress,
+                         finaliser=finaliser)
 
 
 def project_resolution(project: Project, source: Orientation, strip_ids: list[str]) -> float:
@@ -213,10 +222,12 @@ def rectify_project(
     elif workers > 1 and len(tasks) > 1:
         summaries = _run_pool(tasks, workers, lambda n: progress(done + n, total, f"rectify {variant}"))
     else:
-        summaries = []
-        for i, task in enumerate(tasks):
-            sub = lambda d, t, m="", i=i: progress(done + i + (d / t if t else 0), total, f"strip {task.strip}: {m}")
-            summaries.append(run_strip_task(task, sub))
+        started_strips = []
+        with Finaliser() as finaliser:  # leaving it waits for the last strip's outputs
+            for i, task in enumerate(tasks):
+                started_strips.append((task.strip, start_strip_task(task, _strip_progress(progress, done + i, total,
+                                                                                          task.strip), finaliser)))
+        summaries = [{"strip": sid, "status": "done", **r.summary()} for sid, r in started_strips]
     for s in summaries:
         result.strips[s["strip"]] = s
     result.strips = {sid: result.strips[sid] for sid in ids}
@@ -226,6 +237,13 @@ def rectify_project(
         result.mosaic = build_mosaic([folder / f"{sid}.tif" for sid in ids], folder / "mosaic.tif", options.geotiff)
     result.seconds = time.perf_counter() - started
     return result
+
+
+def _strip_progress(progress: ProgressCallback, before: int, strips: int, strip: str) -> ProgressCallback:
+    """The batch's progress within one strip (fractional strips after ``before`` complete ones)."""
+    def sub(done: float, total: float, message: str = "") -> None:
+        progress(before + (done / total if total else 0), strips, f"strip {strip}: {message}")
+    return sub
 
 
 def _threads_per_worker(workers: int) -> int:
@@ -250,7 +268,7 @@ def _run_dask(tasks: list[StripTask], address: str, on_done) -> list[dict]:
         from dask.distributed import Client
         from dask.distributed import as_completed as dask_completed
     except ImportError as exc:  # pragma: no cover - depends on the installation
-        raise ScangeoError("--scheduler needs dask[distributed] (pip install 'scangeo[cluster]')") from exc
+        raise MissingDependencyError("--scheduler needs dask[distributed] (pip install 'scangeo[cluster]')") from exc
     out = []
     with Client(address) as client:
         futures = [

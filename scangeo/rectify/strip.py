@@ -8,7 +8,9 @@ Pass 2 (:func:`resample`), per tile: visibility against the complete z-buffer, t
 tile needs (a rasterio window), ``cv2.remap`` of every band, nodata outside the swath, where the
 DTM has none and where the ground is hidden; optional layers and the GLT.
 Then (:func:`write_outputs`) the working GeoTIFF is copied into the final layout (COG) under a
-hidden name and renamed: an interrupted run leaves nothing that looks finished.
+hidden name and renamed: an interrupted run leaves nothing that looks finished. Given a
+:class:`Finaliser`, that last step (compression, overviews) runs in its background thread while the
+caller goes on with the next strip's passes; :meth:`StripResult.wait` waits for it.
 """
 from __future__ import annotations
 
@@ -19,7 +21,8 @@ import shutil
 import tempfile
 import time
 import warnings
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,7 +32,7 @@ import rasterio
 from rasterio.windows import Window
 
 from scangeo import __version__
-from scangeo.errors import InputFileError, ScangeoError
+from scangeo.errors import GeometryError, InputFileError, RectifyOptionsError
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify import occlusion
 from scangeo.rectify.geolocation import GltWriter
@@ -68,8 +71,18 @@ class StripResult:
     tile_size: int = 0
     seconds: float = 0.0
     inverse_map_method: str = ""
+    pending: Future | None = field(default=None, repr=False, compare=False)
+
+    def wait(self) -> StripResult:
+        """Wait until the outputs are written (when a :class:`Finaliser` writes them); re-raises the
+        error of that step."""
+        if self.pending is not None:
+            pending, self.pending = self.pending, None
+            pending.result()
+        return self
 
     def summary(self) -> dict:
+        self.wait()
         return {
             "path": str(self.path),
             "grid": self.grid.to_dict(),
@@ -81,6 +94,29 @@ class StripResult:
             "inverse_map_method": self.inverse_map_method,
             "seconds": round(self.seconds, 3),
         }
+
+
+class Finaliser:
+    """One background thread that writes strips' outputs in their final layout (:func:`write_outputs`:
+    the COG copy with its compression and overviews), in the order given, while the caller computes
+    the next strip. It runs GDAL only, no numba kernel (numba's ``workqueue`` threading layer must not
+    be entered from two threads at once). Use as a context manager: leaving it waits for every strip.
+    """
+
+    def __init__(self) -> None:
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="scangeo-finalise")
+
+    def submit(self, job: Callable[[], None]) -> Future:
+        return self._pool.submit(job)
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True)
+
+    def __enter__(self) -> Finaliser:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
 
 def strip_grid(geometry: MapStripGeometry, options: RectifyOptions) -> OutputGrid:
@@ -112,7 +148,7 @@ def choose_tile_size(
         window = window_lines * geometry.pixels * bands * max(itemsize, 4)
         if cells * per_cell + window <= budget:
             return size
-    raise ScangeoError(
+    raise RectifyOptionsError(
         f"rectify: a memory budget of {options.memory_budget_mb} MiB is too small for this strip "
         f"({geometry.lines} x {geometry.pixels} x {bands}); allow more with memory_budget_mb"
     )
@@ -123,7 +159,7 @@ def _orientation(geometry: MapStripGeometry, grid: OutputGrid) -> float:
     l0, p0 = (geometry.lines - 1) / 2.0, (geometry.pixels - 1) / 2.0
     x, y, H = geometry.image_to_ground(np.array([l0]), np.array([p0]))
     if not np.isfinite(x[0]):
-        raise ScangeoError("rectify: the strip's centre pixel does not meet the DTM")
+        raise GeometryError("rectify: the strip's centre pixel does not meet the DTM")
     r = grid.resolution
     line, pixel = geometry.ground_to_image(
         np.array([x[0], x[0] + r, x[0]]), np.array([y[0], y[0], y[0] - r]), np.full(3, H[0])
@@ -323,6 +359,7 @@ class Resampled:
     layers: Path | None
     glt: GltWriter | None
     tags: dict[str, object]
+    dtype: np.dtype
 
 
 def resample(run: StripRun, bands: list[BandInfo], tags: Mapping[str, object] | None = None,
@@ -334,6 +371,7 @@ def resample(run: StripRun, bands: list[BandInfo], tags: Mapping[str, object] | 
     out = Resampled(
         run.work_dir / "working.tif", run.work_dir / "layers.tif" if layers else None,
         GltWriter(run.work_dir / "glt", grid) if run.options.glt else None, _tags(tags, run.options, run.result),
+        dtype,
     )
     windows = run.windows
     with contextlib.ExitStack() as stack:
@@ -363,7 +401,7 @@ def write_outputs(run: StripRun, resampled: Resampled) -> None:
         finalise(resampled.layers, result.layers_path, options.geotiff, np.float32)
     if resampled.glt is not None:
         result.glt_path = resampled.glt.commit(output.with_suffix(".glt"))
-    finalise(resampled.image, output, options.geotiff, np.dtype(run.src.dtypes[0]))
+    finalise(resampled.image, output, options.geotiff, resampled.dtype)
 
 
 @contextlib.contextmanager
@@ -388,14 +426,9 @@ def open_strip_image(image: Path, geometry: MapStripGeometry) -> Iterator[raster
         yield src
 
 
-@contextlib.contextmanager
-def work_folder(output: Path) -> Iterator[Path]:
-    """A hidden folder beside ``output`` for the working files, removed afterwards."""
-    folder = Path(tempfile.mkdtemp(dir=output.parent, prefix=f".{output.name}.partial-"))
-    try:
-        yield folder
-    finally:
-        shutil.rmtree(folder, ignore_errors=True)
+def work_folder(output: Path) -> Path:
+    """A hidden folder beside ``output`` for the working files (the caller removes it)."""
+    return Path(tempfile.mkdtemp(dir=output.parent, prefix=f".{output.name}.partial-"))
 
 
 def rectify_strip(
@@ -407,6 +440,7 @@ def rectify_strip(
     tags: Mapping[str, object] | None = None,
     bands: list[BandInfo] | None = None,
     progress: ProgressCallback = no_progress,
+    finaliser: Finaliser | None = None,
 ) -> StripResult:
     """Rectify the strip image ``image`` onto ``grid`` and write the orthoimage ``output``.
 
@@ -426,6 +460,8 @@ def rectify_strip(
     tags : metadata recorded in the GeoTIFF (variant, sigma0, fingerprint ...).
     bands : band names and wavelengths (default: from the image).
     progress : ``callback(done, total, message)``.
+    finaliser : when given, the last step (:func:`write_outputs`) runs in its thread and this
+        returns after pass 2; ``result.wait()`` waits for the outputs (and raises its error).
     """
     started = time.perf_counter()
     options = options or RectifyOptions()
@@ -433,21 +469,37 @@ def rectify_strip(
     output.parent.mkdir(parents=True, exist_ok=True)
     remove_partials(output)
     grid = grid or strip_grid(geometry, options)
-    with rasterio.Env(GDAL_CACHEMAX=gdal_cache(options)), open_strip_image(image, geometry) as src:
-        with work_folder(output) as work_dir:
+    work_dir = work_folder(output)
+    try:
+        with rasterio.Env(GDAL_CACHEMAX=gdal_cache(options)), open_strip_image(image, geometry) as src:
             run = start_run(geometry, grid, options, src, output, work_dir)
             map_cells(run, progress)
             resampled = resample(run, bands or bands_of(src), tags, progress)
-            write_outputs(run, resampled)
-            run.work.close()
-    result = run.result
-    result.seconds = time.perf_counter() - started
-    log.info(
-        "%s: %d x %d cells, %d valid, %d hidden, inverse map %d exact points, max error %.4f px, %.2f s",
-        output.name, grid.width, grid.height, result.valid_cells, result.hidden_cells,
-        result.stats.exact_points, result.stats.max_error_px, result.seconds,
-    )
-    return result
+        run.work.close()  # pass 2's inputs are no longer needed: free them before the last step
+        run.zbuf = None
+    except BaseException:
+        shutil.rmtree(work_dir, ignore_errors=True)
+        raise
+
+    def finish() -> None:
+        try:
+            with rasterio.Env(GDAL_CACHEMAX=gdal_cache(options)):
+                write_outputs(run, resampled)
+        finally:
+            shutil.rmtree(work_dir, ignore_errors=True)
+        result = run.result
+        result.seconds = time.perf_counter() - started
+        log.info(
+            "%s: %d x %d cells, %d valid, %d hidden, inverse map %d exact points, max error %.4f px, %.2f s",
+            output.name, grid.width, grid.height, result.valid_cells, result.hidden_cells,
+            result.stats.exact_points, result.stats.max_error_px, result.seconds,
+        )
+
+    if finaliser is None:
+        finish()
+    else:
+        run.result.pending = finaliser.submit(finish)
+    return run.result
 
 
 def _tags(tags: Mapping[str, object] | None, options: RectifyOptions, result: StripResult) -> dict[str, object]:

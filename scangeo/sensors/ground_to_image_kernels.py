@@ -39,6 +39,7 @@ from scangeo.sensors.kernels import (
     _find_crossings,
     _solve_in,
     _view_yz,
+    line_to_time,
     time_to_line,
 )
 
@@ -134,6 +135,47 @@ def _bracket(gtab, M, k_start, X, Y, Z):
 
 
 @nb.njit(inline="always", cache=True)
+def _hermite_root(ga, gb, ma, mb):
+    """(s, dH/ds there, converged) for the root in [0, 1] of the cubic Hermite interpolant of g
+    (values ga, gb of opposite signs, derivatives ma, mb per interval) by Newton from the secant;
+    not converged when the cubic is not monotonic (g may cross zero more than once in the interval)."""
+    s = ga / (ga - gb)
+    slope = 0.0
+    if not _monotonic(ga, gb, ma, mb):
+        return s, slope, False
+    for _ in range(8):
+        s2 = s * s
+        s3 = s2 * s
+        hv = (2 * s3 - 3 * s2 + 1) * ga + (s3 - 2 * s2 + s) * ma + (3 * s2 - 2 * s3) * gb + (s3 - s2) * mb
+        slope = (6 * s2 - 6 * s) * (ga - gb) + (3 * s2 - 4 * s + 1) * ma + (3 * s2 - 2 * s) * mb
+        if slope == 0.0:
+            break
+        step = hv / slope
+        s -= step
+        if not (0.0 <= s <= 1.0):
+            break
+        if abs(step) < 1e-9:
+            return s, slope, True
+    return s, slope, False
+
+
+@nb.njit(inline="always", cache=True)
+def _hermite_view(tab, k, s, h, X, Y, Z):
+    """vy, vz at s in interval k by their cubic Hermite interpolants."""
+    s2 = s * s
+    s3 = s2 * s
+    h00 = 2 * s3 - 3 * s2 + 1
+    h10 = (s3 - 2 * s2 + s) * h
+    h01 = 3 * s2 - 2 * s3
+    h11 = (s3 - s2) * h
+    vy = (h00 * _row(tab, k, 2, X, Y, Z) + h10 * _row(tab, k, 3, X, Y, Z)
+          + h01 * _row(tab, k + 1, 2, X, Y, Z) + h11 * _row(tab, k + 1, 3, X, Y, Z))
+    vz = (h00 * _row(tab, k, 4, X, Y, Z) + h10 * _row(tab, k, 5, X, Y, Z)
+          + h01 * _row(tab, k + 1, 4, X, Y, Z) + h11 * _row(tab, k + 1, 5, X, Y, Z))
+    return vy, vz
+
+
+@nb.njit(inline="always", cache=True)
 def _monotonic(ga, gb, ma, mb):
     """True if the cubic Hermite interpolant (values ga, gb of opposite signs, derivatives ma, mb per
     interval) is strictly monotonic on [0, 1]: its derivative, a quadratic, keeps the sign of gb - ga."""
@@ -149,6 +191,29 @@ def _monotonic(ga, gb, ma, mb):
         if 0 < sv < 1 and ma - qb * qb / (4 * qa) >= 0:
             return False
     return True
+
+
+@nb.njit(inline="always", cache=True)
+def _solve_interval(points, q, k, ga, gb, times, tab, err, cA, cC, t0, dt, coef, lever, R_BS, toff, tol_line, tol_t,
+                    ifov, R, p, dR, dp):
+    """(t, vy, vz, exact) of point q crossing the scan plane in interval k (g values ga, gb): by the
+    interpolants when their error bound is within ``tol_line`` pixels and ``tol_t`` seconds, else by
+    safeguarded Newton on the spline (``exact`` True); t NaN if that fails."""
+    X, Y, Z = points[q, 0], points[q, 1], points[q, 2]
+    h = times[k + 1] - times[k]
+    s, slope, converged = _hermite_root(ga, gb, _row(tab, k, 1, X, Y, Z) * h, _row(tab, k + 1, 1, X, Y, Z) * h)
+    if converged:
+        vy, vz = _hermite_view(tab, k, s, h, X, Y, Z)
+        rng = math.sqrt(vy * vy + vz * vz)
+        bound = err[k, 0] * rng + err[k, 1]  # metres in g, vy, vz
+        # in time (through the condition's rate of change) and in pixels (through the range)
+        if vz > 0 and bound * h <= tol_t * abs(slope) and bound <= tol_line * ifov * rng:
+            return times[k] + s * h, vy, vz, False
+    t, t_ev = _solve_in(k, points[q], 0.0, 0.0, times, cA, cC, t0, dt, coef, lever, R_BS, toff, tol_t, R, p, dR, dp)
+    if np.isnan(t):
+        return t, np.nan, np.nan, True
+    vy, vz = _view_yz(points[q], R, p, dR, dp, t - t_ev)
+    return t, vy, vz, True
 
 
 @nb.njit(parallel=True, cache=True)
@@ -205,59 +270,14 @@ def whiskbroom_ground_to_image(points, times, tab, gtab, err, cA, cC, window, t0
                 k_warm = crossings[0]
             for ci in range(count):
                 k = crossings[ci]
-                h = times[k + 1] - times[k]
                 ga = _row(tab, k, 0, X, Y, Z)
                 gb = _row(tab, k + 1, 0, X, Y, Z)
-                ma = _row(tab, k, 1, X, Y, Z) * h
-                mb = _row(tab, k + 1, 1, X, Y, Z) * h
-                # root of the cubic Hermite interpolant of g by Newton from the secant, when the cubic
-                # is monotonic (else g may cross zero more than once in the interval: exact solution)
-                s = ga / (ga - gb)
-                converged = False
-                slope = 0.0
-                for _ in range(8 if _monotonic(ga, gb, ma, mb) else 0):
-                    s2 = s * s
-                    s3 = s2 * s
-                    hv = (2 * s3 - 3 * s2 + 1) * ga + (s3 - 2 * s2 + s) * ma + (3 * s2 - 2 * s3) * gb + (s3 - s2) * mb
-                    slope = (6 * s2 - 6 * s) * (ga - gb) + (3 * s2 - 4 * s + 1) * ma + (3 * s2 - 2 * s) * mb
-                    if slope == 0.0:
-                        break
-                    step = hv / slope
-                    s -= step
-                    if not (0.0 <= s <= 1.0):
-                        break
-                    if abs(step) < 1e-9:
-                        converged = True
-                        break
-                vy = np.nan
-                vz = np.nan
-                t = np.nan
-                if converged:
-                    s2 = s * s
-                    s3 = s2 * s
-                    h00 = 2 * s3 - 3 * s2 + 1
-                    h10 = (s3 - 2 * s2 + s) * h
-                    h01 = 3 * s2 - 2 * s3
-                    h11 = (s3 - s2) * h
-                    vy = (h00 * _row(tab, k, 2, X, Y, Z) + h10 * _row(tab, k, 3, X, Y, Z)
-                          + h01 * _row(tab, k + 1, 2, X, Y, Z) + h11 * _row(tab, k + 1, 3, X, Y, Z))
-                    vz = (h00 * _row(tab, k, 4, X, Y, Z) + h10 * _row(tab, k, 5, X, Y, Z)
-                          + h01 * _row(tab, k + 1, 4, X, Y, Z) + h11 * _row(tab, k + 1, 5, X, Y, Z))
-                    t = times[k] + s * h
-                    rng = math.sqrt(vy * vy + vz * vz)
-                    bound = err[k, 0] * rng + err[k, 1]  # metres in g, vy, vz
-                    # in lines (through the condition's rate of change) and in pixels (through the range)
-                    if not (vz > 0 and bound * h <= tol_t * abs(slope)
-                            and bound <= tol_line * ifov * rng):
-                        converged = False
-                if not converged:
-                    out_exact[q] = 1
-                    t, t_ev = _solve_in(k, points[q], 0.0, 0.0, times, cA, cC, t0, dt, coef, lever, R_BS, toff,
-                                        tol_t, R, p, dR, dp)
-                    if np.isnan(t):
-                        out_status[q] = NO_CONVERGENCE | flag
-                        continue
-                    vy, vz = _view_yz(points[q], R, p, dR, dp, t - t_ev)
+                t, vy, vz, exact = _solve_interval(points, q, k, ga, gb, times, tab, err, cA, cC, t0, dt, coef, lever,
+                                                   R_BS, toff, tol_line, tol_t, ifov, R, p, dR, dp)
+                out_exact[q] = exact
+                if np.isnan(t):
+                    out_status[q] = NO_CONVERGENCE | flag
+                    continue
                 if vz <= 0:
                     out_status[q] = BEHIND | flag
                     continue
@@ -273,3 +293,90 @@ def whiskbroom_ground_to_image(points, times, tab, gtab, err, cA, cC, window, t0
                 out_pixel[q] = pixel
                 out_status[q] = OK | flag
                 break
+
+
+@nb.njit(parallel=True, cache=True)
+def whiskbroom_ground_to_image_near(points, guess_line, guess_pixel, times, tab, err, cA, cC, t0, dt, coef, lever, R_BS,
+                                    toff, sp, lt0, lrate, ltable, n_lines, tol_line, tol_t, max_step_t, max_iter,
+                                    n_chunks, out_line, out_pixel, out_status, out_steps):
+    """``kernels.refine_kernel`` (ground -> image from a guess of (line, pixel), strips without
+    over-scanning) by the interpolated conditions: the coarse interval is taken from the guess's time
+    (the epochs are uniform) and moved by secant jumps to the one holding the sign change, at most
+    ``max_step_t`` seconds away and ``max_iter`` intervals looked at, else NO_CONVERGENCE; then as
+    ``whiskbroom_ground_to_image`` (exact Newton where the bound exceeds the tolerance).
+    ``out_steps``: condition evaluations (intervals looked at, plus 3 for an exact solution).
+    Outside the swath or beyond the ends the (line, pixel) is kept with the status saying so.
+    """
+    n = points.shape[0]
+    M = times.shape[0]
+    step_e = times[1] - times[0]
+    max_walk = int(max_step_t / step_e) + 1
+    chunk = (n + n_chunks - 1) // n_chunks
+    npix = sp[sp.shape[0] - 1]
+    pp, ifov, direction, theta0, dt_pix = sp[0], sp[1], sp[2], sp[3], sp[4]
+    for c in nb.prange(n_chunks):
+        R = np.empty((3, 3))
+        dR = np.empty((3, 3))
+        p = np.empty(3)
+        dp = np.empty(3)
+        for q in range(c * chunk, min(n, (c + 1) * chunk)):
+            X = points[q, 0]
+            Y = points[q, 1]
+            Z = points[q, 2]
+            out_line[q] = np.nan
+            out_pixel[q] = np.nan
+            out_status[q] = NO_CONVERGENCE
+            out_steps[q] = 0
+            gl = guess_line[q]
+            gp = guess_pixel[q]
+            if not (math.isfinite(X) and math.isfinite(Y) and math.isfinite(Z) and math.isfinite(gl)
+                    and math.isfinite(gp)):
+                continue
+            gp = min(max(gp, -0.5), npix - 0.5)
+            t_guess = line_to_time(gl, lt0, lrate, ltable) + (gp - pp) * dt_pix
+            k_guess = min(max(int(math.floor((t_guess - times[0]) / step_e)), 0), M - 2)
+            k = k_guess
+            lo = max(0, k_guess - max_walk)
+            hi = min(M - 2, k_guess + max_walk)
+            found = False
+            for _ in range(max_iter):
+                out_steps[q] += 1
+                ga = _row(tab, k, 0, X, Y, Z)
+                gb = _row(tab, k + 1, 0, X, Y, Z)
+                if ga >= 0 and gb < 0:
+                    found = True
+                    break
+                # the answer lies in [lo, hi]; secant jump to where g's linear extension crosses zero
+                # (at least one interval), bisection when that leaves [lo, hi]
+                dk = ga / (ga - gb) if ga != gb else 0.0
+                if ga < 0:
+                    hi = min(hi, k - 1)
+                    k += min(-1, int(math.floor(dk))) if dk > -M else -1
+                else:
+                    lo = max(lo, k + 1)
+                    k += max(1, int(math.floor(dk))) if dk < M else 1
+                if lo > hi:
+                    break
+                if not (lo <= k <= hi):
+                    k = (lo + hi) // 2
+            if not found:
+                continue
+            t, vy, vz, exact = _solve_interval(points, q, k, ga, gb, times, tab, err, cA, cC, t0, dt, coef, lever,
+                                               R_BS, toff, tol_line, tol_t, ifov, R, p, dR, dp)
+            if exact:
+                out_steps[q] += 3
+            if np.isnan(t):
+                continue
+            if vz <= 0:
+                out_status[q] = BEHIND
+                continue
+            pixel = pp + direction * (math.atan2(vy, vz) - theta0) / ifov
+            line = time_to_line(t - (pixel - pp) * dt_pix, lt0, lrate, ltable)
+            out_line[q] = line
+            out_pixel[q] = pixel
+            if pixel < -0.5 or pixel > npix - 0.5:
+                out_status[q] = OUTSIDE_SWATH
+            elif line < -0.5 or line > n_lines - 0.5:
+                out_status[q] = NOT_SEEN
+            else:
+                out_status[q] = OK

@@ -16,7 +16,11 @@ import numpy as np
 from scangeo.dtm import DTM
 from scangeo.rotation import small_rotation
 from scangeo.sensors import kernels as K
-from scangeo.sensors.ground_to_image_kernels import whiskbroom_ground_to_image, whiskbroom_tables
+from scangeo.sensors.ground_to_image_kernels import (
+    whiskbroom_ground_to_image,
+    whiskbroom_ground_to_image_near,
+    whiskbroom_tables,
+)
 from scangeo.sensors.models import SensorModel
 from scangeo.sensors.raycast import ray_cast_kernel
 from scangeo.timing import LineTiming
@@ -248,7 +252,9 @@ class StripGeometry:
         guesses ``line0, pixel0`` (e.g. interpolated from exact solutions nearby), no bracketing.
 
         Only for strips without over-scanning (``overscan_window == 0``), where a point has one
-        solution; there the result equals ``ground_to_image``'s. Points whose iteration does not
+        solution; there the result equals ``ground_to_image``'s. Whiskbroom: the interpolated
+        conditions of ``ground_to_image`` from the guess's coarse interval (``evaluations`` and
+        ``max_iter`` count the intervals looked at). Points whose iteration does not
         converge within ``max_iter`` condition evaluations, or steps farther than
         ``max_step_lines``, get status NO_CONVERGENCE (solve them with ``ground_to_image``).
         Points outside the swath or beyond the strip's ends keep their (line, pixel) with the
@@ -262,6 +268,15 @@ class StripGeometry:
         status = np.empty(n, dtype=np.int64)
         steps = np.empty(n, dtype=np.int64)
         rate = self.timing.mean_rate
+        if kind == 0:
+            times, tab, _, err, cA, cC = self._whiskbroom_tables
+            guess = [np.ascontiguousarray(a, dtype=float).ravel() for a in (line0, pixel0)]
+            whiskbroom_ground_to_image_near(
+                p_P, *guess, times, tab, err, cA, cC, *self._mount_args(), sp, *self._timing_args(),
+                float(self.n_lines), float(tol_line), tol_line / rate, max_step_lines / rate, int(max_iter),
+                max(1, min(n, 256)), line, pixel, status, steps,
+            )
+            return line, pixel, status, steps
         K.refine_kernel(
             p_P, np.ascontiguousarray(line0, dtype=float).ravel(), np.ascontiguousarray(pixel0, dtype=float).ravel(),
             *self._mount_args(), kind, sp, np.ascontiguousarray(table, dtype=float), *self._timing_args(),

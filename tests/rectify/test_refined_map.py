@@ -135,7 +135,9 @@ def test_over_scanning_strip_is_solved_by_the_bracketed_search():
 
 
 def test_cells_that_do_not_converge_go_to_the_bracketed_search():
-    g = geometry(Whiskbroom())
+    # Newton on the spline (pushbrooms; whiskbrooms interpolate their conditions and converge in the
+    # guess's interval, tests/sensors/test_parallel_kernel.py)
+    g = geometry(SENSORS["pushbroom-pinhole"])
     grid, X, Y, H = tile(g, rows=100, cols=500)
     opts = InverseMapOptions(max_iter=1, tol_line=1e-6)  # one evaluation is never enough at 1e-6 lines
     line, pixel, stats = build_refined_map(g, grid, H, opts)

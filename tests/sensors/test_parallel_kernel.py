@@ -125,3 +125,26 @@ def test_fast_dynamics_fall_back_to_the_exact_solution():
         if tol == 1e-3:  # interpolation alone: above 1e-6 px somewhere
             assert np.abs(pixel - pixels).max() > 1e-6
     assert n_exact[1e-3] < n_exact[1e-5] < n_exact[1e-6]
+
+
+def test_near_from_guesses_matches_truth_and_the_newton_kernel(strip):
+    """ground_to_image_near (the refined inverse map's call) from guesses up to 20 lines and pixels
+    off: the interpolated kernel against truth, and against Newton on the spline (refine_kernel)."""
+    P, lines, pixels = _points(strip, 100_000, seed=7)
+    rng = np.random.default_rng(8)
+    gl = lines + rng.uniform(-20, 20, len(P))
+    gp = pixels + rng.uniform(-20, 20, len(P))
+    line, pixel, status, steps = strip.ground_to_image_near(P, gl, gp, tol_line=1e-4)
+    assert (status == K.OK).all() and steps.min() >= 1
+    assert np.abs(line - lines).max() <= 1e-4 and np.abs(pixel - pixels).max() <= 1e-4
+    kind, sp, table = strip.sensor.kernel_params()
+    n = len(P)
+    ln, px, st, ev = np.empty(n), np.empty(n), np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    K.refine_kernel(P, gl, gp, *strip._mount_args(), kind, sp, table, *strip._timing_args(), float(strip.n_lines),
+                    1e-4 / 25.0, 64 / 25.0, 8, 256, ln, px, st, ev)
+    ok = st == K.OK
+    assert ok.mean() > 0.99 and np.abs(line[ok] - ln[ok]).max() <= 1e-4
+    # too far from the guess: no convergence, as refine_kernel's step limit
+    inner = np.flatnonzero(lines > 300)[:100]
+    far = strip.ground_to_image_near(P[inner], lines[inner] - 200, pixels[inner], max_step_lines=64.0)[2]
+    assert (far == K.NO_CONVERGENCE).all()

@@ -1,0 +1,69 @@
+"""Pipelined rectification (a Finaliser thread writes one strip while the next is computed) gives
+byte-identical files to the sequential run, and a failure in the background step is raised."""
+import hashlib
+import re
+
+import pytest
+from rectify_synthetic import AnalyticStrip, Texture, hills, make_dtm, render
+
+from scangeo.rectify.geotiff import GeoTiffProfile
+from scangeo.rectify.options import RectifyOptions
+from scangeo.rectify.strip import Finaliser, rectify_strip
+
+TEX = Texture()
+OPTS = RectifyOptions(resolution=2.0, layers=("scan_angle", "image_line"), glt=True,
+                      geotiff=GeoTiffProfile(blocksize=128, overviews=True))
+
+
+def strips(tmp_path, n=2):
+    dtm = make_dtm(hills, 499_000, 501_000, 4_999_700, 5_001_000, 2.0)
+    out = []
+    for i in range(n):
+        strip = AnalyticStrip(dtm, roll_amp=0.002 * (i + 1))
+        render(strip, TEX, tmp_path / f"img{i}.tif", bands=3, dtype="uint16")
+        out.append(strip)
+    return out
+
+
+def digest(folder, names):
+    out = {}
+    for n in names:
+        data = (folder / n).read_bytes()
+        if n.endswith(".hdr"):  # its description names the (randomly named) working file GDAL wrote
+            data = re.sub(rb"description = \{[^}]*\}", b"", data)
+        out[n] = hashlib.sha256(data).hexdigest()
+    return out
+
+
+def test_pipelined_outputs_are_byte_identical_to_sequential(tmp_path):
+    geoms = strips(tmp_path)
+    names = [f"o{i}{suffix}" for i in range(len(geoms)) for suffix in (".tif", ".layers.tif", ".glt", ".glt.hdr")]
+    (tmp_path / "seq").mkdir()
+    (tmp_path / "pipe").mkdir()
+    seq = [rectify_strip(g, tmp_path / f"img{i}.tif", tmp_path / "seq" / f"o{i}.tif", OPTS)
+           for i, g in enumerate(geoms)]
+    with Finaliser() as finaliser:
+        pipe = [rectify_strip(g, tmp_path / f"img{i}.tif", tmp_path / "pipe" / f"o{i}.tif", OPTS,
+                              finaliser=finaliser) for i, g in enumerate(geoms)]
+    for a, b in zip(seq, pipe):
+        assert b.wait() is b and b.pending is None
+        assert a.valid_cells == b.valid_cells > 10_000 and a.hidden_cells == b.hidden_cells
+    assert digest(tmp_path / "seq", names) == digest(tmp_path / "pipe", names)
+    # nothing but the outputs is left (the working folders are removed by the background step)
+    assert sorted(p.name for p in (tmp_path / "pipe").iterdir()) == sorted(names)
+
+
+def test_a_failure_of_the_background_step_is_raised_by_wait_and_leaves_no_output(tmp_path, monkeypatch):
+    (geom,) = strips(tmp_path, 1)
+    import scangeo.rectify.strip as strip_module
+
+    def broken(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(strip_module, "finalise", broken)
+    with Finaliser() as finaliser:
+        r = rectify_strip(geom, tmp_path / "img0.tif", tmp_path / "o.tif", RectifyOptions(resolution=2.0),
+                          finaliser=finaliser)
+        with pytest.raises(OSError, match="disk full"):
+            r.wait()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["img0.tif"]
