@@ -33,6 +33,7 @@ from scangeo.adjustment.parameters import Parameters
 from scangeo.adjustment.solver import SolverOptions
 from scangeo.errors import LidarError, ProjectFileError
 from scangeo.io.points import column_floats, read_rows
+from scangeo.io.schema import read, setting
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, georeference, recover
 from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors
 from scangeo.lidar.lasio import StripCloud, read_strip
@@ -58,27 +59,32 @@ CALIBRATE = ("boresight", "lever_arm", "range_offset", "scan_index")
 class LaserOptions:
     """Options of ``scangeo lidar adjust`` (``[adjustment]`` in project.toml; lengths in metres)."""
 
-    mode: str = "auto"
-    patch_size: float = 6.0
-    min_patch_points: int = 13
-    max_patch_sigma: float = 0.05
-    max_angle_deg: float = 5.0
-    max_offset: float = 1.0
-    thin_cell: float = 40.0
-    models: str = "strip"
-    breaks: dict = field(default_factory=dict)
-    position_degree: int = 1
-    attitude_degree: int = 1
-    calibrate: tuple[str, ...] = ("boresight",)
-    coefficient_sigma_m: float = 0.5
-    coefficient_sigma_deg: float = 0.01
+    mode: str = setting("auto", choices=MODES, doc="trajectory (GPS/IMU corrections), points (trajectory-free) "
+                        "or auto (trajectory when every strip has one)")
+    patch_size: float = setting(6.0, gt=0, unit="m", doc="patch (grid cell) size")
+    min_patch_points: int = setting(13, ge=4, unit="1", doc="returns a patch keeps after snooping, at least")
+    max_patch_sigma: float = setting(0.05, gt=0, unit="m", doc="a posteriori sigma of a patch's plane, at most")
+    max_angle_deg: float = setting(5.0, gt=0, doc="homologous patches: angle between the normals, at most")
+    max_offset: float = setting(1.0, gt=0, unit="m", doc="homologous patches: distance along the normal, at most")
+    thin_cell: float = setting(40.0, gt=0, unit="m", doc="one tie patch per exposition class per square of this size")
+    models: str = setting("strip", choices=("strip", "block"), doc="GPS/IMU models: one per strip or one for the block")
+    breaks: dict[str, tuple[float, ...]] | None = setting(
+        None, unit="s", default_doc="none", doc="per strip id, GPS times at which its model is split (C0-continuous sub-models)"
+    )
+    position_degree: int = setting(1, ge=-1, le=10, unit="1", doc="degree of the position correction polynomials")
+    attitude_degree: int = setting(1, ge=-1, le=10, unit="1", doc="degree of the attitude correction polynomials")
+    calibrate: tuple[str, ...] = setting(("boresight",), choices=CALIBRATE, doc="calibration unknowns to estimate")
+    coefficient_sigma_m: float = setting(0.5, gt=0, doc="prior '= 0' of position coefficients of degree >= 1")
+    coefficient_sigma_deg: float = setting(0.01, gt=0, doc="prior '= 0' of attitude coefficients of degree >= 1")
     #: prior sigma of the constant position terms; None: none with a trajectory, 0.3 m without one (flat
     #: patches do not determine horizontal shifts: the provisional solution keeps them near 0 unless tied)
-    constant_sigma_m: float | None = None
-    constant_sigma_deg: float = 0.01
-    snooping: bool = True
-    critical_value: float = 3.29
-    workers: int = 1
+    constant_sigma_m: float | None = setting(
+        None, ge=0, default_doc="none; 0.3 without trajectory", doc="prior '= 0' of the constant position terms"
+    )
+    constant_sigma_deg: float = setting(0.01, ge=0, doc="prior '= 0' of the constant attitude terms (0: none)")
+    snooping: bool = setting(True, doc="data snooping of the patch observations")
+    critical_value: float = setting(3.29, gt=0, unit="1", doc="data snooping: critical value of |w|")
+    workers: int = setting(1, ge=1, unit="1", doc="strips searched for patches at once (processes)")
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -102,16 +108,10 @@ class LaserOptions:
 
     @classmethod
     def from_table(cls, table: dict, where: str, **overrides) -> LaserOptions:
-        known = {f.name for f in fields(cls)}
-        for key in table:
-            if key not in known:
-                raise ProjectFileError(f"{where} [adjustment] {key}: unknown key (known: {', '.join(sorted(known))})")
-        data = {k: (tuple(v) if k == "calibrate" else v) for k, v in table.items()}
-        data.update({k: v for k, v in overrides.items() if v is not None})
-        try:
-            return cls(**data)  # type: ignore[arg-type]
-        except TypeError as exc:
-            raise ProjectFileError(f"{where} [adjustment]: {exc}") from exc
+        """The ``[adjustment]`` table (every key checked; errors ``FILE [adjustment.key]: ...``), then
+        ``overrides`` (None: keep)."""
+        options = read(cls, table, where, "adjustment")
+        return replace(options, **{k: v for k, v in overrides.items() if v is not None})
 
 
 @dataclass
@@ -275,7 +275,7 @@ def _models(found: dict[str, StripFound], options: LaserOptions, mode: str) -> M
         )
     models = []
     for sid, f in found.items():
-        edges = [f.t_start] + sorted(float(b) for b in options.breaks.get(sid, [])) + [f.t_end + 1e-6]
+        edges = [f.t_start] + sorted(float(b) for b in (options.breaks or {}).get(sid, [])) + [f.t_end + 1e-6]
         if any(b <= a for a, b in zip(edges[:-1], edges[1:])):
             raise LidarError(f"strip {sid}: breaks must lie inside its GPS time span {f.t_start:.3f}..{f.t_end:.3f} s")
         n = len(edges) - 1
