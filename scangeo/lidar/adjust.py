@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import logging
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -69,7 +69,8 @@ class LaserOptions:
     thin_cell: float = setting(40.0, gt=0, unit="m", doc="one tie patch per exposition class per square of this size")
     models: str = setting("strip", choices=("strip", "block"), doc="GPS/IMU models: one per strip or one for the block")
     breaks: dict[str, tuple[float, ...]] | None = setting(
-        None, unit="s", default_doc="none", doc="per strip id, GPS times at which its model is split (C0-continuous sub-models)"
+        None, unit="s", default_doc="none",
+        doc="per strip id, GPS times at which its model is split (C0-continuous sub-models)",
     )
     position_degree: int = setting(1, ge=-1, le=10, unit="1", doc="degree of the position correction polynomials")
     attitude_degree: int = setting(1, ge=-1, le=10, unit="1", doc="degree of the attitude correction polynomials")
