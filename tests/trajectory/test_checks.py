@@ -43,7 +43,7 @@ def test_coverage_names_the_uncovered_lines():
 
 
 def test_gap_names_its_length_time_and_lines():
-    s = flight(gap=(100, 600), n=1001)  # records at 1001.98 and 1012.00 s around a 10.02 s gap; line 70 at 1012.0 s is on a record
+    s = flight(gap=(100, 600), n=1001)  # records at 1001.98 and 1012.00 s; line 70 (1012.0 s) is on a record
     with pytest.raises(TrajectoryError, match=r"gap of 10.0 s at time 1001.980 .* lines 0-69 of strip 7"):
         check_gaps(s, strip(1005.0, 1015.0))
     check_gaps(s, strip(1012.5, 1019.0))  # a gap outside the strip's lines does no harm
