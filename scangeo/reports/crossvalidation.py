@@ -17,8 +17,9 @@ recommendation uses what the adjustment itself uses:
 
 Recommended: among the variants whose cross-validated rms is within ``tolerance`` (5 %) of the
 lowest, the one with the lowest BIC within its group of identical observations, and of those group
-winners the one with the lowest cross-validated rms. DG (no orientation unknowns) takes part as any
-other variant. The check points are not used.
+winners the one with the lowest cross-validated rms.
+DG (GPS/IMU as measured) is not cross-validated: the control points do not change its orientation. The
+check points are not used.
 """
 from __future__ import annotations
 
@@ -116,7 +117,7 @@ def cross_validate(project_root, variants: dict[str, Variant], summaries, folds:
     control = [str(p) for p, r in zip(ground.point, ground.role) if str(r) == "control"] if ground is not None else []
     parts = folds_of(control, max(2, folds))
     cv = CrossValidation(len(parts), len(control), tolerance=tolerance)
-    names = [s.name for s in summaries if s.error is None]
+    names = [s.name for s in summaries if s.error is None and s.strategy != "DG"]
     total = max(1, len(names) * len(parts))
     for i, name in enumerate(names):
         v = variants[name]

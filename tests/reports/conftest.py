@@ -42,6 +42,6 @@ def compared_small(tmp_path_factory, problem_small):
 
     root = tmp_path_factory.mktemp("compared") / "small"
     shutil.copytree(problem_small, root)
-    comparison = compare_project(root)
+    comparison = compare_project(root, folds=2)
     write_comparison(comparison)
     return root, comparison, write_report(root)

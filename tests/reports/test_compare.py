@@ -64,6 +64,11 @@ def test_files_read_back(compared_small):
     again = read_comparison(root / "results")
     assert again.as_dict() == json.loads(json.dumps(c.as_dict()))
     assert again.best == c.best and again.best not in (None, "SE")
+    # the recommendation without check points: a correction of the problem strip, by 2-fold cross-validation
+    assert again.recommended == c.recommended and c.recommended in ("P2", "P4", "S2", "S4")
+    cv = c.crossvalidation
+    assert cv["folds"] == 2 and "DG" not in cv["rms_px"] and cv["rms_px"][c.recommended] < cv["rms_px"]["SE"]
+    assert "Recommendation without check points" in (root / "results" / "comparison.md").read_text()
     rows = list(csv.DictReader(open(root / "results" / "comparison.csv")))
     assert list(rows[0]) == CSV_FIELDS
     assert len(rows) == len(c.variants) * len(c.strips)
