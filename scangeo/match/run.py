@@ -69,7 +69,9 @@ def _filter(result: TaskResult, master: str | None, res: float, options: MatchOp
             if not ok:
                 del p.strips[t]
         lsm = np.array([p.strips[t][6] for p in have if t in p.strips])
+        shift = np.linalg.norm(dst - src, axis=1)
         stats[t] = {"matched": len(have), "outliers": int((~inlier).sum()),
+                    "median_shift_cells": float(np.median(shift)) if shift.size else float("nan"),
                     "precision_cells": precision_from_loo(loo, options.neighbours),
                     "lsm_sigma_cells": float(np.sqrt(np.mean(lsm**2))) if lsm.size else float("nan")}
     need = 2 if master is not None else 1

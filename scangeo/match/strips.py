@@ -17,11 +17,11 @@ import cv2
 import numpy as np
 import rasterio
 
+from scangeo.adjustment.orientation import load_orientation
 from scangeo.errors import InputFileError, ProjectFileError
 from scangeo.io.project import Project
 from scangeo.match.options import DEFAULT_BAND_RANGE_NM, MatchOptions
 from scangeo.rectify.core_geometry import CoreStripGeometry
-from scangeo.rectify.orientation import core_geometry, orientation_source
 
 log = logging.getLogger(__name__)
 
@@ -135,8 +135,8 @@ class MatchStrip:
     def __init__(self, project: Project, variant: str, strip_id: str, options: MatchOptions,
                  image: np.ndarray | None = None) -> None:
         self.id = strip_id
-        source = orientation_source(project, variant)
-        self.geometry = CoreStripGeometry(core_geometry(project, source, strip_id), project.dtm)
+        # DG, or the adjusted orientation of a variant (results/NAME/orientation.json)
+        self.geometry = CoreStripGeometry(load_orientation(project, variant).geometry(strip_id), project.dtm)
         self.dtm = project.dtm
         self._image = image
         self._project = project

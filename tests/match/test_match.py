@@ -129,3 +129,15 @@ def test_bad_settings_name_the_key(tmp_path, landcover_block, capsys):
     assert "template_size" in capsys.readouterr().err
     with pytest.raises(OptionsError, match=r"x.toml \[match\]: template_px must be an odd number"):
         MatchOptions.from_dict({"template_px": 20}, "x.toml")
+
+
+def test_an_adjusted_variant_predicts_better(landcover_block, tmp_path):
+    root = copy_project(landcover_block, tmp_path / "p", truth=True)
+    (root / "variants.toml").write_text('[variants.SE]\nstrategy = "SE"\nsnooping = false\n', encoding="utf-8")
+    assert main(["adjust", str(root), "--variant", "SE", "--no-progress"]) == 0
+    dg = match_project(root, write=False).report["overlaps"]["01-02"]
+    se = match_project(root, "SE").report["overlaps"]["01-02"]
+    # the adjusted orientation puts the other strip's point nearer its prediction than DG does
+    assert se["consistency"]["02"]["median_shift_cells"] < 0.5 * dg["consistency"]["02"]["median_shift_cells"]
+    assert se["points"] >= 40
+    assert match_errors(root).tie_rms() <= 0.2
