@@ -1,6 +1,6 @@
 """Benchmark: `scangeo compare`, `scangeo report` and `scangeo demo` on vienna2000.
 
-Baseline for compare: the same 7 default variants adjusted one by one with `scangeo adjust` in their
+Baseline for compare: the same 8 default variants adjusted one by one with `scangeo adjust` in their
 own processes (what a user would run without compare), side by side with `compare_project` in this
 process (one import, numba kernels compiled once, the truth read once; it also computes the true
 error of every variant). Then `write_report` on the result. With `--demo`, the whole `scangeo demo`
@@ -45,7 +45,10 @@ def main() -> None:
     from scangeo.reports.report import write_report
     from scangeo.reports.tables import write_comparison
 
-    names = list(__import__("scangeo.adjustment.variants", fromlist=["x"]).read_variants(ensure_variants_file(root)))
+    t = time.perf_counter()
+    variants_file = ensure_variants_file(root)  # no variants.toml yet: scangeo diagnose (an SE adjustment + the fit)
+    print(f"diagnosis (SE adjustment, break selection)    {time.perf_counter() - t:6.1f} s", flush=True)
+    names = list(__import__("scangeo.adjustment.variants", fromlist=["x"]).read_variants(variants_file))
     t = time.perf_counter()
     for v in names:
         subprocess.run([sys.executable, "-m", "scangeo", "adjust", str(root), "--variant", v, "--no-progress"],
@@ -53,10 +56,16 @@ def main() -> None:
     base = time.perf_counter() - t
     print(f"baseline: {len(names)} x 'scangeo adjust' processes     {base:6.1f} s", flush=True)
     t = time.perf_counter()
-    c = compare_project(root)
+    c = compare_project(root, folds=0)
     write_comparison(c)
     cmp_s = time.perf_counter() - t
     print(f"compare_project (+ true error, tables)        {cmp_s:6.1f} s  x{base / cmp_s:.2f} vs baseline", flush=True)
+    from scangeo.adjustment.variants import read_variants
+    from scangeo.reports.crossvalidation import cross_validate
+
+    t = time.perf_counter()
+    cv = cross_validate(root, read_variants(variants_file), c.variants, 4, variants_file)
+    print(f"cross-validation, 4 folds ({cv.recommended} recommended)  {time.perf_counter() - t:6.1f} s", flush=True)
     t = time.perf_counter()
     files = write_report(root)
     print(f"write_report ({files.figures} figures, GeoPackage)        {time.perf_counter() - t:6.1f} s", flush=True)
