@@ -308,7 +308,9 @@ def select_breaks(data: PatternData, options: SelectionOptions = SelectionOption
         breaks = [list(x) for x in pruned.breaks]
         constant = set(pruned.constant)
         current = pruned
-    return current
+    # the breaks' best lines under the final weights of the channels
+    breaks = refine(data, breaks, rho, options, constant)
+    return evaluate(data, breaks, rho, options.degree, constant)
 
 
 def refine(data: PatternData, breaks, rho, options: SelectionOptions, constant=(), sweeps: int = 3
@@ -364,8 +366,8 @@ def break_intervals(data: PatternData, fit: Fit, options: SelectionOptions = Sel
             if dev.size == 0:
                 out.append(BreakEstimate(data.strips[s], b, b, b))
                 continue
-            i0 = int(np.argmin(np.abs(lines - b)))
-            ok = dev - min(dev.min(), fit.deviance) <= CHI2_95
+            i0 = int(np.argmin(dev))
+            ok = dev - dev.min() <= CHI2_95
             lo = hi = i0
             while lo > 0 and ok[lo - 1]:
                 lo -= 1
