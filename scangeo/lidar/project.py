@@ -25,13 +25,65 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from scangeo.errors import ProjectFileError
+from scangeo.errors import MissingFileError, ProjectFileError
 from scangeo.frames import Geoid, MapFrame, ProjectFrame
-from scangeo.io.toml_config import Table, load_toml
+from scangeo.io.schema import read, setting
+from scangeo.io.toml_config import load_toml
 from scangeo.lidar.georeference import Calibration
+
+
+# --- the keys of a laser project.toml (scangeo.io.schema: every key typed, errors naming file and key) ---
+@dataclass(frozen=True)
+class LaserProjectKeys:
+    """The ``[project]`` table of a laser project."""
+
+    crs: str = setting(doc="map CRS of the points, ground.csv and the outputs")
+    origin: tuple[float, float, float] | None = setting(None, unit="deg, deg, m", default_doc="centre of the strips",
+                                                        doc="project frame origin: lat, lon, ellipsoidal h")
+    geoid_undulation_m: float = setting(0.0, doc="constant geoid undulation N")
+    trajectory_crs: str | None = setting(None, default_doc="`crs`", doc="CRS of x, y trajectory CSVs")
+
+
+@dataclass(frozen=True)
+class LaserSensorKeys:
+    """The ``[sensor]`` table of a laser project."""
+
+    kind: str = setting(choices=("laser",), doc="laser for scangeo lidar adjust")
+    boresight_deg: tuple[float, float, float] = setting((0.0, 0.0, 0.0), doc="roll, pitch, heading in the body frame")
+    lever_arm_m: tuple[float, float, float] = setting((0.0, 0.0, 0.0), doc="body frame (forward, right, down)")
+    range_sigma_m: float = setting(0.02, gt=0, doc="ranging precision (plane fits' a priori sigma)")
+    angle_sigma_deg: float = setting(0.005, gt=0, doc="scan-angle precision")
+    range_offset_m: float = setting(0.0, doc="range offset")
+    scan_index_deg: float = setting(0.0, doc="scan-angle index error")
+    fov_deg: float | None = setting(None, gt=0, doc="scan pattern (informative)")
+    pulse_rate_hz: float | None = setting(None, gt=0, doc="scan pattern (informative)")
+    scan_rate_hz: float | None = setting(None, gt=0, doc="scan pattern (informative)")
+    scan_pattern: str | None = setting(None, doc="scan pattern (informative)")
+
+
+@dataclass(frozen=True)
+class LaserStripKeys:
+    """One ``[[strips]]`` entry of a laser project."""
+
+    id: str = setting(file_type=str | int, parse=lambda v, where: str(v), doc="the strip's name")
+    las: str | tuple[str, ...] = setting(doc="LAS/LAZ file or a list of them")
+    point_source_id: int | None = setting(None, unit="1", doc="only the returns of this flight line")
+    trajectory: str | None = setting(None, doc="CSV or SBET; without it the trajectory-free mode")
+
+
+@dataclass(frozen=True)
+class LaserProjectFile:
+    """A laser project.toml: these four tables and nothing else."""
+
+    project: LaserProjectKeys = setting(doc="the project")
+    sensor: LaserSensorKeys = setting(doc="the laser scanner")
+    strips: tuple[LaserStripKeys, ...] = setting((), doc="one per strip (at least one)")
+    adjustment: dict[str, Any] | None = setting(None, default_doc="{}",
+                                                doc="options of the adjustment (scangeo.lidar.adjust)")
 
 
 @dataclass(frozen=True)
@@ -74,57 +126,28 @@ class LaserProject:
         path = Path(path)
         file = path / "project.toml" if path.is_dir() else path
         if not file.exists():
-            raise ProjectFileError(f"{file}: no such project file")
+            raise MissingFileError(f"{file}: no such project file")
         root = file.parent
-        data = load_toml(file)
-        for key in data:
-            if key not in ("project", "sensor", "strips", "adjustment"):
-                raise ProjectFileError(f"{file}: unknown table [{key}] (expected project, sensor, strips, adjustment)")
-        p = Table(data.get("project", {}), file, "project")
-        crs = p.get("crs", str)
-        origin = p.vector("origin", 3, None)
-        geoid = Geoid(p.get("geoid_undulation_m", float, 0.0))
-        traj_crs = p.get("trajectory_crs", str, None)
-        p.finish()
-        s = Table(data.get("sensor", {}), file, "sensor")
-        kind = s.get("kind", str)
-        if kind != "laser":
-            raise ProjectFileError(f"{file} [sensor] kind: expected 'laser' for scangeo lidar adjust, found {kind!r}")
-        info = {
-            k: s.get(k, (int, float, str), None) for k in ("fov_deg", "pulse_rate_hz", "scan_rate_hz", "scan_pattern")
-        }
-        sensor = LaserSensor(
-            tuple(s.vector("boresight_deg", 3, [0.0, 0.0, 0.0])),
-            tuple(s.vector("lever_arm_m", 3, [0.0, 0.0, 0.0])),
-            s.get("range_sigma_m", float, 0.02),
-            s.get("angle_sigma_deg", float, 0.005),
-            s.get("range_offset_m", float, 0.0),
-            s.get("scan_index_deg", float, 0.0),
-            {k: v for k, v in info.items() if v is not None},
-        )
-        s.finish()
-        raw = data.get("strips", [])
-        if not isinstance(raw, list) or not raw:
+        keys: LaserProjectFile = read(LaserProjectFile, load_toml(file), str(file))
+        p, s = keys.project, keys.sensor
+        info = {k: getattr(s, k) for k in ("fov_deg", "pulse_rate_hz", "scan_rate_hz", "scan_pattern")}
+        sensor = LaserSensor(s.boresight_deg, s.lever_arm_m, s.range_sigma_m, s.angle_sigma_deg, s.range_offset_m,
+                             s.scan_index_deg, {k: v for k, v in info.items() if v is not None})
+        if not keys.strips:
             raise ProjectFileError(f"{file}: expected at least one [[strips]] entry")
         strips = []
-        for i, entry in enumerate(raw):
-            t = Table(entry, file, f"strips #{i + 1}")
-            sid = str(t.get("id", (str, int)))
-            las = t.get("las", (str, list))
-            files = tuple(root / f for f in ([las] if isinstance(las, str) else las))
-            if not files or not all(isinstance(f, Path) for f in files):
-                raise ProjectFileError(f"{file} [strips #{i + 1}] las: expected a file name or a list of them")
-            traj = t.get("trajectory", str, None)
-            strips.append(LaserStrip(sid, files, t.get("point_source_id", int, None), root / traj if traj else None))
-            t.finish()
-        ids = [s.id for s in strips]
+        for i, t in enumerate(keys.strips):
+            names = (t.las,) if isinstance(t.las, str) else t.las
+            if not names:
+                raise ProjectFileError(f"{file} [strips[{i}].las]: expected a file name or a list of them, found []")
+            strips.append(LaserStrip(t.id, tuple(root / n for n in names), t.point_source_id,
+                                     root / t.trajectory if t.trajectory else None))
+        ids = [st.id for st in strips]
         dup = sorted({i for i in ids if ids.count(i) > 1})
         if dup:
             raise ProjectFileError(f"{file}: strip id {dup[0]!r} appears more than once")
-        adjustment = data.get("adjustment", {})
-        if not isinstance(adjustment, dict):
-            raise ProjectFileError(f"{file} [adjustment]: expected a table")
-        return cls(root, crs, tuple(origin) if origin else None, geoid, sensor, tuple(strips), adjustment, traj_crs)
+        return cls(root, p.crs, p.origin, Geoid(p.geoid_undulation_m), sensor, tuple(strips),
+                   dict(keys.adjustment or {}), p.trajectory_crs)
 
     @property
     def has_trajectories(self) -> bool:
