@@ -1,0 +1,37 @@
+"""lidar adjust on the laser preset (docs/lidar.md section 6.5): reduced in CI, the preset's own size
+with ``SCANGEO_SCALE=full``."""
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from scangeo.lidar.adjust import LaserOptions, build, run
+from scangeo.lidar.outputs import apply, evaluate
+from scangeo.lidar.project import LaserProject
+from scangeo.resources import preset_file
+from scangeo.simulate.laser import load_laser_config, simulate_laser
+from tests.lidar.test_lidar_adjust import truth_values
+
+pytestmark = pytest.mark.scale
+FULL = os.environ.get("SCANGEO_SCALE", "").lower() == "full"
+
+
+def test_laser_preset_block(tmp_path):
+    reduced = {} if FULL else {"pulse_rate_hz": 8000.0, "strip_length": 600.0}
+    config = load_laser_config(preset_file("laser"), reduced)
+    simulate_laser(tmp_path, config)
+    block = build(LaserProject.load(tmp_path), LaserOptions(), tmp_path / "ground.csv")
+    result = run(block)
+    truth = truth_values(block, json.loads((tmp_path / "truth.json").read_text())["truth"])
+    values, stats = result.parameters.values(), result.statistics
+    for key in truth:
+        if key in values and result.parameters[key].free.any() and not key.label.startswith("Plane"):
+            z = (values[key] - truth[key]) / stats.sigmas(key)
+            assert np.all(np.abs(z[np.isfinite(z)]) < 3.0), (key, z)
+    ev = evaluate(block, result, apply(block, values))
+    noise = evaluate(block, result, apply(block, truth))
+    assert ev.before.rms(True) > 0.05 and ev.after.rms(True) < 1.2 * noise.after.rms(True)
+    assert np.sqrt(np.mean(np.square(list(ev.checks_after.values())))) < 0.02
