@@ -95,7 +95,7 @@ def write_html(path: Path, results: dict, figure: str | None) -> None:
         rows = [
             {"figure": k, **{kk: vv for kk, vv in v.items() if kk in ("before", "after", "cells", "count")}}
             for k, v in ev.items()
-            if k != "pairs_after"
+            if k != "pairs_after" and v.get("before") == v.get("before")  # NaN: no such patches
         ]
         parts += [
             "<h2>Before and after</h2>",
