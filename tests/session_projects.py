@@ -45,7 +45,8 @@ def small_block(tmp_path_factory) -> Path:
     simulate(root, load_preset("small", SMALL_BLOCK))
     text = (root / "project.toml").read_text(encoding="utf-8")
     for sid in ("01", "02"):
-        write_strip_image(root / "images" / f"{sid}.tif", SMALL_BLOCK["flight"]["lines"], SMALL_BLOCK["sensor"]["pixels"])
+        write_strip_image(root / "images" / f"{sid}.tif", SMALL_BLOCK["flight"]["lines"],
+                          SMALL_BLOCK["sensor"]["pixels"])
         text = text.replace(f'id = "{sid}"\n', f'id = "{sid}"\nimage = "images/{sid}.tif"\n')
     (root / "project.toml").write_text(text, encoding="utf-8")
     return root
@@ -71,4 +72,19 @@ def compared_block(tmp_path_factory, small_block) -> Path:
     root = copy_project(small_block, tmp_path_factory.mktemp("session") / "compared", truth=True)
     (root / "variants.toml").write_text(TWO_VARIANTS, encoding="utf-8")
     write_comparison(compare_project(root))
+    return root
+
+
+#: Overrides of the ``laser`` preset for ``laser_block``: two overlapping strips, 300 m, 80 k returns.
+LASER_BLOCK = {"strips": 2, "strip_length": 300.0, "pulse_rate_hz": 8000.0, "cross_strip": False}
+
+
+@pytest.fixture(scope="session")
+def laser_block(tmp_path_factory) -> Path:
+    """A small simulated laser project (``scangeo lidar adjust`` runs on it): read-only."""
+    from scangeo.cli import main
+
+    root = tmp_path_factory.mktemp("session") / "laser"
+    sets = [a for k, v in LASER_BLOCK.items() for a in ("--set", f"laser.{k}={str(v).lower()}")]
+    assert main(["simulate", str(root), "--preset", "laser", *sets, "--no-progress"]) == 0
     return root

@@ -6,7 +6,7 @@ import shutil
 import numpy as np
 import pytest
 
-from tests.badinput.defects import case, lines, random_bytes, remove, replace, set_field, truncate, write
+from tests.badinput.defects import case, lines, random_bytes, raster, remove, replace, set_field, truncate, write
 from tests.badinput.runner import run_bad
 from tests.badinput.test_project_commands import DTM, POINTS, TOML, TRAJECTORY
 from tests.session_projects import TWO_VARIANTS
@@ -195,3 +195,70 @@ LIDAR = [
 @pytest.mark.parametrize("bad", LIDAR)
 def test_lidar_check_returns(bad, small_block, tmp_path, capsys):
     run_bad(["lidar", "check-returns", *LIDAR_ARGS], bad, small_block, tmp_path, capsys, setup=_lidar_files)
+
+
+# ---------------------------------------------------------------------------------------- match
+# The strip images are not among them: on this block match stops with "no strips overlap" before it reads
+# an image (reported to H14, issue 13).
+MATCH = TOML[:4] + DTM[:1] + [
+    case("match-config-unknown-key", write("m.toml", "[match]\nper_overlapp = 3\n"), "m.toml", "per_overlapp",
+         args=("--config", "{p}/m.toml")),
+    case("match-config-wrong-type", write("m.toml", '[match]\nper_overlap = "many"\n'), "m.toml", "per_overlap",
+         args=("--config", "{p}/m.toml")),
+    case("match-reference-missing", lambda r: None, "none.tif", args=("--reference", "{p}/none.tif")),
+    case("match-reference-text", write("ref.tif", "not a raster"), "ref.tif", args=("--reference", "{p}/ref.tif")),
+    case("match-reference-no-crs", raster("ref.tif", 50, 50, bands=3), "ref.tif", args=("--reference", "{p}/ref.tif")),
+    case("match-unknown-variant", lambda r: None, "XX", args=("--variant", "XX")),
+]
+
+
+@pytest.mark.parametrize("bad", MATCH)
+def test_match(bad, small_block, tmp_path, capsys):
+    run_bad(["match", "{p}", "--no-progress"], bad, small_block, tmp_path, capsys)
+
+
+# ---------------------------------------------------------------------------------- lidar adjust
+LAS1 = "strips/1.las"
+
+
+def known_gap(id, reason, defect, *expect):
+    """A case that fails today (reported in issue 13); strict: it turns into an error once fixed."""
+    return pytest.param(*case(id, defect, *expect).values, marks=pytest.mark.xfail(reason=reason, strict=True), id=id)
+
+
+LIDAR_ADJUST = [
+    case("laser-toml-unknown-key", replace("project.toml", "fov_deg = 40.0", "fov_deg = 40.0\nfov = 3"),
+         "project.toml", "fov"),
+    case("laser-toml-wrong-type", replace("project.toml", "range_sigma_m = 0.02", 'range_sigma_m = "small"'),
+         "project.toml", "range_sigma_m"),
+    known_gap("laser-toml-bad-crs", "lidar/project.py: pyproj's CRSError escapes (use frames.parse_crs)",
+              replace("project.toml", "EPSG:32633", "EPSG:999999"), "project.toml", "crs"),
+    case("laser-toml-adjustment-unknown-key", lambda r: (r / "project.toml").open("a").write(
+        "\n[adjustment]\npatch_sise = 4.0\n"), "project.toml", "patch_sise"),
+    case("laser-las-to-nothing", replace("project.toml", '"strips/1.las"', '"strips/none.las"'), "strips/none.las"),
+    case("laser-las-to-directory", replace("project.toml", '"strips/1.las"', '"strips"'), "strips"),
+    case("las-no-gps-time", lambda r: _las_without_gps_time_at(r / LAS1), LAS1, "GPS time"),
+    case("las-truncated", truncate(LAS1, 0.6), LAS1),
+    case("las-random-bytes", random_bytes(LAS1, 5000), LAS1),
+    case("las-empty", write(LAS1, b""), LAS1),
+    case("laser-trajectory-nan", lines("nav/1.csv", set_field(50, 1, "nan")), "nav/1.csv", "line 50"),
+    case("laser-trajectory-short", lines("nav/1.csv", lambda r: r[:200]), "nav/1.csv", "cover"),
+    case("laser-ground-unknown-role", lines("ground.csv", set_field(2, 7, "kontrol")), "ground.csv", "line 2"),
+    known_gap("laser-ground-sigma-zero", "the laser ground.csv reader accepts sigma_xy = 0",
+              lines("ground.csv", set_field(2, 5, "0")), "ground.csv", "line 2"),
+    known_gap("laser-ground-missing-column", "the laser ground.csv reader runs without a role column",
+              lines("ground.csv", lambda r: [r[0].replace("role", "kind")] + r[1:]), "ground.csv", "role"),
+]
+
+
+def _las_without_gps_time_at(path):
+    import laspy
+
+    las = laspy.create(point_format=0, file_version="1.2")
+    las.x, las.y, las.z = np.array([500000.0]), np.array([5300000.0]), np.array([10.0])
+    las.write(str(path))
+
+
+@pytest.mark.parametrize("bad", LIDAR_ADJUST)
+def test_lidar_adjust(bad, laser_block, tmp_path, capsys):
+    run_bad(["lidar", "adjust", "{p}", "--no-progress"], bad, laser_block, tmp_path, capsys)
