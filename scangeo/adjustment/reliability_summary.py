@@ -173,6 +173,25 @@ def check_columns(sigma: float, ok: bool, failed: bool, alpha0: float, beta: flo
     return [_fmt(delta0(alpha0, beta) * sigma), "", "", "", status]
 
 
+def reliability_lines(vr: VariantReliability) -> list[str]:
+    """A few lines for the console: uncontrolled measurements, non-separable points, per strip the
+    largest shift of its ground positions by a single undetected blunder."""
+    rel = vr.reliability
+    unc = sorted({str(g.ids[i]) for g, st in zip(rel.groups, vr.status) if g.snooped
+                  for i in np.flatnonzero(st == "uncontrolled")})
+    out = [f"reliability: {len(unc)} points with measurements nothing checks (r = 0)"
+           + (f": {', '.join(unc[:8])}{' ...' if len(unc) > 8 else ''}" if unc else "")]
+    hidden = [r.id for r in vr.result.adjustment.rejections if not r.separable]
+    if hidden:
+        out.append(f"not separable (every measurement removed): {', '.join(hidden)}")
+    for sid, (size, gi, i) in sorted(rel.ext_strip.items()):
+        g = rel.groups[gi]
+        if size > 0:
+            out.append(f"strip {sid}: an undetected blunder shifts its ground positions by up to {size:.2f} m "
+                       f"({g.name} {g.ids[i]} {g.components[i]})")
+    return out
+
+
 #: Unit status, worst first.
 _ORDER = ("not separable", "rejected", "failed", "uncontrolled", "untested", "verified")
 _CHECK = ("check", "check failed", "not projected")
@@ -299,5 +318,6 @@ def write_reliability(result: VariantResult, folder, vr: VariantReliability | No
     os.replace(tmp, folder / "reliability.json")
 
 
-__all__ = ["COLUMNS", "UNIT_COLUMNS", "VariantReliability", "check_columns", "reliability_dict", "row_columns",
+__all__ = ["COLUMNS", "UNIT_COLUMNS", "VariantReliability", "check_columns", "reliability_dict", "reliability_lines",
+           "row_columns",
            "strip_probes", "summary", "unit_table", "variant_reliability", "write_reliability"]

@@ -25,6 +25,7 @@ def add_parser(subparsers, common) -> None:
 
 def run(args) -> int:
     from scangeo.adjustment.outputs import write_results
+    from scangeo.adjustment.reliability_summary import reliability_lines, variant_reliability
     from scangeo.adjustment.results import run_variant
     from scangeo.cli import progress_of
 
@@ -50,5 +51,7 @@ def run(args) -> int:
         print(f"  note: {note}")
     for n in result.adjustment.solution.regularisation:
         print(f"  regularised: {n.key.label}[{n.component}] with sigma {n.sigma:g} ({n.reason})")
+    for line in reliability_lines(variant_reliability(result)):
+        print(f"  {line}")
     print(f"results in {out}", file=sys.stderr)
     return 0

@@ -27,21 +27,14 @@ def add_parser(subparsers, common) -> None:
 
 def run(args) -> int:
     from scangeo.adjustment.planning import plan_block, write_plan
+    from scangeo.adjustment.reliability_summary import reliability_lines
     from scangeo.cli import progress_of
 
     plan = plan_block(args.project, args.variant, args.variants, args.tie_spacing, args.sigma_px, progress_of(args))
     out = write_plan(plan, args.out)
-    rel = plan.reliability.reliability
     print(f"plan {plan.result.variant.name}: {plan.tie_points} tie points, {plan.control_points} control points, "
           f"redundancy {plan.result.adjustment.statistics.redundancy}")
-    for sid, (size, gi, i) in sorted(rel.ext_strip.items()):
-        g = rel.groups[gi]
-        print(f"  strip {sid}: an undetected blunder shifts its ground positions by up to {size:.2f} m "
-              f"({g.name} {g.ids[i]} {g.components[i]})")
-    unc = sorted({str(g.ids[i]) for g, st in zip(rel.groups, plan.reliability.status)
-                  for i in range(g.n_rows) if st[i] == "uncontrolled" and g.snooped})
-    if unc:
-        print(f"  {len(unc)} points with uncontrolled measurements (r = 0): {', '.join(unc[:10])}"
-              f"{' ...' if len(unc) > 10 else ''}")
+    for line in reliability_lines(plan.reliability):
+        print(f"  {line}")
     print(f"results in {out}", file=sys.stderr)
     return 0
