@@ -177,4 +177,11 @@ class Factorizer:
             shifted = spla.splu(A + _SHIFT * sp.eye(A.shape[0], format="csc"), permc_spec="MMD_AT_PLUS_A",
                                 diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
             raise NotPositiveDefinite(f"normal matrix singular ({exc})", SuperLUFactor(shifted).pivots()) from None
+        if not np.array_equal(lu.perm_r, lu.perm_c):
+            # a zero pivot on the diagonal (e.g. an unknown whose last observation data snooping removed):
+            # SuperLU pivots off the diagonal; report the pivots of a shifted matrix so the solver regularises
+            shifted = spla.splu(A + _SHIFT * sp.eye(A.shape[0], format="csc"), permc_spec="MMD_AT_PLUS_A",
+                                diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
+            raise NotPositiveDefinite("normal matrix singular (SuperLU pivoted off the diagonal)",
+                                      SuperLUFactor(shifted).pivots())
         return SuperLUFactor(lu)
