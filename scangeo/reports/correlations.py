@@ -31,10 +31,9 @@ def _describe(name: str) -> str:
 def note(a: str, b: str, r: float, model: str) -> str:
     """A plain-language note for a correlated pair of model ``model``."""
     pair = f"the {_describe(a)} and the {_describe(b)} of {model}"
-    alike = "move the footprint alike" if r > 0 else "move the footprint in opposite ways that cancel"
-    return (f"{pair} are correlated {r:+.3f}: they {alike}, so the observations fix their combination, not each "
-            "one; control across the strip or in more bands separates them (or leave one out: a degree, the "
-            "rotation, a calibration unknown)")
+    return (f"{pair} are correlated {r:+.3f}: they move the footprint alike (one can stand in for the other), so "
+            "the observations fix their combination, not each one; control across the strip or in more bands "
+            "separates them (or leave one out: a degree, the rotation, a calibration unknown)")
 
 
 def correlated_pairs(result, threshold: float = 0.95) -> list[dict]:

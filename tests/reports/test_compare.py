@@ -151,3 +151,13 @@ def test_a_project_without_truth(problem_small, tmp_path):
     assert files.geopackage is None and not (root / "results" / "residuals.gpkg").exists()
     text = files.html.read_text()
     assert 'id="fig-height-02"' in text and 'id="true-error-table"' not in text
+
+
+def test_correlated_shift_and_tilt_are_flagged(compared_small):
+    _, c, _ = compared_small
+    pairs = c.variant("SE").correlations
+    assert pairs and all(abs(p["r"]) > 0.95 for p in pairs)
+    # with control in two bands at the strip ends, an across-track shift and a roll of a strip move the footprint
+    # alike (the strips fly north-south: x is across track)
+    assert {(p["a"], p["b"]) for p in pairs} & {("x0", "roll0"), ("y0", "pitch0")}
+    assert "move the footprint alike" in pairs[0]["note"]
