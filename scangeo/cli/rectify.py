@@ -39,7 +39,8 @@ def add_parser(subparsers, common) -> None:
                         "[rectify.geotiff] overviews = \"auto\")")
     p.add_argument("--config", default=None, help="TOML file with a [rectify] table of settings")
     p.add_argument("--workers", type=int, default=1, help="strips rectified at once (local processes)")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="run the strips on a Dask distributed scheduler")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run the strips on a Dask distributed scheduler")
     p.set_defaults(func=run, writes_project=True)  # one run at a time (scangeo.atomic.OutputLock)
 
 
