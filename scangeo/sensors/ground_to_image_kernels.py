@@ -301,11 +301,13 @@ def whiskbroom_ground_to_image_near(points, guess_line, guess_pixel, times, tab,
                                     n_chunks, out_line, out_pixel, out_status, out_steps):
     """``kernels.refine_kernel`` (ground -> image from a guess of (line, pixel), strips without
     over-scanning) by the interpolated conditions: the coarse interval is taken from the guess's time
-    (the epochs are uniform) and moved by secant jumps to the one holding the sign change, at most
-    ``max_step_t`` seconds away and ``max_iter`` intervals looked at, else NO_CONVERGENCE; then as
+    (the epochs are uniform) and moved by secant jumps (bisection when they leave the bracket found so
+    far) to the one holding the sign change, each jump at most ``max_step_t`` seconds and at most
+    ``max_iter`` intervals looked at, else NO_CONVERGENCE; then as
     ``whiskbroom_ground_to_image`` (exact Newton where the bound exceeds the tolerance).
     ``out_steps``: condition evaluations (intervals looked at, plus 3 for an exact solution).
-    Outside the swath or beyond the ends the (line, pixel) is kept with the status saying so.
+    Outside the swath or beyond the ends the (line, pixel) is kept with the status saying so, except
+    for points that cross no scan plane within the epochs (far beyond the ends): NOT_SEEN, NaN.
     """
     n = points.shape[0]
     M = times.shape[0]
@@ -332,12 +334,14 @@ def whiskbroom_ground_to_image_near(points, guess_line, guess_pixel, times, tab,
             if not (math.isfinite(X) and math.isfinite(Y) and math.isfinite(Z) and math.isfinite(gl)
                     and math.isfinite(gp)):
                 continue
+            if not (_row(tab, 0, 0, X, Y, Z) >= 0 and _row(tab, M - 1, 0, X, Y, Z) < 0):
+                out_status[q] = NOT_SEEN  # no crossing within the epochs: beyond the strip's ends
+                continue
             gp = min(max(gp, -0.5), npix - 0.5)
             t_guess = line_to_time(gl, lt0, lrate, ltable) + (gp - pp) * dt_pix
-            k_guess = min(max(int(math.floor((t_guess - times[0]) / step_e)), 0), M - 2)
-            k = k_guess
-            lo = max(0, k_guess - max_walk)
-            hi = min(M - 2, k_guess + max_walk)
+            k = min(max(int(math.floor((t_guess - times[0]) / step_e)), 0), M - 2)
+            lo = 0
+            hi = M - 2
             found = False
             for _ in range(max_iter):
                 out_steps[q] += 1
@@ -349,12 +353,14 @@ def whiskbroom_ground_to_image_near(points, guess_line, guess_pixel, times, tab,
                 # the answer lies in [lo, hi]; secant jump to where g's linear extension crosses zero
                 # (at least one interval), bisection when that leaves [lo, hi]
                 dk = ga / (ga - gb) if ga != gb else 0.0
+                if not abs(dk) <= max_walk:  # a jump longer than max_step_t, as refine_kernel's steps
+                    break
                 if ga < 0:
                     hi = min(hi, k - 1)
-                    k += min(-1, int(math.floor(dk))) if dk > -M else -1
+                    k += min(-1, int(math.floor(dk)))
                 else:
                     lo = max(lo, k + 1)
-                    k += max(1, int(math.floor(dk))) if dk < M else 1
+                    k += max(1, int(math.floor(dk)))
                 if lo > hi:
                     break
                 if not (lo <= k <= hi):

@@ -1,0 +1,183 @@
+"""Benchmark: a whole block end to end (issue 15): simulate, adjust (SE and an S variant), rectify
+every strip and the mosaic; wall time per stage, peak memory, scaling with the number of strips.
+
+Run: python tests/benchmarks/block.py [--lines 7000] [--strips 1 6 12 24] [--keep DIR]
+[--scheduler local|ADDRESS] [--variant S2]
+
+Set-up (timed, reported apart): the ``block24`` preset simulated with its images (24 strips of
+716 px x ``--lines`` lines x 11 bands; ``--lines`` below 7,000 scales every line-valued key of the
+preset: breaks, excursions, control bands). Then each stage runs as its own ``scangeo`` process,
+as a user would run it:
+
+* ``scangeo adjust ROOT --variant SE`` and ``--variant S2`` (the S variant splits the simulated
+  problem strip at its breaks; a ``variants.toml`` with SE and S2 is written into the project);
+* ``scangeo rectify ROOT --variant S2 --strips <first N> --mosaic`` for every N of ``--strips``
+  (outputs removed between runs, so each N is rectified from scratch; overviews as the default);
+  with ``--scheduler`` the same rectifications again on a Dask LocalCluster of 2 worker processes
+  (1 thread each; ``local``) or the given scheduler, through ``--scheduler ADDRESS``.
+
+Figures: wall seconds per stage, seconds per strip, and the peak resident memory of each stage's
+process (``ru_maxrss`` of the process and its children; for Dask the workers' peak as they report
+it). Baseline for the scaling: the 1-strip run (time per strip should stay flat as N grows).
+Big outputs go to a temporary folder (``--keep`` to keep them), removed at the end.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import tomllib
+import warnings
+from pathlib import Path
+
+STAGE = r"""
+import resource, sys
+from scangeo.cli import main
+try:
+    code = main(sys.argv[2:])
+finally:
+    peak = max(resource.getrusage(who).ru_maxrss for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
+    open(sys.argv[1], "w").write(str(peak / 1024.0))
+sys.exit(code or 0)
+"""
+
+VARIANTS = """[defaults]
+gps_sigma_m = [0.05, 0.05, 0.10]
+imu_sigma_deg = [0.003, 0.003, 0.005]
+snooping = false
+
+[variants.SE]
+strategy = "SE"
+description = "one GPS/IMU model per strip, degree 0"
+
+[variants.{name}]
+strategy = "S"
+description = "problem strip split at its breaks, position degree <= 2 per part; DTM heights"
+dtm_heights = true
+dtm_height_points = ["*"]
+[[variants.{name}.strip]]
+id = "{strip}"
+breaks_lines = {breaks}
+position_degree = 2
+"""
+
+
+def block_config(lines: int):
+    """block24 with ``lines`` lines per strip (line-valued keys scaled) and no truth orthoimage."""
+    from scangeo.resources import preset_file
+    from scangeo.simulate.config import config_from_dict
+
+    data = tomllib.loads(preset_file("block24").read_text(encoding="utf-8"))
+    f = lines / float(data["flight"]["lines"])
+
+    def scale(d):
+        for key, value in d.items():
+            if isinstance(value, dict):
+                scale(value)
+            elif isinstance(value, list) and value and isinstance(value[0], dict):
+                for item in value:
+                    scale(item)
+            elif key.endswith("_lines") and key != "lines":
+                d[key] = [v * f for v in value] if isinstance(value, list) else value * f
+
+    if f != 1.0:
+        scale(data["gpsimu_errors"])
+        scale(data["points"])
+    data["flight"]["lines"] = lines
+    data["output"]["truth_ortho"] = False
+    return config_from_dict(data, source="block24 (benchmark)"), data
+
+
+def run_stage(label: str, args: list[str], log: list) -> tuple[float, float]:
+    """Run ``scangeo ARGS`` in its own process; (wall seconds, peak RSS MiB)."""
+    with tempfile.NamedTemporaryFile(suffix=".rss", delete=False) as f:
+        rss_file = f.name
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-c", STAGE, rss_file, *args], capture_output=True, text=True)
+    dt = time.perf_counter() - t0
+    rss = float(Path(rss_file).read_text() or "nan")
+    os.unlink(rss_file)
+    if proc.returncode:
+        print(proc.stdout[-2000:], proc.stderr[-4000:])
+        raise SystemExit(f"{label}: scangeo {' '.join(args)} failed ({proc.returncode})")
+    log.append((label, dt, rss, os.getloadavg()[0]))
+    print(f"{label:<46}{dt:>9.1f} s{rss:>9.0f} MiB   load {os.getloadavg()[0]:.1f}", flush=True)
+    return dt, rss
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--lines", type=int, default=7000)
+    ap.add_argument("--strips", type=int, nargs="+", default=[1, 6, 12, 24])
+    ap.add_argument("--variant", default="S2", help="name of the S variant")
+    ap.add_argument("--scheduler", default=None, help="'local' (a LocalCluster of 2 workers) or an address")
+    ap.add_argument("--keep", default=None, help="keep (and reuse) the simulated project in this folder")
+    args = ap.parse_args()
+    import numba
+
+    print(f"cores {os.cpu_count()}, numba threading layer {numba.config.THREADING_LAYER}, "
+          f"load average {os.getloadavg()[0]:.1f}")
+    tmp = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="scangeo-bench-block-"))
+    root = tmp / "block24"
+    cfg, data = block_config(args.lines)
+    if not (root / "project.toml").exists():
+        from scangeo.simulate.block import simulate
+
+        t0 = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            simulate(root, cfg)
+        print(f"set-up: block24 simulated with images, {data['flight']['strips']} strips x {args.lines} lines, "
+              f"in {time.perf_counter() - t0:.0f} s ({root})", flush=True)
+    errs = data["gpsimu_errors"]
+    strip_id = f"{int(errs['problem_strip']):02d}"
+    (root / "variants.toml").write_text(VARIANTS.format(name=args.variant, strip=strip_id,
+                                                        breaks=[float(b) for b in errs["breaks_lines"]]))
+    log: list = []
+    r = str(root)
+    for variant in ("SE", args.variant):
+        run_stage(f"adjust {variant}", ["adjust", r, "--variant", variant, "--no-progress"], log)
+    ortho = root / "results" / args.variant / "ortho"
+    ids = [f"{i + 1:02d}" for i in range(int(data["flight"]["strips"]))]
+    routes = [("in process (pipelined)", [])]
+    cluster = None
+    if args.scheduler:
+        address = args.scheduler
+        if address == "local":
+            from dask.distributed import LocalCluster
+
+            cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+            address = cluster.scheduler_address
+        routes.append((f"Dask, 2 workers ({args.scheduler})", ["--scheduler", address]))
+    per_strip = {}
+    try:
+        for route, extra in routes:
+            for n in args.strips:
+                shutil.rmtree(ortho, ignore_errors=True)
+                dt, rss = run_stage(f"rectify {n:>2} strips + mosaic, {route}",
+                                    ["rectify", r, "--variant", args.variant, "--strips", *ids[:n], "--mosaic",
+                                     "--no-progress", *extra], log)
+                if cluster is not None and extra:
+                    mem = cluster.scheduler_info()["workers"]
+                    rss = max(w["metrics"]["memory"] for w in mem.values()) / 2**20
+                    print(f"{'':<46}{'':>11}{rss:>9.0f} MiB (largest Dask worker now)")
+                per_strip[route, n] = dt / n
+    finally:
+        if cluster is not None:
+            cluster.close()
+    print("\nscaling (seconds per strip; the 1-strip run is the baseline):")
+    for route, _ in routes:
+        base = per_strip.get((route, args.strips[0]))
+        row = ", ".join(f"{n}: {per_strip[route, n]:.1f} s ({per_strip[route, n] / base:.2f}x)" for n in args.strips)
+        print(f"  {route}: {row}")
+    print(f"peak memory of any stage: {max(x[2] for x in log):.0f} MiB")
+    if not args.keep:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
