@@ -9,7 +9,10 @@
    or its point removed as not separable), separable rejections of a good measurement (blamed), and
    rejections on the clean block (false alarms).
 
-Run:  python tests/benchmarks/reliability.py [--seeds 3] [--strips 4 --lines 1500]
+3. ``--vienna``: false alarms on the simulated vienna2000 block (3 strips x 7,000 lines, no
+   blunders) with S (the middle strip split at lines 2400 and 4900, DTM heights) and BE.
+
+Run:  python tests/benchmarks/reliability.py [--seeds 3] [--strips 4 --lines 1500] [--vienna]
 """
 from __future__ import annotations
 
@@ -61,14 +64,41 @@ def blunders(root: Path, seeds: int, label: str, work: Path) -> None:
           f"rejections of {n_points} points")
 
 
+def false_alarms(root: Path) -> None:
+    from scangeo.adjustment.variants import StripModels, Variant
+    from scangeo.simulate.block import simulate
+    from scangeo.simulate.config import load_preset
+
+    simulate(root, load_preset("vienna2000", {"output": {"images": False, "truth_ortho": False}}))
+    ground = root / "ground.csv"
+    ground.write_text(ground.read_text().replace(",0,0.1,height", ",1,0.1,height"))
+    split = StripModels("02", position_degree=2, breaks_lines=(2400.0, 4900.0))
+    for v in (Variant("S", "S", strips=(split,), dtm_heights=True), Variant("BE", "BE")):
+        t = time.perf_counter()
+        r = run_variant(root, v)
+        t_adj = time.perf_counter() - t
+        t = time.perf_counter()
+        vr = variant_reliability(r)
+        t_rel = time.perf_counter() - t
+        points = {str(p) for g in r.adjustment.solution.groups if g.kind == "observation" and g.snooped for p in g.ids}
+        rej = r.adjustment.rejections
+        rows = sum(a.size for a, g in zip(vr.status, r.adjustment.solution.groups) if g.kind == "observation")
+        print(f"vienna2000 {v.name}: {len(rej)} rejections ({sum(not x.separable for x in rej)} not separable) of "
+              f"{len(points)} points ({100 * len(rej) / len(points):.1f} %): {[(x.group, x.id) for x in rej]}; "
+              f"adjustment {t_adj:.1f} s, reliability of {rows} rows {t_rel:.1f} s")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--strips", type=int, default=4)
     ap.add_argument("--lines", type=int, default=1500)
+    ap.add_argument("--vienna", action="store_true", help="also the false alarms on vienna2000 (a few minutes)")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
+        if a.vienna:
+            false_alarms(work / "vienna")
         two = _simulate(work / "two", SHIFT_ONLY)
         three = _simulate(work / "three", {**SHIFT_ONLY, "flight": {"strips": 3, "sidelap": 0.6, "lines": 400},
                                            "points": {"tie_per_overlap": 12, "control_band_lines": 60.0}})
