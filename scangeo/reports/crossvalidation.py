@@ -100,10 +100,11 @@ def recommend(cv: CrossValidation, summaries) -> None:
         winners.append(min(members, key=lambda n: (cv.bic.get(n, math.inf), cv.rms_px[n])))
     cv.recommended = min(winners, key=lambda n: cv.rms_px[n])
     others = [n for n in near if n != cv.recommended]
-    cv.reason = (f"lowest cross-validated rms {cv.rms_px[cv.recommended]:.3f} px" if not others else
-                 f"cross-validated rms {cv.rms_px[cv.recommended]:.3f} px, within {100 * cv.tolerance:.0f} % of the "
-                 f"lowest ({best:.3f} px) with {', '.join(others)}; lowest BIC among the variants with the same "
-                 "observations")
+    lowest = cv.rms_px[cv.recommended] == best
+    cv.reason = (f"cross-validated rms {cv.rms_px[cv.recommended]:.3f} px"
+                 + (" (the lowest)" if lowest else f" (lowest {best:.3f} px)")
+                 + (f"; {', '.join(others)} within {100 * cv.tolerance:.0f} %, so the lowest BIC among the variants "
+                    "with the same observations decided" if others else ""))
 
 
 def cross_validate(project_root, variants: dict[str, Variant], summaries, folds: int = 4, variants_file=None,

@@ -148,13 +148,14 @@ def test_report_opens_in_a_browser(compared_small, tmp_path):
     # the reliability maps of the reference and the best variant, per strip
     reliability_figures = [f"fig-rel-{v}-{s}" for v in dict.fromkeys([c.reference, c.best]) if v for s in c.strips]
     assert sorted(figure_ids) == sorted(
-        ["fig-rms", "fig-tracks", "fig-height-02"]
+        ["fig-rms", "fig-tracks", "fig-height-02", "fig-diagnosis"]
         + [f"fig-{k}-{s}" for k in ("vectors", "corr", "gpsimu") for s in c.strips]
         + reliability_figures
     )
-    assert len(figure_ids) == 3 + 3 * n + len(reliability_figures)
+    assert len(figure_ids) == 4 + 3 * n + len(reliability_figures)
     assert sections == [
         "Comparison of strategies",
+        "Diagnosis and recommendation",
         "Residual vectors at the check points",
         "Correction functions",
         "GPS/IMU data",
@@ -176,5 +177,8 @@ def test_html_is_self_contained(compared_small):
     assert "http://" not in text and "https://" not in text and "<script" not in text
     assert text.count("data:image/png;base64,") == files.figures
     assert 'id="true-error-table"' in text and 'id="accounting-table"' in text
+    # the diagnosis: the proposed breaks, the misclosure plot, the cross-validation and the correlated pairs
+    for part in ('id="breaks-table"', 'id="fig-diagnosis"', 'id="crossvalidation-table"', 'id="correlations-table"'):
+        assert part in text, part
     for v in c.variants:
         assert f"<h3>{v.name}</h3>" in text
