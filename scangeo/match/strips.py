@@ -1,7 +1,7 @@
 """A strip as matching sees it: its geometry on the DTM and one grey image, rectified in chips.
 
 The matching image is the mean of the chosen bands (:func:`matching_bands`: by default the
-project's bands between 400 and 760 nm, never a thermal band), held in memory as float32 (a
+project's bands between 400 and 2500 nm, never a thermal band), held in memory as float32 (a
 7,000-line strip of 716 pixels takes 20 MB). A chip is a small grid of ground cells (map CRS, the
 project's DTM heights): every cell's (line, pixel) comes from the exact ground -> image of the strip
 (:meth:`CoreStripGeometry.ground_to_image`, the same function rectification uses) and the grey value
