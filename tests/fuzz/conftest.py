@@ -1,5 +1,6 @@
 """Hypothesis profiles of the fuzz tests: ``ci`` (200 examples per reader, the default) and ``dev``
-(2000 per reader, for local runs: ``SCANGEO_FUZZ=dev python -m pytest tests/fuzz``)."""
+(2000 per reader, for local runs: ``SCANGEO_FUZZ=dev python -m pytest tests/fuzz``). The round trips
+(test_round_trips.py) run a quarter of that: each example writes and reads a whole file."""
 from __future__ import annotations
 
 import os

@@ -7,7 +7,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-FIXTURE_OK = settings(suppress_health_check=[HealthCheck.function_scoped_fixture])
+FIXTURE_OK = settings(suppress_health_check=[HealthCheck.function_scoped_fixture],
+                      max_examples=max(settings().max_examples // 4, 10))
 # ids a user may give: any printable text without the CSV's own line breaks, stripped (readers strip fields)
 IDS = st.text(st.characters(blacklist_categories=("Cs", "Cc", "Zl", "Zp")), min_size=1, max_size=12).map(
     str.strip).filter(bool)
