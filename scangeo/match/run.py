@@ -171,6 +171,8 @@ def match_project(project_path: str | Path, variant: str = "DG", references: Seq
         else:
             _control_rows(task, res_t, res, options, dtm, sigma_z, ref_res[task.reference or ""], rng, report,
                           result)
+    if not refs and write:
+        _keep_control(project.root / REPORT, report)
     _summary(report, result, res)
     result.seconds = time.perf_counter() - started
     report["seconds"] = round(result.seconds, 2)
@@ -183,6 +185,20 @@ def match_project(project_path: str | Path, variant: str = "DG", references: Seq
         _write_cells(project.root / CELLS, report)
     result.report = report
     return result
+
+
+def _keep_control(path: Path, report: dict) -> None:
+    """A run without a reference keeps the control rows: keep their part of the earlier report too."""
+    import json
+
+    try:
+        old = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return
+    report["control"] = old.get("control", {})
+    report["references"] = old.get("references", [])
+    kept = [p for p in old.get("positions", []) if p[2] in ("control", "check")]
+    report.setdefault("_positions", []).extend(kept)
 
 
 def _counts(res_t: TaskResult) -> dict:

@@ -61,6 +61,15 @@ def test_rerun_replaces_only_matched_rows(landcover_block, tmp_path):
     assert ground[:len(ground_before)] == ground_before
     roles = [r[6] for r in ground if r[0].startswith("MC_")]
     assert roles.count("check") == pytest.approx(0.3 * len(roles), abs=2)
+    # the report's section: a map of the points and a row per overlap and strip
+    from scangeo.match.figure import match_section
+
+    section = match_section(root)
+    assert section is not None and section.title == "Matched points"
+    html = "\n".join(section.parts)
+    assert html.count('class="report-figure"') == 1 and "01-02" in html and "01@ortho.tif" in html
+    points = _rows(root / "match_points.csv")
+    assert points[0] == ["point", "kind", "x", "y", "strips"] and len(points) - 1 == len(ties) + len(roles)
 
 
 def test_control_from_a_reference_in_another_crs_and_resolution(landcover_block, tmp_path):
