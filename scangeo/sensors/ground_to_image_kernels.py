@@ -302,7 +302,7 @@ def whiskbroom_ground_to_image_near(points, guess_line, guess_pixel, times, tab,
     """``kernels.refine_kernel`` (ground -> image from a guess of (line, pixel), strips without
     over-scanning) by the interpolated conditions: the coarse interval is taken from the guess's time
     (the epochs are uniform) and moved by secant jumps (bisection when they leave the bracket found so
-    far) to the one holding the sign change, each jump at most ``max_step_t`` seconds and at most
+    far) to the one holding the sign change, each jump cut to ``max_step_t`` seconds, at most
     ``max_iter`` intervals looked at, else NO_CONVERGENCE; then as
     ``whiskbroom_ground_to_image`` (exact Newton where the bound exceeds the tolerance).
     ``out_steps``: condition evaluations (intervals looked at, plus 3 for an exact solution).
@@ -340,9 +340,10 @@ def whiskbroom_ground_to_image_near(points, guess_line, guess_pixel, times, tab,
             gp = min(max(gp, -0.5), npix - 0.5)
             t_guess = line_to_time(gl, lt0, lrate, ltable) + (gp - pp) * dt_pix
             k = min(max(int(math.floor((t_guess - times[0]) / step_e)), 0), M - 2)
-            lo = 0
-            hi = M - 2
+            # g(k_pos) >= 0 and g(k_neg) < 0 once seen: the crossing lies between
+            k_pos, g_pos, k_neg, g_neg = -1, 0.0, -1, 0.0
             found = False
+            side = 0
             for _ in range(max_iter):
                 out_steps[q] += 1
                 ga = _row(tab, k, 0, X, Y, Z)
@@ -350,21 +351,29 @@ def whiskbroom_ground_to_image_near(points, guess_line, guess_pixel, times, tab,
                 if ga >= 0 and gb < 0:
                     found = True
                     break
-                # the answer lies in [lo, hi]; secant jump to where g's linear extension crosses zero
-                # (at least one interval), bisection when that leaves [lo, hi]
-                dk = ga / (ga - gb) if ga != gb else 0.0
-                if not abs(dk) <= max_walk:  # a jump longer than max_step_t, as refine_kernel's steps
-                    break
                 if ga < 0:
-                    hi = min(hi, k - 1)
-                    k += min(-1, int(math.floor(dk)))
+                    k_neg, g_neg = k, ga
+                    if side == -1:
+                        g_pos *= 0.5  # Illinois: the other side's value halved when one side repeats
+                    side = -1
                 else:
-                    lo = max(lo, k + 1)
-                    k += max(1, int(math.floor(dk)))
-                if lo > hi:
-                    break
-                if not (lo <= k <= hi):
-                    k = (lo + hi) // 2
+                    k_pos, g_pos = k + 1, gb
+                    if side == 1:
+                        g_neg *= 0.5
+                    side = 1
+                if k_pos >= 0 and k_neg >= 0:
+                    if k_neg <= k_pos:
+                        break  # g not monotonic: over-scanning
+                    # linear interpolation between the two sides (regula falsi, Illinois)
+                    k = int(math.floor(k_pos + g_pos / (g_pos - g_neg) * (k_neg - k_pos)))
+                    k = min(max(k, k_pos), k_neg - 1)
+                else:
+                    # secant jump to where g's linear extension crosses zero (one interval at least),
+                    # cut to max_step_t
+                    dk = ga / (ga - gb) if ga != gb else 0.0
+                    dk = min(max(dk, -max_walk), max_walk) if dk == dk else 0.0
+                    k += min(-1, int(math.floor(dk))) if ga < 0 else max(1, int(math.floor(dk)))
+                    k = min(max(k, 0), M - 2)
             if not found:
                 continue
             t, vy, vz, exact = _solve_interval(points, q, k, ga, gb, times, tab, err, cA, cC, t0, dt, coef, lever,

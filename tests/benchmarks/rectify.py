@@ -1,6 +1,6 @@
 """Benchmark: rectify one Daedalus strip, scangeo against the GDAL geolocation route (issue 6).
 
-Run: python tests/benchmarks/rectify.py [--lines 10000] [--resampling bilinear] [--keep DIR]
+Run: python tests/benchmarks/rectify.py [--lines 10000] [--resampling bilinear] [--keep DIR] [--pipeline]
 
 Set-up (not timed): a simulated project (preset ``small``, one strip of N lines x 716 pixels, its
 turbulence, true terrain and DTM at 2.5 m) and an 11-band uint16 image of that size.
@@ -12,6 +12,10 @@ Then, side by side in this process, onto the same 2.5 m grid (the strip's footpr
 * GDAL: rasterio ``reproject`` with geolocation arrays (GDAL's geolocation transformer, bilinear, 2
   threads) into memory, same grid; the geolocation arrays (image -> ground of every pixel corner on
   the DTM) are computed before and timed separately: they are the IGM the route needs as input.
+
+With ``--pipeline`` also: the same strip rectified twice in a row through a ``Finaliser`` (the COG
+of the first compressed and written while the second is computed, as ``scangeo rectify`` does for
+several strips), wall time per strip, beside the single strip's.
 
 Figures: wall time, output megapixel-bands per second (grid cells x bands / time), peak memory
 (resident set high-water mark of this process, reset before each route through
@@ -97,6 +101,7 @@ def main() -> None:
     ap.add_argument("--lines", type=int, default=10_000)
     ap.add_argument("--resampling", default="bilinear", choices=("nearest", "bilinear", "cubic"))
     ap.add_argument("--keep", default=None, help="keep the project in this folder")
+    ap.add_argument("--pipeline", action="store_true", help="also time two strips pipelined")
     args = ap.parse_args()
 
     from scangeo.io.project import Project
@@ -130,6 +135,15 @@ def main() -> None:
     result = rectify_strip(geometry, image_path, out, options)
     t_ours = time.perf_counter() - t0
     rss_ours = peak_rss_mb()
+    t_pipe = None
+    if args.pipeline:
+        from scangeo.rectify.strip import Finaliser
+
+        t0 = time.perf_counter()
+        with Finaliser() as finaliser:
+            for i in range(2):
+                rectify_strip(geometry, image_path, tmp / f"pipelined{i}.tif", options, finaliser=finaliser)
+        t_pipe = (time.perf_counter() - t0) / 2
     grid = result.grid
     mpx = grid.width * grid.height * 11 / 1e6
 
@@ -154,9 +168,14 @@ def main() -> None:
           f"({mpx:.1f} Mpx-bands), {args.resampling}; OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '')}")
     print(f"{'route':<44}{'wall s':>9}{'Mpx-bands/s':>13}{'peak RSS MB':>13}")
     print(f"{'scangeo rectify_strip (to the final COG)':<44}{t_ours:>9.2f}{mpx / t_ours:>13.1f}{rss_ours:>13.0f}")
+    if t_pipe is not None:
+        print(f"{'scangeo, 2 strips pipelined, per strip':<44}{t_pipe:>9.2f}{mpx / t_pipe:>13.1f}")
     print(f"{'GDAL geolocation warp (in memory)':<44}{t_gdal:>9.2f}{mpx / t_gdal:>13.1f}{rss_gdal:>13.0f}")
     print(f"{'  + its input: IGM of the pixel corners':<44}{t_igm:>9.2f}")
     print(f"ratio scangeo / GDAL throughput: {t_gdal / t_ours:.1f}x (with the IGM: {(t_gdal + t_igm) / t_ours:.1f}x)")
+    if t_pipe is not None:
+        print(f"ratio pipelined scangeo / GDAL throughput: {t_gdal / t_pipe:.1f}x (with the IGM: "
+              f"{(t_gdal + t_igm) / t_pipe:.1f}x)")
     print(f"scangeo inverse map (refine): {s.exact_points / 1e6:.2f} M bracketed solutions for "
           f"{grid.width * grid.height / 1e6:.2f} M cells ({s.exact_cells} cells by the fallback), "
           f"{s.newton_evaluations / max(s.refined_cells, 1):.2f} Newton evaluations per refined cell, validated max "
