@@ -1,18 +1,17 @@
 """Every reader of a user's file, fed random corruptions of a valid file (issue 13).
 
 A reader either returns or raises one of scangeo's own errors (ScangeoError): never a raw exception.
-The ``ci`` profile runs 200 examples per reader (tests/fuzz/conftest.py).
+The ``ci`` profile runs 200 examples per reader (tests/fuzz/profile.py).
 """
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 
 from scangeo.errors import ScangeoError
 from tests.fuzz.corrupt import corrupted
-
-FIXTURE_OK = settings(suppress_health_check=[HealthCheck.function_scoped_fixture])
+from tests.fuzz.profile import FUZZ
 
 
 def trajectory_csv(n: int = 25) -> bytes:
@@ -88,7 +87,7 @@ def _run(path, data: bytes, read) -> None:
         pass
 
 
-@FIXTURE_OK
+@FUZZ
 @given(data=corrupted(trajectory_csv()))
 def test_trajectory_csv(tmp_path, data):
     from scangeo.trajectory.readers import read_trajectory
@@ -96,7 +95,7 @@ def test_trajectory_csv(tmp_path, data):
     _run(tmp_path / "nav.csv", data, read_trajectory)
 
 
-@FIXTURE_OK
+@FUZZ
 @given(data=corrupted(sbet()))
 def test_sbet(tmp_path, data):
     from scangeo.trajectory.readers import read_trajectory
@@ -104,7 +103,7 @@ def test_sbet(tmp_path, data):
     _run(tmp_path / "nav.out", data, read_trajectory)
 
 
-@FIXTURE_OK
+@FUZZ
 @given(data=corrupted(POINTS))
 def test_points(tmp_path, data):
     from scangeo.io.points import ImagePoints
@@ -112,7 +111,7 @@ def test_points(tmp_path, data):
     _run(tmp_path / "points.csv", data, ImagePoints.read)
 
 
-@FIXTURE_OK
+@FUZZ
 @given(data=corrupted(GROUND))
 def test_ground(tmp_path, data):
     from scangeo.io.points import GroundPoints
@@ -120,7 +119,7 @@ def test_ground(tmp_path, data):
     _run(tmp_path / "ground.csv", data, GroundPoints.read)
 
 
-@FIXTURE_OK
+@FUZZ
 @given(data=corrupted(PROJECT))
 def test_project_toml(tmp_path, data):
     from scangeo.io.project import Project
@@ -128,7 +127,7 @@ def test_project_toml(tmp_path, data):
     _run(tmp_path / "project.toml", data, Project.load)
 
 
-@FIXTURE_OK
+@FUZZ
 @given(data=corrupted(VARIANTS))
 def test_variants_toml(tmp_path, data):
     from scangeo.adjustment.variants import read_variants
@@ -136,7 +135,7 @@ def test_variants_toml(tmp_path, data):
     _run(tmp_path / "variants.toml", data, read_variants)
 
 
-@FIXTURE_OK
+@FUZZ
 @given(data=corrupted(LINE_TIMES))
 def test_line_times(tmp_path, data):
     from scangeo.timing import LineTiming
@@ -151,7 +150,7 @@ def preset_bytes() -> bytes:
     return preset_path("small").read_bytes()
 
 
-@FIXTURE_OK
+@FUZZ
 @given(edit=corrupted(b"0123456789"))
 def test_preset_toml(tmp_path, preset_bytes, edit):
     """A user preset: the small preset with a corruption at a position drawn from ``edit``'s bytes."""
@@ -179,7 +178,7 @@ def las_bytes() -> bytes:
     return buffer.getvalue()
 
 
-@FIXTURE_OK
+@FUZZ
 @given(data=corrupted(las_bytes()))
 def test_las_header(tmp_path, data):
     from scangeo.lidar import lasio

@@ -3,12 +3,12 @@ to the precision the format states."""
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-FIXTURE_OK = settings(suppress_health_check=[HealthCheck.function_scoped_fixture],
-                      max_examples=max(settings().max_examples // 4, 10))
+from tests.fuzz.profile import ROUND_TRIP
+
 # ids a user may give: any printable text without the CSV's own line breaks, stripped (readers strip fields)
 IDS = st.text(st.characters(blacklist_categories=("Cs", "Cc", "Zl", "Zp")), min_size=1, max_size=12).map(
     str.strip).filter(bool)
@@ -32,7 +32,7 @@ def streams(draw):
     return GpsImuStream(t, lat, lon, h, att[0], att[1], np.unwrap(heading), source="<hypothesis>")
 
 
-@FIXTURE_OK
+@ROUND_TRIP
 @given(stream=streams())
 def test_trajectory_csv(tmp_path, stream):
     from scangeo.trajectory.readers import read_trajectory_csv, write_trajectory_csv
@@ -50,7 +50,7 @@ def test_trajectory_csv(tmp_path, stream):
     assert not list(tmp_path.glob("*.tmp*"))
 
 
-@FIXTURE_OK
+@ROUND_TRIP
 @given(rows=st.lists(st.tuples(IDS, st.sampled_from(["1", "02", "a b"]), st.floats(-0.5, 1e5), st.floats(-0.5, 1e4),
                                st.floats(0.001, 100.0)), min_size=1, max_size=20,
                      unique_by=lambda r: (r[0], r[1])))
@@ -67,7 +67,7 @@ def test_points_csv(tmp_path, rows):
     np.testing.assert_allclose(back.sigma_px, sigma, rtol=1e-5)
 
 
-@FIXTURE_OK
+@ROUND_TRIP
 @given(rows=st.lists(st.tuples(IDS, st.floats(-1e6, 1e7), st.floats(-1e7, 1e7), st.floats(-400, 9000),
                                st.floats(0.001, 10.0), st.floats(0.001, 10.0),
                                st.sampled_from(["control", "check", "height", "planimetric"])),
@@ -86,7 +86,7 @@ def test_ground_csv(tmp_path, rows):
     np.testing.assert_allclose(back.sigma_z, g.sigma_z, rtol=1e-5)
 
 
-@FIXTURE_OK
+@ROUND_TRIP
 @given(header=st.lists(IDS, min_size=1, max_size=5, unique=True),
        cells=st.lists(st.lists(st.text(max_size=10), min_size=5, max_size=5), max_size=10))
 def test_atomic_csv(tmp_path, header, cells):
