@@ -2,7 +2,7 @@
 every strip and the mosaic; wall time per stage, peak memory, scaling with the number of strips.
 
 Run: python tests/benchmarks/block.py [--lines 7000] [--strips 1 6 12 24] [--keep DIR]
-[--scheduler local|ADDRESS] [--variant S2]
+[--scheduler local|ADDRESS] [--variant S2] [--skip-adjust]
 
 Set-up (timed, reported apart): the ``block24`` preset simulated with its images (24 strips of
 716 px x ``--lines`` lines x 11 bands; ``--lines`` below 7,000 scales every line-valued key of the
@@ -116,8 +116,11 @@ def main() -> None:
     ap.add_argument("--variant", default="S2", help="name of the S variant")
     ap.add_argument("--scheduler", default=None, help="'local' (a LocalCluster of 2 workers) or an address")
     ap.add_argument("--keep", default=None, help="keep (and reuse) the simulated project in this folder")
+    ap.add_argument("--skip-adjust", action="store_true", help="reuse the adjustments of a kept project")
     args = ap.parse_args()
     import numba
+
+    import scangeo  # noqa: F401  (chooses numba's threading layer)
 
     print(f"cores {os.cpu_count()}, numba threading layer {numba.config.THREADING_LAYER}, "
           f"load average {os.getloadavg()[0]:.1f}")
@@ -139,7 +142,7 @@ def main() -> None:
                                                         breaks=[float(b) for b in errs["breaks_lines"]]))
     log: list = []
     r = str(root)
-    for variant in ("SE", args.variant):
+    for variant in () if args.skip_adjust else ("SE", args.variant):
         run_stage(f"adjust {variant}", ["adjust", r, "--variant", variant, "--no-progress"], log)
     ortho = root / "results" / args.variant / "ortho"
     ids = [f"{i + 1:02d}" for i in range(int(data["flight"]["strips"]))]
@@ -162,8 +165,8 @@ def main() -> None:
                                     ["rectify", r, "--variant", args.variant, "--strips", *ids[:n], "--mosaic",
                                      "--no-progress", *extra], log)
                 if cluster is not None and extra:
-                    mem = cluster.scheduler_info()["workers"]
-                    rss = max(w["metrics"]["memory"] for w in mem.values()) / 2**20
+                    mem = cluster.scheduler_info["workers"]
+                    rss = max(w.get("metrics", w).get("memory", 0) for w in mem.values()) / 2**20
                     print(f"{'':<46}{'':>11}{rss:>9.0f} MiB (largest Dask worker now)")
                 per_strip[route, n] = dt / n
     finally:
