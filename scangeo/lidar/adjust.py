@@ -136,6 +136,13 @@ def read_patch_ground(path: Path, margin: float = 1.0) -> GivenPatches:
     header, body, numbers = read_rows(path, ["point", "patch", "x", "y", "z"], ["sigma_xy", "sigma_z", "role"])
     xyz = np.column_stack([column_floats(path, header, body, numbers, c) for c in "xyz"])
     sig = column_floats(path, header, body, numbers, "sigma_z", 0.01)
+    for column in ("sigma_xy", "sigma_z"):
+        values = column_floats(path, header, body, numbers, column, 0.01)
+        bad = np.flatnonzero(~(values > 0.0))
+        if bad.size:
+            raise ProjectFileError(
+                f"{path} line {numbers[bad[0]]}: {column} = {values[bad[0]]:g}: expected a positive number of metres"
+            )
     roles = [r[header.index("role")] if "role" in header else "control" for r in body]
     for r, line in zip(roles, numbers):
         if r not in ("control", "check"):

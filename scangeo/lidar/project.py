@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from scangeo.errors import MissingFileError, ProjectFileError
-from scangeo.frames import Geoid, MapFrame, ProjectFrame
+from scangeo.frames import Geoid, MapFrame, ProjectFrame, parse_crs
 from scangeo.io.schema import read, setting
 from scangeo.io.toml_config import load_toml
 from scangeo.lidar.georeference import Calibration
@@ -146,6 +146,9 @@ class LaserProject:
         dup = sorted({i for i in ids if ids.count(i) > 1})
         if dup:
             raise ProjectFileError(f"{file}: strip id {dup[0]!r} appears more than once")
+        parse_crs(p.crs, f"{file} [project.crs]")
+        if p.trajectory_crs is not None:
+            parse_crs(p.trajectory_crs, f"{file} [project.trajectory_crs]")
         return cls(root, p.crs, p.origin, Geoid(p.geoid_undulation_m), sensor, tuple(strips),
                    dict(keys.adjustment or {}), p.trajectory_crs)
 

