@@ -270,9 +270,10 @@ class StripGeometry:
         rate = self.timing.mean_rate
         if kind == 0:
             times, tab, _, err, cA, cC = self._whiskbroom_tables
-            guess = [np.ascontiguousarray(a, dtype=float).ravel() for a in (line0, pixel0)]
+            gl = np.ascontiguousarray(line0, dtype=float).ravel()
+            gp = np.ascontiguousarray(pixel0, dtype=float).ravel()
             whiskbroom_ground_to_image_near(
-                p_P, *guess, times, tab, err, cA, cC, *self._mount_args(), sp, *self._timing_args(),
+                p_P, gl, gp, times, tab, err, cA, cC, *self._mount_args(), sp, *self._timing_args(),
                 float(self.n_lines), float(tol_line), tol_line / rate, max_step_lines / rate, int(max_iter),
                 max(1, min(n, 256)), line, pixel, status, steps,
             )
