@@ -167,7 +167,8 @@ def main() -> None:
                 if cluster is not None and extra:
                     mem = cluster.scheduler_info["workers"]
                     rss = max(w.get("metrics", w).get("memory", 0) for w in mem.values()) / 2**20
-                    print(f"{'':<46}{'':>11}{rss:>9.0f} MiB (largest Dask worker now)")
+                    print(f"{'':<46}{'':>11}{rss:>9.0f} MiB (largest Dask worker now)" if rss > 0 else
+                          f"{'':<46}the Dask workers' memory is not reported by this scheduler")
                 per_strip[route, n] = dt / n
     finally:
         if cluster is not None:
