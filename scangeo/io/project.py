@@ -157,13 +157,14 @@ class Project:
             f"{self.root / 'project.toml'}: no strip {strip_id!r} (strips: {', '.join(s.id for s in self.strips)})"
         )
 
-    def stream(self, strip_id: str):
-        """The strip's GPS/IMU stream as measured."""
+    def stream(self, strip_id: str, check: bool = True):
+        """The strip's GPS/IMU stream as measured; ``check``: coverage and gaps (scangeo.trajectory.checks)."""
         from scangeo.trajectory.checks import check_strip_trajectory, strip_times_of
         from scangeo.trajectory.readers import read_trajectory
 
         stream = read_trajectory(self.strip(strip_id).trajectory, crs=self.trajectory_crs or self.crs)
-        check_strip_trajectory(stream, strip_times_of(self, strip_id))  # coverage, gaps: errors naming lines
+        if check:
+            check_strip_trajectory(stream, strip_times_of(self, strip_id))  # coverage, gaps: errors naming lines
         return stream
 
     def timing(self, strip_id: str) -> LineTiming:
@@ -200,7 +201,8 @@ class Project:
         from scangeo.trajectory.spline import OrientationSpline
 
         if spline is None:
-            traj = self.stream(strip_id).to_project(self.map_frame.frame)
+            # unchecked: locate answers point by point ("outside the trajectory"); adjust checks in strip_data
+            traj = self.stream(strip_id, check=False).to_project(self.map_frame.frame)
             spline = OrientationSpline.from_trajectory(traj, self.knot_spacing)
         return StripGeometry(
             sensor or self.sensor.model,

@@ -278,7 +278,7 @@ def _strip_summary(project, strip_id: str) -> dict[str, Any]:
         timing = project.timing(strip_id)
         first, last = (float(v) for v in timing.time_of_line(np.array([0.0, n - 1.0])))
         out.update({"lines": n, "line_time_s": {"start": round(first, 6), "end": round(last, 6)}})
-        stream = project.stream(strip_id)
+        stream = project.stream(strip_id, check=False)  # coverage is reported below, not raised
         edges = np.array([0.0, project.sensor.model.pixels - 1.0])
         half_scan = float(np.abs(project.sensor.model.time_offset(edges)).max())
         nav_first = first - half_scan + project.sensor.mounting.time_offset

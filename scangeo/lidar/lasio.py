@@ -83,12 +83,24 @@ def check_header(path: Path, header, crs) -> None:
             )
 
 
+def check_size(path: Path, header) -> None:
+    """An uncompressed file holds the returns its header counts (a truncated copy does not)."""
+    if getattr(header, "are_points_compressed", True):
+        return
+    need = header.offset_to_point_data + header.point_count * header.point_format.size
+    have = path.stat().st_size
+    if have < need:
+        raise InputFileError(f"{path}: truncated: the header counts {header.point_count} returns "
+                             f"({need} bytes), the file has {have} bytes")
+
+
 def read_strip(strip_id: str, files, point_source_id: int | None = None, crs=None) -> StripCloud:
     """Coordinates and GPS times of a strip's returns from one or more LAS/LAZ files, in chunks."""
     xyz, t = [], []
     for path in map(Path, files):
         with _open(path) as f:
             check_header(path, f.header, crs)
+            check_size(path, f.header)
             try:
                 for chunk in f.chunk_iterator(CHUNK):
                     ids = None if point_source_id is None else np.asarray(chunk.point_source_id)
