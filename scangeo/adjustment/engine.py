@@ -108,12 +108,13 @@ def _worst_units(groups: Sequence[ObservationGroup], active: list[np.ndarray], w
             if best[u] > crit:
                 found.append((float(best[u]), gi, int(u)))
     found.sort(reverse=True)
-    out, points = [], set()
-    for w, gi, u in found:  # one unit per point and round: a point's other rays share its blunder's smear
+    out: list[tuple[int, int, float]] = []
+    points: set[str] = set()
+    for w_max, gi, u in found:  # one unit per point and round: a point's other rays share its blunder's smear
         pid = str(groups[gi].ids[groups[gi].row_unit == u][0])
         if pid not in points:
             points.add(pid)
-            out.append((gi, u, w))
+            out.append((gi, u, w_max))
         if len(out) == count:
             break
     return out
@@ -125,7 +126,8 @@ def _tested_rows(solution: Solution) -> np.ndarray:
 
 
 def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
-           solver_options: SolverOptions = SolverOptions(), snooping: SnoopingOptions = SnoopingOptions(),
+           solver_options: SolverOptions = SolverOptions(),  # noqa: B008 (frozen options)
+           snooping: SnoopingOptions = SnoopingOptions(),
            callback: ProgressCallback = no_progress) -> Adjustment:
     """Adjust ``parameters`` to ``groups``; with data snooping unless disabled.
 
@@ -143,8 +145,9 @@ def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
         active = solution.active if update is None else update.active
         worst = []
         if len(rejections) < snooping.max_rejections:
-            worst = _worst_units(solution.groups, active, stats.w_tests() if update is None else update.w_tests(),
-                                 snooping.critical_value, min(snooping.per_round, snooping.max_rejections - len(rejections)))
+            w_tests = stats.w_tests() if update is None else update.w_tests()
+            count = min(snooping.per_round, snooping.max_rejections - len(rejections))
+            worst = _worst_units(solution.groups, active, w_tests, snooping.critical_value, count)
         if not worst:
             if update is None or update.removed.size == 0:
                 break
@@ -155,21 +158,21 @@ def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
             full += 1
             continue
         rounds += 1
-        rows = []
+        row_parts: list[np.ndarray] = []
         for gi, unit, w in worst:
             group = solution.groups[gi]
             sel = group.row_unit == unit
             comps = tuple(str(c) for c in group.components[sel])
             verdict = examine_unit(solution, stats, update, gi, unit) if snooping.separability else None
             if verdict is None or verdict.separable:
-                rows.append(solution.system.row_slices[gi].start + np.flatnonzero(sel))
+                row_parts.append(solution.system.row_slices[gi].start + np.flatnonzero(sel))
                 rejections.append(Rejection(group.name, str(group.ids[sel][0]), comps, w, rounds))
             else:  # the whole point: which of its measurements holds the blunder cannot be told
-                rows.append(verdict.rows)
+                row_parts.append(verdict.rows)
                 note = f"{NOTE}: {verdict.reason} ({'; '.join(verdict.partners)})"
                 rejections.append(Rejection(group.name, str(group.ids[sel][0]), comps, w, rounds, False, note))
             log.info("data snooping round %d: rejected %s %s (|w| = %.2f)", rounds, group.name, group.ids[sel][0], w)
-        rows = np.concatenate(rows)
+        rows = np.concatenate(row_parts)
         callback(
             0.7 + 0.3 * min(len(rejections) / max(snooping.max_rejections, 1), 1.0),
             1.0,

@@ -160,7 +160,8 @@ def residual_rows(result: VariantResult):
             ]
     c = result.checks
     crit = result.variant.critical_value
-    for p, s, dl, dp, st, sig in zip(c.point, c.strip, c.line, c.pixel, c.status, c.sigma_px):
+    sigmas = c.sigma_px if c.sigma_px is not None else [float("nan")] * len(c.point)
+    for p, s, dl, dp, st, sig in zip(c.point, c.strip, c.line, c.pixel, c.status, sigmas):
         ok = st == 0
         for comp, unit, v in (("line", "line", dl), ("pixel", "px", dp)):
             # w of a check measurement: its residual over its measurement sigma (orientation error ignored)

@@ -134,7 +134,7 @@ def start_strip_task(task: StripTask, progress: ProgressCallback = no_progress,
         import numba
 
         cv2.setNumThreads(task.threads)
-        numba.set_num_threads(min(task.threads, numba.config.NUMBA_NUM_THREADS))
+        numba.set_num_threads(min(task.threads, numba.config.NUMBA_NUM_THREADS))  # type: ignore[attr-defined]
     project = Project.load(task.project)
     source = load_orientation(project, task.variant)
     geometry = CoreStripGeometry(source.geometry(task.strip), project.dtm)
@@ -174,7 +174,7 @@ def rectify_project(
     project_path: str | Path,
     variant: str,
     strips: list[str] | None = None,
-    options: RectifyOptions = RectifyOptions(),
+    options: RectifyOptions = RectifyOptions(),  # noqa: B008 (frozen options)
     workers: int = 1,
     scheduler: str | None = None,
     progress: ProgressCallback = no_progress,
@@ -194,7 +194,10 @@ def rectify_project(
     """
     started = time.perf_counter()
     project = Project.load(project_path)
-    ids = [s.id for s in project.strips if s.image is not None] if strips is None else [project.strip(s).id for s in strips]
+    if strips is None:
+        ids = [s.id for s in project.strips if s.image is not None]
+    else:
+        ids = [project.strip(s).id for s in strips]
     if not ids:
         raise ProjectFileError(f"{project.root / 'project.toml'}: no strip has an image to rectify")
     source = load_orientation(project, variant)

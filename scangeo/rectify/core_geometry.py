@@ -86,7 +86,7 @@ def _with_fixed_overscan_window(geometry: CoreGeometry, dtm: DTM) -> CoreGeometr
     hi = dtm.map_frame.map_to_project(x, y, np.array([dtm.h_max]))[0]
     centre[0], centre[1] = lo, hi
     window = geometry.overscan_window(centre)
-    fixed.overscan_window = lambda p_P: window  # instance attribute: shadows the method on the copy
+    fixed.overscan_window = lambda p_P: window  # type: ignore[method-assign]  # shadows the method on the copy
     return fixed
 
 
@@ -131,10 +131,10 @@ class CoreStripGeometry:
             if not ok.any():
                 continue
             p_P = self.map_to_project(x[s:e][ok], y[s:e][ok], H[s:e][ok])
-            l, p, status = self.core.ground_to_image(p_P)
+            ln, p, status = self.core.ground_to_image(p_P)
             seen = (status & ~MULTIPLE) == OK
             idx = np.flatnonzero(ok)
-            line[s + idx] = np.where(seen, l, np.nan)
+            line[s + idx] = np.where(seen, ln, np.nan)
             pixel[s + idx] = np.where(seen, p, np.nan)
         return line, pixel
 

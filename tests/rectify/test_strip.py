@@ -5,8 +5,8 @@ import cv2
 import numpy as np
 import pytest
 import rasterio
-
 from rectify_synthetic import AnalyticStrip, Texture, estimate_shift, flat, hills, make_dtm, render
+
 from scangeo.errors import InputFileError, ScangeoError
 from scangeo.rectify.geotiff import GeoTiffProfile
 from scangeo.rectify.options import RectifyOptions
@@ -103,7 +103,8 @@ def test_outputs_layers_glt_metadata_and_cog_layout(tmp_path):
     strip = strip_of(hills, roll_amp=0.002)
     render(strip, TEX, tmp_path / "img.tif", bands=4, dtype="uint16")
     layers = ("scan_angle", "view_zenith", "time", "ground_pixel", "image_line", "image_pixel")
-    opts = RectifyOptions(resolution=2.0, layers=layers, glt=True, geotiff=GeoTiffProfile(blocksize=128, overviews=True))
+    opts = RectifyOptions(resolution=2.0, layers=layers, glt=True,
+                          geotiff=GeoTiffProfile(blocksize=128, overviews=True))
     r = rectify_strip(strip, tmp_path / "img.tif", tmp_path / "o.tif", opts,
                       tags={"variant": "P4", "sigma0": "0.93"})
     with rasterio.open(tmp_path / "o.tif") as d:

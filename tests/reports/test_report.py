@@ -128,7 +128,8 @@ def test_report_opens_in_a_browser(compared_small, tmp_path):
         images = driver.execute_script(
             "return Array.from(document.images).map(i => [i.id || i.alt, i.complete, i.naturalWidth, i.naturalHeight])")
         table_rows = driver.execute_script(
-            "return Array.from(document.querySelectorAll('#comparison-table tbody tr')).map(r => r.cells[0].textContent)")
+            "return Array.from(document.querySelectorAll('#comparison-table tbody tr'))"
+            ".map(r => r.cells[0].textContent)")
         sections = driver.execute_script(
             "return Array.from(document.querySelectorAll('section h2')).map(h => h.textContent)"
         )
