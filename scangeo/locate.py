@@ -49,7 +49,7 @@ def image_to_map(project: Project, strip_id: str, line, pixel, geometry: StripGe
     xyz : (n, 3) map x, y and orthometric z (m); NaN where there is no answer.
     reasons : n texts, empty where the answer is plain.
     """
-    g = geometry or project.geometry(strip_id)
+    g = geometry or project.geometry(strip_id, check=False)
     line = np.atleast_1d(np.asarray(line, dtype=float))
     pixel = np.atleast_1d(np.asarray(pixel, dtype=float))
     outside = (line < -0.5) | (line > g.n_lines - 0.5) | (pixel < -0.5) | (pixel > g.sensor.pixels - 0.5)
@@ -78,7 +78,7 @@ def map_to_image(project: Project, strip_id: str, xyz, geometry: StripGeometry |
     line, pixel : (n,) image coordinates; NaN where the strip did not see the point.
     reasons : n texts, empty where the answer is plain.
     """
-    g = geometry or project.geometry(strip_id)
+    g = geometry or project.geometry(strip_id, check=False)
     xyz = fill_heights(project, xyz)
     no_height = np.isnan(xyz[:, 2])
     p_P = project.map_frame.map_to_project(xyz[:, 0], xyz[:, 1], xyz[:, 2])

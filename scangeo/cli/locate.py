@@ -33,13 +33,17 @@ def add_parser(subparsers, common: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from scangeo.adjustment.orientation import load_adjusted_geometry
+    from scangeo.adjustment.orientation import FILE_NAME, load_adjusted_geometry, results_folder
     from scangeo.io.project import Project
     from scangeo.locate import locate_ground_file, locate_image_file
 
     project = Project.load(args.project)
     project.strip(args.strip)  # an unknown strip is named before any orientation is read
-    geometry = load_adjusted_geometry(project, args.variant, args.strip)
+    if args.variant.upper() == "DG" and not (results_folder(project, args.variant) / FILE_NAME).exists():
+        # direct georeferencing unchecked: lines beyond the trajectory are answered point by point
+        geometry = project.geometry(args.strip, check=False)
+    else:
+        geometry = load_adjusted_geometry(project, args.variant, args.strip)
     if args.image:
         result = locate_image_file(project, args.strip, args.image, geometry)
     else:

@@ -196,13 +196,16 @@ class Project:
         except rasterio.errors.RasterioIOError as exc:
             raise ProjectFileError(f"{s.image}: cannot read the image ({exc})") from exc
 
-    def geometry(self, strip_id: str, spline=None, mounting: Mounting | None = None, sensor=None) -> StripGeometry:
-        """Strip geometry; by default direct georeferencing (the spline fitted to the GPS/IMU)."""
+    def geometry(self, strip_id: str, spline=None, mounting: Mounting | None = None, sensor=None,
+                 check: bool = True) -> StripGeometry:
+        """Strip geometry; by default direct georeferencing (the spline fitted to the GPS/IMU).
+
+        ``check=False`` skips the trajectory's coverage and gap checks (locate answers point by point
+        "outside the trajectory" instead); rectify, adjust and the reports keep them."""
         from scangeo.trajectory.spline import OrientationSpline
 
         if spline is None:
-            # unchecked: locate answers point by point ("outside the trajectory"); adjust checks in strip_data
-            traj = self.stream(strip_id, check=False).to_project(self.map_frame.frame)
+            traj = self.stream(strip_id, check=check).to_project(self.map_frame.frame)
             spline = OrientationSpline.from_trajectory(traj, self.knot_spacing)
         return StripGeometry(
             sensor or self.sensor.model,
