@@ -43,6 +43,26 @@ def common_options() -> argparse.ArgumentParser:
     return common
 
 
+def settings_table(path: str | None, name: str) -> dict:
+    """The ``[name]`` table of a command's ``--config`` TOML file (empty without one); any other
+    table, or a file that cannot be read, is a ProjectFileError naming the file."""
+    import tomllib
+
+    from scangeo.errors import ProjectFileError
+
+    if not path:
+        return {}
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise ProjectFileError(f"{path}: cannot read the settings ({exc})") from exc
+    unknown = [k for k in data if k != name]
+    if unknown:
+        raise ProjectFileError(f"{path}: unknown table [{unknown[0]}] (expected [{name}])")
+    return dict(data.get(name, {}))
+
+
 def progress_of(args: argparse.Namespace):
     """The progress callback for a command's arguments."""
     enabled = args.progress if args.progress is not None else sys.stderr.isatty()

@@ -41,21 +41,10 @@ def add_parser(subparsers, common) -> None:
 
 def options_of(args: argparse.Namespace):
     """MatchOptions from ``--config`` and the flags (flags win)."""
-    import tomllib
-
+    from scangeo.cli import settings_table
     from scangeo.match.options import MatchOptions
 
-    table: dict = {}
-    if args.config:
-        try:
-            with open(args.config, "rb") as fh:
-                data = tomllib.load(fh)
-        except (OSError, tomllib.TOMLDecodeError) as exc:
-            raise ProjectFileError(f"{args.config}: cannot read the settings ({exc})") from exc
-        unknown = [k for k in data if k != "match"]
-        if unknown:
-            raise ProjectFileError(f"{args.config}: unknown table [{unknown[0]}] (expected [match])")
-        table = dict(data.get("match", {}))
+    table = settings_table(args.config, "match")
     for key in ("per_overlap", "control_per_strip", "check_share", "bands"):
         value = getattr(args, key)
         if value is not None:

@@ -46,21 +46,10 @@ def add_parser(subparsers, common) -> None:
 
 def options_of(args: argparse.Namespace):
     """RectifyOptions from ``--config`` and the flags (flags win)."""
-    import tomllib
-
+    from scangeo.cli import settings_table
     from scangeo.rectify.options import RectifyOptions
 
-    table: dict = {}
-    if args.config:
-        try:
-            with open(args.config, "rb") as fh:
-                data = tomllib.load(fh)
-        except (OSError, tomllib.TOMLDecodeError) as exc:
-            raise ProjectFileError(f"{args.config}: cannot read the settings ({exc})") from exc
-        unknown = [k for k in data if k != "rectify"]
-        if unknown:
-            raise ProjectFileError(f"{args.config}: unknown table [{unknown[0]}] (expected [rectify])")
-        table = dict(data.get("rectify", {}))
+    table = settings_table(args.config, "rectify")
     for key in ("resolution", "bounds", "resampling", "layers", "igm", "glt", "mosaic", "occlusion",
                 "max_error_px", "memory_budget_mb"):
         value = getattr(args, key)
