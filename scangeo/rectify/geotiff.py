@@ -1,9 +1,9 @@
 """GeoTIFF outputs: a profile with sane defaults, band descriptions, atomic COG finalisation.
 
 Tiles are first written into an uncompressed tiled GeoTIFF beside the output (a hidden
-``.NAME.partial-*`` file), then copied by GDAL's COG driver into a second hidden file (tiled,
-compressed, overviews, cloud-optimised layout), which is renamed to the final name only when
-complete. A run killed at any point leaves only hidden partial files, which the next run removes.
+``.NAME.partial-*`` file), its overviews computed beside it (:mod:`scangeo.rectify.overviews`), then
+copied by GDAL's COG driver into a second hidden file (tiled, compressed, with those overviews,
+cloud-optimised layout), which is renamed to the final name only when complete. A run killed at any point leaves only hidden partial files, which the next run removes.
 """
 from __future__ import annotations
 
@@ -21,6 +21,7 @@ import rasterio.shutil
 from scangeo.errors import RectifyOptionsError
 from scangeo.io.schema import setting
 from scangeo.rectify.output_grid import OutputGrid
+from scangeo.rectify.overviews import with_overviews
 
 _COMPRESSIONS = ("deflate", "zstd", "lzw", "none")
 #: With ``overviews = "auto"`` an output whose larger side exceeds this many cells gets internal
@@ -89,13 +90,14 @@ class GeoTiffProfile:
                     opts["PREDICTOR"] = "FLOATING_POINT" if floating else "STANDARD"
                 else:
                     opts["PREDICTOR"] = "3" if floating else "2"
+        # the overviews are the source's (scangeo.rectify.overviews computes them): GDAL only compresses
         if self.cog:
             opts["BLOCKSIZE"] = str(self.blocksize)
-            opts["OVERVIEWS"] = "AUTO" if overviews else "NONE"
-            if overviews:
-                opts["OVERVIEW_RESAMPLING"] = "AVERAGE"
+            opts["OVERVIEWS"] = "FORCE_USE_EXISTING" if overviews else "NONE"
         else:
             opts.update(TILED="YES", BLOCKXSIZE=str(self.blocksize), BLOCKYSIZE=str(self.blocksize))
+            if overviews:
+                opts["COPY_SRC_OVERVIEWS"] = "YES"
         return opts
 
 
@@ -200,14 +202,15 @@ def finalise(working: Path, final: Path, profile: GeoTiffProfile, dtype) -> None
     tmp = partial_path(final, ".tif")
     driver = "COG" if profile.cog else "GTiff"
     with rasterio.open(working) as src:
-        overviews = profile.wants_overviews(src.width, src.height)
+        factors = overview_factors(src.width, src.height, profile.blocksize)
+        overviews = profile.wants_overviews(src.width, src.height) and bool(factors)
+    # the overviews, averaged by scangeo beside the working file, reach GDAL through a VRT
+    made: list[Path] = []
     try:
-        rasterio.shutil.copy(str(working), str(tmp), driver=driver, **profile.creation_options(dtype, overviews))
-        if overviews and not profile.cog:  # the COG driver builds them while copying
-            with rasterio.open(tmp, "r+") as dst:
-                dst.build_overviews(overview_factors(dst.width, dst.height, profile.blocksize),
-                                    rasterio.enums.Resampling.average)
+        made = with_overviews(Path(working), factors) if overviews else []
+        source = made[0] if made else Path(working)
+        rasterio.shutil.copy(str(source), str(tmp), driver=driver, **profile.creation_options(dtype, overviews))
         os.replace(tmp, final)
     finally:
-        if tmp.exists():
-            tmp.unlink()
+        for path in [tmp, *made]:
+            path.unlink(missing_ok=True)

@@ -61,3 +61,64 @@ def test_the_option_from_files_and_the_command_line():
     for flag, expected in ((None, "auto"), (True, True), (False, False)):
         args = argparse.Namespace(config=None, overviews=flag, **base)
         assert options_of(args).geotiff.overviews == expected
+
+
+def _reference_halve(a: np.ndarray, valid: np.ndarray, integer: bool) -> np.ndarray:
+    """Mean of the valid cells of each 2 x 2 block (odd edges: the cells there are), plain numpy."""
+    h, w = a.shape
+    out = np.full(((h + 1) // 2, (w + 1) // 2), np.nan)
+    for r in range(out.shape[0]):
+        for c in range(out.shape[1]):
+            block, ok = a[2 * r:2 * r + 2, 2 * c:2 * c + 2], valid[2 * r:2 * r + 2, 2 * c:2 * c + 2]
+            if ok.any():
+                m = float(block[ok].astype(float).mean())
+                out[r, c] = np.floor(m + 0.5) if integer else m
+    return out
+
+
+@pytest.mark.parametrize("dtype, nodata", [("uint16", 0), ("int16", -9999), ("float32", None)])
+def test_levels_average_the_valid_cells(dtype, nodata):
+    from scangeo.rectify.overviews import halve
+
+    rng = np.random.default_rng(4)
+    a = rng.integers(1, 3000, size=(2, 37, 23)).astype(dtype)
+    invalid = rng.random(a.shape) < 0.3
+    invalid[:, :4, :4] = True  # whole blocks without a valid cell
+    a[invalid] = np.nan if nodata is None else nodata
+    got = halve(a, nodata)
+    assert got.shape == (2, 19, 12) and got.dtype == a.dtype
+    for b in range(2):
+        ref = _reference_halve(a[b], ~invalid[b], dtype != "float32")
+        empty = np.isnan(ref)
+        assert empty[:2, :2].all()
+        if nodata is None:
+            assert np.isnan(got[b][empty]).all()
+        else:
+            assert (got[b][empty] == nodata).all()
+        assert np.allclose(got[b][~empty].astype(float), ref[~empty], rtol=1e-6, atol=0)
+
+
+def test_the_final_file_carries_every_level_in_chunks_with_its_metadata(tmp_path, monkeypatch):
+    from scangeo.rectify import overviews
+
+    monkeypatch.setattr(overviews, "CHUNK_BYTES", 4 * 300 * 2 * 3)  # 12 rows per chunk: many chunks
+    height, width = 2300, 300
+    data = _working(tmp_path / "w.tif", height, width)
+    data[:100] = 0  # nodata rows
+    with rasterio.open(tmp_path / "w.tif", "r+") as dst:
+        dst.nodata = 0
+        dst.write(data, 1)
+        dst.set_band_description(1, "blue <&> band")
+        dst.update_tags(1, wavelength="0.485")
+        dst.update_tags(scangeo_fingerprint="abc")
+    finalise(tmp_path / "w.tif", tmp_path / "out.tif", GeoTiffProfile(overviews=True), np.uint16)
+    with rasterio.open(tmp_path / "out.tif") as src:
+        assert src.overviews(1) == [2, 4, 8]
+        assert src.descriptions[0] == "blue <&> band" and src.tags(1)["wavelength"] == "0.485"
+        assert src.tags()["scangeo_fingerprint"] == "abc" and src.nodata == 0
+        level = data.astype(np.uint16)[None]
+        for k, factor in enumerate([2, 4, 8]):
+            level = overviews.halve(level, 0)
+            read = src.read(1, out_shape=level.shape[1:])  # GDAL picks the level of that size
+            assert np.array_equal(read, level[0]), factor
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.tif", "w.tif"]
