@@ -3,7 +3,8 @@
 Tiles are first written into an uncompressed tiled GeoTIFF beside the output (a hidden
 ``.NAME.partial-*`` file), its overviews computed beside it (:mod:`scangeo.rectify.overviews`), then
 copied by GDAL's COG driver into a second hidden file (tiled, compressed, with those overviews,
-cloud-optimised layout), which is renamed to the final name only when complete. A run killed at any point leaves only hidden partial files, which the next run removes.
+cloud-optimised layout), which is renamed to the final name only when complete. A run killed at
+any point leaves only hidden partial files, which the next run removes.
 """
 from __future__ import annotations
 

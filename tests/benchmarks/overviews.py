@@ -98,7 +98,8 @@ def compare_routes(tmp: Path, work: Path, repeat: int) -> None:
         with rasterio.open(ours) as a, rasterio.open(theirs) as b:
             shape = (a.count, (a.height + 1) // 2, (a.width + 1) // 2)
             diff = np.abs(a.read(out_shape=shape).astype(int) - b.read(out_shape=shape).astype(int)).max()
-        print(f"{compress:<12}ratio GDAL / scangeo: wall x{t_gdal[0] / t_ours[0]:.2f}, cpu x{t_gdal[1] / t_ours[1]:.2f}; "
+        print(f"{compress:<12}ratio GDAL / scangeo: wall x{t_gdal[0] / t_ours[0]:.2f}, "
+              f"cpu x{t_gdal[1] / t_ours[1]:.2f}; "
               f"first level max |difference| {diff} DN")
 
 

@@ -117,7 +117,7 @@ def test_the_final_file_carries_every_level_in_chunks_with_its_metadata(tmp_path
         assert src.descriptions[0] == "blue <&> band" and src.tags(1)["wavelength"] == "0.485"
         assert src.tags()["scangeo_fingerprint"] == "abc" and src.nodata == 0
         level = data.astype(np.uint16)[None]
-        for k, factor in enumerate([2, 4, 8]):
+        for factor in (2, 4, 8):
             level = overviews.halve(level, 0)
             read = src.read(1, out_shape=level.shape[1:])  # GDAL picks the level of that size
             assert np.array_equal(read, level[0]), factor
