@@ -1,6 +1,7 @@
 """Benchmark: rectify one Daedalus strip, scangeo against the GDAL geolocation route (issue 6).
 
 Run: python tests/benchmarks/rectify.py [--lines 10000] [--resampling bilinear] [--keep DIR] [--pipeline]
+[--compress deflate|zstd]
 
 Set-up (not timed): a simulated project (preset ``small``, one strip of N lines x 716 pixels, its
 turbulence, true terrain and DTM at 2.5 m) and an 11-band uint16 image of that size.
@@ -17,7 +18,8 @@ With ``--pipeline`` also: the same strip rectified twice in a row through a ``Fi
 of the first compressed and written while the second is computed, as ``scangeo rectify`` does for
 several strips), wall time per strip, beside the single strip's.
 
-Figures: wall time, output megapixel-bands per second (grid cells x bands / time), peak memory
+Figures: wall time, CPU time of every thread of the process and their ratio (cores busy), output
+megapixel-bands per second (grid cells x bands / time), peak memory
 (resident set high-water mark of this process, reset before each route through
 /proc/self/clear_refs; it includes the interpreter and libraries, and for the GDAL route the whole
 image and geolocation arrays it needs in memory), the inverse map's exact solutions, and the
@@ -38,6 +40,14 @@ import numpy as np
 import rasterio
 
 warnings.simplefilter("ignore")
+
+
+def cpu_seconds() -> float:
+    """CPU seconds of every thread of this process so far."""
+    import resource
+
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
 
 
 def reset_peak_rss() -> None:
@@ -102,6 +112,8 @@ def main() -> None:
     ap.add_argument("--resampling", default="bilinear", choices=("nearest", "bilinear", "cubic"))
     ap.add_argument("--keep", default=None, help="keep the project in this folder")
     ap.add_argument("--pipeline", action="store_true", help="also time two strips pipelined")
+    ap.add_argument("--compress", default="deflate", choices=("deflate", "zstd", "lzw", "none"),
+                    help="compression of the orthoimage (default: deflate, the default of [rectify.geotiff])")
     args = ap.parse_args()
 
     from scangeo.io.project import Project
@@ -119,7 +131,9 @@ def main() -> None:
     project = Project.load(root)
     image_path = root / "images" / "01.tif"
     geometry = CoreStripGeometry(project.geometry("01"), project.dtm)
-    options = RectifyOptions(resolution=2.5, resampling=args.resampling)
+    from scangeo.rectify.geotiff import GeoTiffProfile
+
+    options = RectifyOptions(resolution=2.5, resampling=args.resampling, geotiff=GeoTiffProfile(compress=args.compress))
     # warm-up (numba compilation or cache loading of the kernels, GDAL drivers), not timed: the
     # first 200 m of the strip's grid
     from scangeo.rectify.strip import strip_grid
@@ -131,19 +145,19 @@ def main() -> None:
 
     out = tmp / "ortho.tif"
     reset_peak_rss()
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), cpu_seconds()
     result = rectify_strip(geometry, image_path, out, options)
-    t_ours = time.perf_counter() - t0
+    t_ours, c_ours = time.perf_counter() - t0, cpu_seconds() - c0
     rss_ours = peak_rss_mb()
     t_pipe = None
     if args.pipeline:
         from scangeo.rectify.strip import Finaliser
 
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), cpu_seconds()
         with Finaliser() as finaliser:
             for i in range(2):
                 rectify_strip(geometry, image_path, tmp / f"pipelined{i}.tif", options, finaliser=finaliser)
-        t_pipe = (time.perf_counter() - t0) / 2
+        t_pipe, c_pipe = (time.perf_counter() - t0) / 2, (cpu_seconds() - c0) / 2
     grid = result.grid
     mpx = grid.width * grid.height * 11 / 1e6
 
@@ -153,9 +167,9 @@ def main() -> None:
     with rasterio.open(image_path) as src:
         image = src.read()
     reset_peak_rss()
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), cpu_seconds()
     gdal = warp_with_geolocation(image, x, y, grid, args.resampling, nodata=0, threads=2)
-    t_gdal = time.perf_counter() - t0
+    t_gdal, c_gdal = time.perf_counter() - t0, cpu_seconds() - c0
     rss_gdal = peak_rss_mb()
 
     with rasterio.open(out) as d:
@@ -165,12 +179,16 @@ def main() -> None:
     mean, per = lk_shift(g, ours, valid)
     s = result.stats
     print(f"\nstrip 716 x {args.lines} x 11 uint16 -> grid {grid.width} x {grid.height} at 2.5 m "
-          f"({mpx:.1f} Mpx-bands), {args.resampling}; OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '')}")
-    print(f"{'route':<44}{'wall s':>9}{'Mpx-bands/s':>13}{'peak RSS MB':>13}")
-    print(f"{'scangeo rectify_strip (to the final COG)':<44}{t_ours:>9.2f}{mpx / t_ours:>13.1f}{rss_ours:>13.0f}")
+          f"({mpx:.1f} Mpx-bands), {args.resampling}, {args.compress}, overviews {options.geotiff.overviews}; "
+          f"load average {os.getloadavg()[0]:.1f}")
+    print(f"{'route':<44}{'wall s':>9}{'cpu s':>8}{'cores':>7}{'Mpx-bands/s':>13}{'peak RSS MB':>13}")
+    print(f"{'scangeo rectify_strip (to the final COG)':<44}{t_ours:>9.2f}{c_ours:>8.2f}{c_ours / t_ours:>7.2f}"
+          f"{mpx / t_ours:>13.1f}{rss_ours:>13.0f}")
     if t_pipe is not None:
-        print(f"{'scangeo, 2 strips pipelined, per strip':<44}{t_pipe:>9.2f}{mpx / t_pipe:>13.1f}")
-    print(f"{'GDAL geolocation warp (in memory)':<44}{t_gdal:>9.2f}{mpx / t_gdal:>13.1f}{rss_gdal:>13.0f}")
+        print(f"{'scangeo, 2 strips pipelined, per strip':<44}{t_pipe:>9.2f}{c_pipe:>8.2f}{c_pipe / t_pipe:>7.2f}"
+              f"{mpx / t_pipe:>13.1f}")
+    print(f"{'GDAL geolocation warp (in memory)':<44}{t_gdal:>9.2f}{c_gdal:>8.2f}{c_gdal / t_gdal:>7.2f}"
+          f"{mpx / t_gdal:>13.1f}{rss_gdal:>13.0f}")
     print(f"{'  + its input: IGM of the pixel corners':<44}{t_igm:>9.2f}")
     print(f"ratio scangeo / GDAL throughput: {t_gdal / t_ours:.1f}x (with the IGM: {(t_gdal + t_igm) / t_ours:.1f}x)")
     if t_pipe is not None:
