@@ -152,28 +152,33 @@ def _newton_at_every_cell(geometry: RefinableStrip, grid: TileGrid, H: np.ndarra
                           stats: InverseMapStats) -> None:
     """In place: (line, pixel) of every cell with a height by Newton from the lattice's starts;
     cells that do not converge by the bracketed search."""
-    C = H.shape[1]
-    idx = np.flatnonzero(np.isfinite(H))
-    rows, cols = np.divmod(idx, C)
-    Hc = H.ravel()[idx]
+    finite = np.isfinite(H)
+    # every cell has a height (the usual case): no gathering and scattering of 10^7 cells
+    idx = None if finite.all() else np.flatnonzero(finite)
     gl, gp = lattice.starts(H.shape)
-    p_P = _project_points(geometry, lattice.X, lattice.Y, lattice.step, rows, cols, Hc)
+    p_P = _project_points(geometry, lattice.X, lattice.Y, lattice.step, H, idx)
+    starts = (gl.ravel(), gp.ravel()) if idx is None else (gl.ravel()[idx], gp.ravel()[idx])
     ln, pn, status, evaluations = geometry.project_to_image_near(
-        p_P, gl.ravel()[idx], gp.ravel()[idx], tol_line=options.tol_line, max_step_lines=options.max_step_lines,
-        max_iter=options.max_iter)
-    stats.refined_cells += idx.size
+        p_P, *starts, tol_line=options.tol_line, max_step_lines=options.max_step_lines, max_iter=options.max_iter)
+    stats.refined_cells += status.size
     stats.newton_evaluations += int(evaluations.sum())
     ok = status == 0
-    line.ravel()[idx] = np.where(ok, ln, np.nan)
-    pixel.ravel()[idx] = np.where(ok, pn, np.nan)
-    again = np.zeros(H.shape, dtype=bool)
-    again.ravel()[idx[status == NO_CONVERGENCE]] = True
-    if again.any():
+    if idx is None:
+        line.ravel()[:] = np.where(ok, ln, np.nan)
+        pixel.ravel()[:] = np.where(ok, pn, np.nan)
+    else:
+        line.ravel()[idx] = np.where(ok, ln, np.nan)
+        pixel.ravel()[idx] = np.where(ok, pn, np.nan)
+    failed = np.flatnonzero(status == NO_CONVERGENCE)
+    if failed.size:
+        again = np.zeros(H.shape, dtype=bool)
+        again.ravel()[failed if idx is None else idx[failed]] = True
         solve_cells(geometry.ground_to_image, grid, H, again, line, pixel, stats)
 
 
-def _project_points(geometry: RefinableStrip, X, Y, S, rows, cols, H) -> np.ndarray:
-    """Project-frame points of cells (rows, cols) at heights H, from the lattice (X, Y).
+def _project_points(geometry: RefinableStrip, X, Y, S, H: np.ndarray, idx: np.ndarray | None) -> np.ndarray:
+    """Project-frame points of the tile's cells ``idx`` (flat indices into ``H``; None: every
+    cell) at their heights ``H`` (the tile's, rows x cols), from the lattice (X, Y).
 
     For a fixed map position the project frame point is affine in the height (ellipsoidal height
     moves the point along the ellipsoid normal; orthometric height differs from it by the geoid
@@ -181,23 +186,28 @@ def _project_points(geometry: RefinableStrip, X, Y, S, rows, cols, H) -> np.ndar
     exact at the lattice nodes and bilinear between; over a few cells they are flat to far below a
     millimetre (tests/rectify/test_refined_map.py measures it).
     """
+    Hf = np.ascontiguousarray(H, dtype=float).ravel()
     # two heights inside the cells' range (the geometry's fast conversion covers the DTM's)
-    h0 = float(np.min(H))
-    h1 = h0 + max(float(np.max(H)) - h0, 10.0)
+    h0 = float(np.nanmin(Hf))
+    h1 = h0 + max(float(np.nanmax(Hf)) - h0, 10.0)
     n0, n1 = (geometry.map_to_project(X.ravel(), Y.ravel(), np.full(X.size, h)) for h in (h0, h1))
     A = np.ascontiguousarray(n0.reshape(X.shape + (3,)))
     B = np.ascontiguousarray(((n1 - n0) / (h1 - h0)).reshape(X.shape + (3,)))
-    out = np.empty((rows.size, 3))
-    _lattice_points(A, B, S, rows.astype(np.int64), cols.astype(np.int64), np.ascontiguousarray(H, dtype=float),
-                    h0, out)
+    every = idx is None
+    cells = np.empty(0, dtype=np.int64) if idx is None else idx.astype(np.int64)
+    out = np.empty((Hf.size if every else cells.size, 3))
+    _lattice_points(A, B, S, cells, every, H.shape[1], Hf, h0, out)
     return out
 
 
 @numba.njit(parallel=True, cache=True)
-def _lattice_points(A, B, S, rows, cols, H, h0, out):
+def _lattice_points(A, B, S, cells, every, C, H, h0, out):
     nr, nc = A.shape[0], A.shape[1]
-    for k in numba.prange(rows.size):
-        r, c = rows[k], cols[k]
+    for k in numba.prange(out.shape[0]):
+        f = np.int64(k)
+        if not every:
+            f = cells[k]
+        r, c = f // C, f % C
         i = min(r // S, nr - 2) if nr > 1 else 0
         fr = (r - i * S) / S if nr > 1 else 0.0
         i1 = i + 1 if nr > 1 else 0
@@ -205,7 +215,7 @@ def _lattice_points(A, B, S, rows, cols, H, h0, out):
         fc = (c - j * S) / S if nc > 1 else 0.0
         j1 = j + 1 if nc > 1 else 0
         w00, w01, w10, w11 = (1 - fr) * (1 - fc), (1 - fr) * fc, fr * (1 - fc), fr * fc
-        dh = H[k] - h0
+        dh = H[f] - h0
         for d in range(3):
             a = w00 * A[i, j, d] + w01 * A[i, j1, d] + w10 * A[i1, j, d] + w11 * A[i1, j1, d]
             b = w00 * B[i, j, d] + w01 * B[i, j1, d] + w10 * B[i1, j, d] + w11 * B[i1, j1, d]
