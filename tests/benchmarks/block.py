@@ -2,7 +2,7 @@
 every strip and the mosaic; wall time per stage, peak memory, scaling with the number of strips.
 
 Run: python tests/benchmarks/block.py [--lines 7000] [--strips 1 6 12 24] [--keep DIR]
-[--scheduler local|ADDRESS] [--variant S2] [--skip-adjust]
+[--scheduler local|ADDRESS] [--variant S2] [--skip-adjust] [--workers 2]
 
 Set-up (timed, reported apart): the ``block24`` preset simulated with its images (24 strips of
 716 px x ``--lines`` lines x 11 bands; ``--lines`` below 7,000 scales every line-valued key of the
@@ -13,6 +13,7 @@ as a user would run it:
   problem strip at its breaks; a ``variants.toml`` with SE and S2 is written into the project);
 * ``scangeo rectify ROOT --variant S2 --strips <first N> --mosaic`` for every N of ``--strips``
   (outputs removed between runs, so each N is rectified from scratch; overviews as the default);
+  then the same with ``--workers 2`` (two local worker processes, one numba thread each);
   with ``--scheduler`` the same rectifications again on a Dask LocalCluster of 2 worker processes
   (1 thread each; ``local``) or the given scheduler, through ``--scheduler ADDRESS``.
 
@@ -117,6 +118,8 @@ def main() -> None:
     ap.add_argument("--scheduler", default=None, help="'local' (a LocalCluster of 2 workers) or an address")
     ap.add_argument("--keep", default=None, help="keep (and reuse) the simulated project in this folder")
     ap.add_argument("--skip-adjust", action="store_true", help="reuse the adjustments of a kept project")
+    ap.add_argument("--workers", type=int, default=2,
+                    help="also rectify with this many local worker processes (--workers; 1: not)")
     args = ap.parse_args()
     import numba
 
@@ -147,6 +150,8 @@ def main() -> None:
     ortho = root / "results" / args.variant / "ortho"
     ids = [f"{i + 1:02d}" for i in range(int(data["flight"]["strips"]))]
     routes = [("in process (pipelined)", [])]
+    if args.workers > 1:
+        routes.append((f"{args.workers} local worker processes", ["--workers", str(args.workers)]))
     cluster = None
     if args.scheduler:
         address = args.scheduler
@@ -164,7 +169,7 @@ def main() -> None:
                 dt, rss = run_stage(f"rectify {n:>2} strips + mosaic, {route}",
                                     ["rectify", r, "--variant", args.variant, "--strips", *ids[:n], "--mosaic",
                                      "--no-progress", *extra], log)
-                if cluster is not None and extra:
+                if cluster is not None and extra and extra[0] == "--scheduler":
                     mem = cluster.scheduler_info["workers"]
                     rss = max(w.get("metrics", w).get("memory", 0) for w in mem.values()) / 2**20
                     print(f"{'':<46}{'':>11}{rss:>9.0f} MiB (largest Dask worker now)" if rss > 0 else
