@@ -38,6 +38,7 @@ from scangeo.adjustment.diagnosis_patterns import (
     evaluate,
     select_breaks,
 )
+from scangeo.adjustment.diagnosis_refine import DEFAULT_REFINE, RefineOptions, refine_breaks, s_model_cost
 from scangeo.adjustment.keys import Ground
 from scangeo.adjustment.results import VariantResult, run_variant
 from scangeo.adjustment.variants import Variant
@@ -103,7 +104,8 @@ class Diagnosis:
         return {"project": self.project, "strips": self.strips, "n_lines": self.n_lines,
                 "problem_strips": self.problem_strips,
                 "breaks": [{"strip": b.strip, "line": round(b.line, 1), "low": round(b.low, 1),
-                            "high": round(b.high, 1)} for b in self.breaks],
+                            "high": round(b.high, 1), "method": b.method,
+                            "bic_line": None if b.bic_line is None else round(b.bic_line, 1)} for b in self.breaks],
                 "criterion": {"name": "BIC", "with_breaks": self.fit.bic, "without_breaks": self.null.bic,
                               "parameters": self.fit.k, "parameters_without_breaks": self.null.k,
                               "serial_correlation": self.fit.rho, "rss": self.fit.rss, "channels": list(self.channels)},
@@ -254,7 +256,8 @@ def se_variant() -> Variant:
 
 
 def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = False,
-             options: SelectionOptions | None = None, callback: ProgressCallback = no_progress) -> Diagnosis:
+             options: SelectionOptions | None = None, refine: RefineOptions | None = DEFAULT_REFINE,
+             callback: ProgressCallback = no_progress) -> Diagnosis:
     """Find the problem strips and their breaks from an SE adjustment of the project (module docstring).
 
     Parameters
@@ -263,12 +266,15 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
     dtm_height_points : glob patterns of the tie points on open terrain (their DTM misclosure is used).
     image_channels : also fit the image residuals of tie and control measurements.
     options : the break selection's options.
+    refine : options of placing every break by adjusting the S model around the BIC's line
+        (:mod:`scangeo.adjustment.diagnosis_refine`); None keeps the BIC's lines.
     """
     root = Path(project_root)
     options = options or SelectionOptions()
-    callback(0, 3, "diagnosis: adjusting SE")
+    steps = 4 if refine is not None else 3
+    callback(0, steps, "diagnosis: adjusting SE")
     result = run_variant(root, se_variant())
-    callback(1, 3, "diagnosis: choosing breaks")
+    callback(1, steps, "diagnosis: choosing breaks")
     data, series = pattern_data(result, dtm_height_points, image_channels)
     notes = []
     n_ties = int((data.channel == 0).sum())
@@ -279,9 +285,14 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
     else:
         fit = select_breaks(data, options)
         null = evaluate(data, [[] for _ in data.strips], fit.rho, options.degree, range(len(data.strips)))
-        callback(2, 3, "diagnosis: break intervals")
+        callback(2, steps, "diagnosis: break intervals")
         breaks = break_intervals(data, fit, options)
-    callback(3, 3, "diagnosis: done")
+        if refine is not None and breaks:
+            n_lines = dict(zip(data.strips, data.n_lines))
+            breaks, _ = refine_breaks(
+                breaks, n_lines, s_model_cost(root, dtm_height_points, refine.position_degree), refine,
+                lambda i, n: callback(3 + i / n, steps, f"diagnosis: placing break {i} of {n} with the S model"))
+    callback(steps, steps, "diagnosis: done")
     d = Diagnosis(str(root), list(data.strips), dict(zip(data.strips, data.n_lines)), breaks, fit, null,
                   float(result.adjustment.statistics.sigma0), series, notes, options, data.channels)
     log.info("diagnosis of %s: problem strips %s, breaks %s", root, d.problem_strips or "none",

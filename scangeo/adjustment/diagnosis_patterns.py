@@ -95,10 +95,15 @@ class Fit:
 
 @dataclass
 class BreakEstimate:
+    """A break of a strip: its line and 95 % interval; ``method`` says what placed it (``bic_line``: the
+    BIC's line when the S model moved it, :mod:`scangeo.adjustment.diagnosis_refine`)."""
+
     strip: str
     line: float
     low: float
     high: float
+    bic_line: float | None = None
+    method: str = "BIC"
 
     @property
     def half_width(self) -> float:

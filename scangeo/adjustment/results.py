@@ -158,17 +158,23 @@ def evaluate_checks(result_block: Block, geometry_of) -> CheckResiduals:
     return CheckResiduals(*(np.concatenate(c) for c in (pts, strips, dl, dp, st, sig)))
 
 
+def read_measurements(project: Project) -> tuple[ImagePoints, GroundPoints]:
+    """The project's ``points.csv`` and ``ground.csv`` (no ground points when there is no ``ground.csv``)."""
+    points = ImagePoints.read(project.root / "points.csv")
+    ground_file = project.root / "ground.csv"
+    ground = GroundPoints.read(ground_file) if ground_file.exists() else GroundPoints(
+        *(np.zeros(0, dtype=object),), np.zeros((0, 3)), np.zeros(0), np.zeros(0),
+        np.zeros(0, dtype=object), np.zeros(0, int))
+    return points, ground
+
+
 def run_variant(project_root, variant: str | Variant, variants_file=None,
                 callback: ProgressCallback = no_progress) -> VariantResult:
     """Adjust one variant of the project in ``project_root``."""
     t0 = time.perf_counter()
     project = Project.load(project_root)
     v = variant if isinstance(variant, Variant) else find_variant(project.root, variant, variants_file)
-    points = ImagePoints.read(project.root / "points.csv")
-    ground_file = project.root / "ground.csv"
-    ground = GroundPoints.read(ground_file) if ground_file.exists() else GroundPoints(
-        *(np.zeros(0, dtype=object),), np.zeros((0, 3)), np.zeros(0), np.zeros(0),
-        np.zeros(0, dtype=object), np.zeros(0, int))
+    points, ground = read_measurements(project)
     callback(0.0, 1.0, f"{v.name}: setting up")
     block = build_block(project, v, points, ground)
     adj = adjust(
@@ -194,4 +200,4 @@ def run_variant(project_root, variant: str | Variant, variants_file=None,
     return result
 
 
-__all__ = ["CheckResiduals", "VariantResult", "evaluate_checks", "run_variant"]
+__all__ = ["CheckResiduals", "VariantResult", "evaluate_checks", "read_measurements", "run_variant"]

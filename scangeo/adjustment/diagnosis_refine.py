@@ -1,0 +1,192 @@
+"""Break lines placed by adjusting the split model at candidate lines: the adjustment's own profile likelihood.
+
+The BIC search (:mod:`scangeo.adjustment.diagnosis_patterns`) decides how many breaks a strip has and
+where they roughly lie, with straight lines between them. An error that bends before its kink (the
+simulated excursion rises with a concave bulge) pulls a straight line's corner away from the kink: at
+half the vienna2000 length the first break came 190-410 lines early. The split model the variants use
+(S: the problem strips split at their breaks, position degree 2 per part, C0 at the breaks) models
+such a bend, so :func:`refine_breaks` asks it where the break is: for each break in turn, the others
+fixed, the S model is adjusted with the break at lines around the BIC's (control in its bands, the tie
+points with DTM heights, no automatic rejection: the S2 variant) and the line with the smallest
+weighted sum of squared residuals ``vTPv`` wins. Every candidate has the same observations and
+unknowns (the same redundancy), so differences of ``vTPv`` are likelihood-ratio statistics: the 95 %
+interval is the range of lines with ``vTPv - min <= 3.84 sigma0^2`` (chi^2, 1 degree of freedom;
+``sigma0`` of the best candidate scales a wrong a-priori weight). The DTM's error is correlated along
+a strip, so the interval is a lower bound of the uncertainty.
+
+The search: a coarse grid of ``coarse_steps`` steps of ``coarse_fraction`` of the strip's lines to
+each side of the BIC's line (kept between the neighbouring breaks and the strip's ends by the least
+gap), then half and quarter steps on both sides of the coarse minimum. Check points are not used.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+
+from scangeo.adjustment.diagnosis_patterns import CHI2_95, BreakEstimate
+from scangeo.errors import ScangeoError
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class RefineOptions:
+    """Options of :func:`refine_breaks`.
+
+    coarse_fraction : the coarse grid's step, as a fraction of the strip's lines.
+    coarse_steps : coarse steps to each side of the BIC's line.
+    min_gap_fraction : least distance between breaks and from the strip's ends (fraction of its lines).
+    position_degree : the split model's position degree per part (the S variants': 2).
+    """
+
+    coarse_fraction: float = 0.06
+    coarse_steps: int = 3
+    min_gap_fraction: float = 0.06
+    position_degree: int = 2
+
+
+DEFAULT_REFINE = RefineOptions()
+
+#: ``cost(breaks per problem strip) -> (vTPv, sigma0)``; ``(inf, nan)`` when the adjustment fails.
+CostFunction = Callable[[dict[str, tuple[float, ...]]], tuple[float, float]]
+
+
+def s_model_cost(project_root, dtm_height_points: Sequence[str] = ("*",), position_degree: int = 2) -> CostFunction:
+    """The cost function of the S model (the S2 variant's set-up) on the project.
+
+    The project's files are read once; every probe starts its unknowns where the previous probe left
+    them (the same answer in fewer iterations: the candidates differ by one break line).
+    """
+    from scangeo.adjustment.block import build_block
+    from scangeo.adjustment.engine import SnoopingOptions, adjust
+    from scangeo.adjustment.results import read_measurements
+    from scangeo.adjustment.solver import SolverOptions
+    from scangeo.adjustment.variants import StripModels, Variant
+    from scangeo.io.project import Project
+
+    project = Project.load(project_root)
+    points, ground = read_measurements(project)
+    start: dict = {}
+
+    def cost(breaks: dict[str, tuple[float, ...]]) -> tuple[float, float]:
+        strips = tuple(StripModels(s, position_degree=position_degree, breaks_lines=tuple(sorted(b)))
+                       for s, b in breaks.items())
+        v = Variant("diagnosis-S", "S", "split model probing a break line", strips=strips, dtm_heights=True,
+                    dtm_height_points=tuple(dtm_height_points), snooping=False)
+        try:
+            block = build_block(project, v, points, ground)
+            for key, values in start.items():
+                if key in block.parameters and block.parameters[key].values.size == values.size:
+                    block.parameters[key].values[:] = values
+            adj = adjust(block.parameters, block.groups, SolverOptions(max_iterations=v.max_iterations,
+                                                                       backend=v.backend),
+                         SnoopingOptions(enabled=False))
+        except ScangeoError as exc:  # a candidate the adjustment cannot solve is not a candidate
+            log.info("break probe %s failed: %s", breaks, exc)
+            return math.inf, math.nan
+        if not adj.solution.converged:
+            return math.inf, math.nan
+        start.clear()
+        start.update({b.key: b.values.copy() for b in adj.parameters})
+        log.debug("break probe %s: %d iterations", breaks, len(adj.solution.iterations))
+        st = adj.statistics
+        return st.sigma0 ** 2 * st.redundancy, st.sigma0
+
+    return cost
+
+
+@dataclass
+class Profile:
+    """The evaluated lines of one break and their ``vTPv``."""
+
+    lines: list[float]
+    cost: list[float]
+    sigma0: float
+
+    def best(self) -> float:
+        return self.lines[min(range(len(self.cost)), key=self.cost.__getitem__)]
+
+    def interval(self) -> tuple[float, float]:
+        """The lines with ``vTPv - min <= 3.84 sigma0^2``, interpolated between evaluated lines."""
+        order = sorted(range(len(self.lines)), key=self.lines.__getitem__)
+        x = [self.lines[i] for i in order]
+        y = [self.cost[i] for i in order]
+        i0 = min(range(len(y)), key=y.__getitem__)
+        limit = y[i0] + CHI2_95 * (self.sigma0 ** 2 if math.isfinite(self.sigma0) else 1.0)
+        ends = []
+        for step in (-1, 1):
+            i = i0
+            while 0 <= i + step < len(x) and y[i + step] <= limit:
+                i += step
+            j = i + step
+            if 0 <= j < len(x) and math.isfinite(y[j]) and y[j] > y[i]:
+                ends.append(x[i] + (x[j] - x[i]) * (limit - y[i]) / (y[j] - y[i]))
+            else:
+                ends.append(x[i])
+        return min(ends), max(ends)
+
+
+def _probe_break(current: dict[str, list[float]], strip: str, j: int, bounds: tuple[float, float], step: float,
+                 steps: int, cost: CostFunction) -> dict[float, tuple[float, float]]:
+    """(vTPv, sigma0) of break ``j`` of ``strip`` at the coarse lines and around the coarse minimum."""
+    seen: dict[float, tuple[float, float]] = {}
+    others = current[strip]
+
+    def probe(line: float) -> None:
+        line = float(round(min(max(line, bounds[0]), bounds[1])))
+        if line not in seen:
+            trial = {s: tuple(v) for s, v in current.items()}
+            trial[strip] = tuple(sorted(others[:j] + [line] + others[j + 1:]))
+            seen[line] = cost(trial)
+
+    for i in range(-steps, steps + 1):
+        probe(others[j] + i * step)
+    best = min(seen, key=lambda x: seen[x][0])
+    for f in (-0.5, -0.25, 0.25, 0.5):
+        probe(best + f * step)
+    return seen
+
+
+def refine_breaks(breaks: Sequence[BreakEstimate], n_lines: dict[str, int], cost: CostFunction,
+                  options: RefineOptions = RefineOptions(),
+                  progress: Callable[[int, int], None] | None = None) -> tuple[list[BreakEstimate], list[Profile]]:
+    """Every break moved to the line where the S model fits best, with its profile interval (module docstring).
+
+    ``breaks`` are the BIC's; the result keeps their order, with ``line``, ``low``, ``high`` from the
+    profile and ``bic_line`` the BIC's line. A break whose probes all fail keeps the BIC's estimate.
+    """
+    current: dict[str, list[float]] = {}
+    for b in breaks:
+        current.setdefault(b.strip, []).append(b.line)
+    out = list(breaks)
+    profiles = []
+    for k, b in enumerate(breaks):
+        strip = current[b.strip]
+        j = strip.index(b.line) if b.line in strip else min(range(len(strip)), key=lambda i: abs(strip[i] - b.line))
+        n = n_lines[b.strip]
+        gap = options.min_gap_fraction * n
+        lo = (max(x for x in strip if x < strip[j]) if any(x < strip[j] for x in strip) else 0.0) + gap
+        hi = (min(x for x in strip if x > strip[j]) if any(x > strip[j] for x in strip) else n - 1.0) - gap
+        if hi < lo:
+            profiles.append(Profile([b.line], [math.nan], math.nan))
+            continue
+        seen = _probe_break(current, b.strip, j, (lo, hi), options.coarse_fraction * n, options.coarse_steps, cost)
+        if progress is not None:
+            progress(k + 1, len(breaks))
+        lines = sorted(seen)
+        finite = [x for x in lines if math.isfinite(seen[x][0])]
+        if not finite:
+            profiles.append(Profile(lines, [seen[x][0] for x in lines], math.nan))
+            continue
+        best = min(finite, key=lambda x: seen[x][0])
+        profile = Profile(finite, [seen[x][0] for x in finite], seen[best][1])
+        profiles.append(profile)
+        low, high = profile.interval()
+        strip[j] = best
+        out[k] = replace(b, line=best, low=min(low, best), high=max(high, best), bic_line=b.line, method="S model")
+    return out, profiles
+
+
+__all__ = ["DEFAULT_REFINE", "CostFunction", "Profile", "RefineOptions", "refine_breaks", "s_model_cost"]
