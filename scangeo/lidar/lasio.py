@@ -3,8 +3,10 @@
 Reading goes chunk by chunk (``laspy.open(...).chunk_iterator``) and keeps only x, y, z and GPS
 time (float64) of the strip's returns (``point_source_id`` selects one flight line of a file that
 holds several). A file without GPS time, or whose CRS differs from the project's, is an error naming
-the file. Corrected copies keep the point format, header, CRS and extra dimensions; only the
-coordinates change; they are written under a temporary name and renamed when complete, so an
+the file. The header is checked against the file before laspy reads it (``las_header``: counts,
+offsets and lengths within the file), so a corrupted header is an error naming the field, not a
+long loop or a huge allocation. Corrected copies keep the point format, header, CRS and extra
+dimensions; only the coordinates change; they are written under a temporary name and renamed when complete, so an
 interrupted run leaves no file under a final name.
 """
 
@@ -19,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from scangeo.errors import InputFileError
+from scangeo.lidar.las_header import check_las_file
 
 log = logging.getLogger(__name__)
 
@@ -39,19 +42,26 @@ class StripCloud:
 
 
 def _open(path: Path):
+    """laspy's reader of a file whose header was checked against the file first (las_header)."""
     import laspy
 
+    check_las_file(path)
     try:
         return laspy.open(str(path))
-    except (OSError, ValueError, laspy.errors.LaspyException) as exc:
+    except laspy_errors() as exc:
         raise InputFileError(f"{path}: cannot read as LAS/LAZ ({exc})") from exc
 
 
-def laspy_errors() -> type[Exception]:
-    """laspy's own exception class (laspy is imported lazily)."""
+def laspy_errors() -> tuple[type[Exception], ...]:
+    """What laspy and its LAZ back-end raise for a file they cannot read (both imported lazily)."""
     import laspy
 
-    return laspy.errors.LaspyException
+    errors: tuple[type[Exception], ...] = (OSError, ValueError, EOFError, laspy.errors.LaspyException)
+    try:
+        import lazrs
+    except ImportError:
+        return errors
+    return (*errors, lazrs.LazrsError)
 
 
 def bounds(path: Path) -> tuple[float, float, float, float]:
@@ -83,24 +93,12 @@ def check_header(path: Path, header, crs) -> None:
             )
 
 
-def check_size(path: Path, header) -> None:
-    """An uncompressed file holds the returns its header counts (a truncated copy does not)."""
-    if getattr(header, "are_points_compressed", True):
-        return
-    need = header.offset_to_point_data + header.point_count * header.point_format.size
-    have = path.stat().st_size
-    if have < need:
-        raise InputFileError(f"{path}: truncated: the header counts {header.point_count} returns "
-                             f"({need} bytes), the file has {have} bytes")
-
-
 def read_strip(strip_id: str, files, point_source_id: int | None = None, crs=None) -> StripCloud:
     """Coordinates and GPS times of a strip's returns from one or more LAS/LAZ files, in chunks."""
     xyz, t = [], []
     for path in map(Path, files):
         with _open(path) as f:
             check_header(path, f.header, crs)
-            check_size(path, f.header)
             try:
                 for chunk in f.chunk_iterator(CHUNK):
                     ids = None if point_source_id is None else np.asarray(chunk.point_source_id)
@@ -109,7 +107,7 @@ def read_strip(strip_id: str, files, point_source_id: int | None = None, crs=Non
                         np.column_stack([np.asarray(chunk.x)[sel], np.asarray(chunk.y)[sel], np.asarray(chunk.z)[sel]])
                     )
                     t.append(np.asarray(chunk.gps_time, float)[sel])
-            except (OSError, ValueError, laspy_errors()) as exc:
+            except laspy_errors() as exc:
                 raise InputFileError(f"{path}: cannot read the returns; truncated or corrupted? ({exc})") from exc
     if not t or sum(a.size for a in t) == 0:
         which = "" if point_source_id is None else f" with point_source_id {point_source_id}"

@@ -76,10 +76,14 @@ def load_returns(sbet: str | Path, las: str | Path, utm_zone: int, heading: str 
     """
     import laspy
 
+    from scangeo.lidar.las_header import check_las_file
+    from scangeo.lidar.lasio import laspy_errors
+
     nav = read_sbet_records(sbet)
+    check_las_file(las)
     try:
         cloud = laspy.read(str(las))
-    except (OSError, ValueError, laspy.errors.LaspyException) as exc:
+    except laspy_errors() as exc:
         raise InputFileError(f"{las}: cannot read as LAS/LAZ; truncated or corrupted? ({exc})") from exc
     if "gps_time" not in cloud.point_format.dimension_names:
         raise InputFileError(f"{las}: point format {cloud.point_format.id} has no GPS time (needed for every return)")

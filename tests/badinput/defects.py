@@ -98,6 +98,18 @@ def truncate(name: str, keep: int | float) -> Defect:
     return apply
 
 
+def patch(name: str, offset: int, data: bytes) -> Defect:
+    """Overwrite bytes of a binary file at ``offset`` (a header field)."""
+
+    def apply(root: Path) -> None:
+        path = root / name
+        raw = bytearray(path.read_bytes())
+        raw[offset:offset + len(data)] = data
+        path.write_bytes(bytes(raw))
+
+    return apply
+
+
 def chain(*defects: Defect) -> Defect:
     def apply(root: Path) -> None:
         for d in defects:

@@ -6,7 +6,18 @@ import shutil
 import numpy as np
 import pytest
 
-from tests.badinput.defects import case, lines, random_bytes, raster, remove, replace, set_field, truncate, write
+from tests.badinput.defects import (
+    case,
+    lines,
+    patch,
+    random_bytes,
+    raster,
+    remove,
+    replace,
+    set_field,
+    truncate,
+    write,
+)
 from tests.badinput.runner import run_bad
 from tests.badinput.test_project_commands import DTM, POINTS, TOML, TRAJECTORY
 from tests.session_projects import TWO_VARIANTS
@@ -184,6 +195,11 @@ LIDAR = [
     case("las-truncated", truncate("returns.las", 0.6), "returns.las"),
     case("las-random-bytes", random_bytes("returns.las", 2000), "returns.las"),
     case("las-empty", write("returns.las", b""), "returns.las"),
+    # LAS 1.2 header fields (docs/formats.md "Checks on input"): legacy point count, VLR count
+    case("las-header-point-count", patch("returns.las", 107, b"\xff\xff\xff\xff"), "returns.las",
+         "[header.point_count]", "truncated"),
+    case("las-header-vlr-count", patch("returns.las", 100, b"\xff\xff\xff\xff"), "returns.las",
+         "[header.number_of_vlrs]"),
     case("lidar-sbet-truncated", truncate("nav.out", 136 * 100 + 7), "nav.out", "136"),
     case("lidar-sbet-empty", write("nav.out", b""), "nav.out"),
     case("lidar-config-missing-key", write("config.toml", "utm_zone = 33\n"), "config.toml", "lever_arm"),
@@ -240,6 +256,10 @@ LIDAR_ADJUST = [
     case("las-truncated", truncate(LAS1, 0.6), LAS1),
     case("las-random-bytes", random_bytes(LAS1, 5000), LAS1),
     case("las-empty", write(LAS1, b""), LAS1),
+    # LAS 1.4 header fields: the 64-bit point count, the offset to the point data
+    case("las-header-point-count", patch(LAS1, 247, (1 << 40).to_bytes(8, "little")), LAS1, "[header.point_count]"),
+    case("las-header-offset-to-points", patch(LAS1, 96, b"\xff\xff\xff\x7f"), LAS1,
+         "[header.offset_to_point_data]"),
     case("laser-trajectory-nan", lines("nav/1.csv", set_field(50, 1, "nan")), "nav/1.csv", "line 50"),
     case("laser-trajectory-short", lines("nav/1.csv", lambda r: r[:200]), "nav/1.csv", "cover"),
     case("laser-ground-unknown-role", lines("ground.csv", set_field(2, 7, "kontrol")), "ground.csv", "line 2"),
