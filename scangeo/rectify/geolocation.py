@@ -14,6 +14,7 @@ Both are written in a hidden work folder and moved into place header first, data
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import tempfile
 import warnings
@@ -30,11 +31,22 @@ from scangeo.rectify.geotiff import remove_partials
 from scangeo.rectify.output_grid import OutputGrid
 
 IGM_NODATA = -9999.0
+_DESCRIPTION = re.compile(r"description = \{[^}]*\}")
 
 
 def _commit_envi(data: Path, final: Path) -> Path:
-    """Move an ENVI file written by GDAL (``X.img`` + ``X.hdr``) to ``final`` + ``final.hdr``."""
-    os.replace(data.with_suffix(".hdr"), final.with_name(final.name + ".hdr"))
+    """Move an ENVI file written by GDAL (``X.img`` + ``X.hdr``) to ``final`` + ``final.hdr``.
+
+    GDAL's header describes the file by the path it wrote (the temporary one); the header moved into
+    place names the final file instead (its name only, so a moved project's headers stay true)."""
+    header = data.with_suffix(".hdr")
+    text = header.read_text(encoding="latin-1")
+    name = final.name.replace("{", "(").replace("}", ")")  # braces delimit ENVI values
+    text, n = _DESCRIPTION.subn(lambda _: f"description = {{{name}}}", text, count=1)
+    if not n:
+        text = text.replace("ENVI\n", f"ENVI\ndescription = {{{name}}}\n", 1)
+    header.write_text(text, encoding="latin-1")
+    os.replace(header, final.with_name(final.name + ".hdr"))
     os.replace(data, final)
     return final
 
