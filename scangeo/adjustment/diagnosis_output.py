@@ -22,7 +22,8 @@ def summary_lines(d: Diagnosis) -> list[str]:
     for s in d.strips:
         breaks = [b for b in d.breaks if b.strip == s]
         if breaks:
-            text = ", ".join(f"line {b.line:.0f} (95 %: {b.low:.0f}-{b.high:.0f})" for b in breaks)
+            text = ", ".join(f"line {b.line:.0f} (95 %: {b.low:.0f}-{b.high:.0f}"
+                             + (f"; BIC {b.bic_line:.0f})" if b.bic_line is not None else ")") for b in breaks)
             out.append(f"  strip {s}: PROBLEM STRIP, breaks at {text}")
         elif s in constant:
             out.append(f"  strip {s}: good (a constant correction explains it)")

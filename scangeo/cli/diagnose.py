@@ -14,14 +14,17 @@ def add_parser(subparsers, common) -> None:
         "diagnose", parents=[common], help="find problem strips and breaks; write variants.toml for them",
         description="Adjust the project with strip models of degree 0 (SE, no DTM heights), fit C0 piecewise-linear "
                     "error functions to the tie points' DTM misclosures and the control points' image residuals along "
-                    "each strip, choose breaks by BIC (docs/adjustment.md, 'Diagnosis'), write "
-                    "PROJECT/results/diagnosis.{json,md} and PROJECT/variants.toml with P and S variants for the "
+                    "each strip, choose breaks by BIC and place each by adjusting the split model around it "
+                    "(docs/adjustment.md, 'Diagnosis'), write PROJECT/results/diagnosis.{json,md} and "
+                    "PROJECT/variants.toml with P and S variants for the "
                     "problem strips found. Check points are not used.",
     )
     p.add_argument("project", help="the project folder")
     p.add_argument("--dtm-height-points", nargs="+", default=["*"], metavar="PATTERN",
                    help="glob patterns of the tie points on open terrain (default: all)")
     p.add_argument("--max-breaks", type=int, default=4, help="most breaks per strip (default 4)")
+    p.add_argument("--no-refine", dest="refine", action="store_false",
+                   help="keep the BIC's break lines (default: place each by adjusting the S model around it)")
     p.add_argument("--no-variants", dest="variants", action="store_false",
                    help="do not write PROJECT/variants.toml")
     p.add_argument("--overwrite", action="store_true", help="replace an existing PROJECT/variants.toml")
@@ -34,6 +37,7 @@ def run(args) -> int:
     from scangeo.adjustment.diagnosis import diagnose
     from scangeo.adjustment.diagnosis_output import summary_lines, write_diagnosis
     from scangeo.adjustment.diagnosis_patterns import SelectionOptions
+    from scangeo.adjustment.diagnosis_refine import DEFAULT_REFINE
     from scangeo.cli import progress_of
     from scangeo.errors import ProjectFileError
     from scangeo.reports.default_variants import ProblemStrip, write_variants_file
@@ -44,7 +48,8 @@ def run(args) -> int:
     if args.variants and target.exists() and not args.overwrite:
         raise ProjectFileError(f"{target} exists: pass --overwrite to replace it, or --no-variants")
     d = diagnose(args.project, dtm_height_points=tuple(args.dtm_height_points),
-                 options=SelectionOptions(max_breaks=args.max_breaks), callback=progress_of(args))
+                 options=SelectionOptions(max_breaks=args.max_breaks),
+                 refine=DEFAULT_REFINE if args.refine else None, callback=progress_of(args))
     print("\n".join(summary_lines(d)))
     files = write_diagnosis(d)
     if args.variants:

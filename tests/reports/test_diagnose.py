@@ -23,6 +23,7 @@ def test_the_problem_strip_and_its_breaks_are_found(problem_small):
     assert len(found) == len(truth["breaks_lines"])
     for b, line in zip(found, truth["breaks_lines"]):
         assert abs(b.line - line) <= 30 and b.low <= line <= b.high, (b, line)
+        assert b.method == "S model" and b.bic_line is not None  # placed by adjusting the split model
     assert d.fit.bic < d.null.bic
     # the series the report plots: every tie point of strip 02 in both of its overlaps
     s02 = next(s for s in d.series if s.strip == "02")
@@ -32,7 +33,7 @@ def test_the_problem_strip_and_its_breaks_are_found(problem_small):
 def test_diagnose_command_writes_variants_for_the_problem_strip(problem_small, tmp_path, capsys):
     root = tmp_path / "p"
     shutil.copytree(problem_small, root, ignore=shutil.ignore_patterns("truth"))  # the truth is not needed
-    assert main(["diagnose", str(root), "--no-progress"]) == 0
+    assert main(["diagnose", str(root), "--no-progress", "--no-refine"]) == 0  # the BIC's lines (faster)
     out = capsys.readouterr().out
     assert "strip 02: PROBLEM STRIP, breaks at line" in out and "strip 01: good" in out
     v = read_variants(root / "variants.toml")
@@ -41,6 +42,7 @@ def test_diagnose_command_writes_variants_for_the_problem_strip(problem_small, t
     assert len(breaks) == 2 and abs(breaks[0] - 200) <= 30 and abs(breaks[1] - 400) <= 30
     d = json.loads((root / "results" / "diagnosis.json").read_text())
     assert d["problem_strips"] == ["02"] and len(d["series"]) == 3
+    assert [b["method"] for b in d["breaks"]] == ["BIC", "BIC"] and d["breaks"][0]["bic_line"] is None
     # an existing variants file is kept unless --overwrite
     assert main(["diagnose", str(root), "--no-progress"]) == 1
     assert "exists" in capsys.readouterr().err
