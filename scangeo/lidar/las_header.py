@@ -4,7 +4,7 @@ laspy trusts the header: a corrupted count of VLRs makes it loop for minutes, a 
 makes it allocate what the count asks for. :func:`check_las_file` reads the public header block with
 ``struct`` and checks every count and offset against the file's size, so a damaged file is an
 :class:`~scangeo.errors.InputFileError` naming the file and the header field, e.g.
-``strip.las [header.point_count]: 4294967295 returns of 28 bytes from byte 227 need 120259084515 bytes,
+``strip.las [header.point_count]: 4294967295 returns of 28 bytes from byte 227 need 120259084487 bytes,
 the file has 451 (truncated?)``.
 
 Checked (LAS 1.0-1.4, docs/formats.md "Checks on input"):

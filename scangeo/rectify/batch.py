@@ -3,8 +3,10 @@
 Outputs go to ``PROJECT/results/VARIANT/ortho/``: ``<strip>.tif`` (the orthoimage), and as asked
 ``<strip>.layers.tif``, ``<strip>.glt`` (+ ``.hdr``), ``<strip>.igm`` (+ ``.hdr``), ``mosaic.tif``.
 Every strip's outputs carry a fingerprint of their inputs and settings (``scangeo_fingerprint``
-tag); the orthoimage is written last, atomically, so a strip whose orthoimage opens, reads and
-carries the current fingerprint is complete and is skipped on a rerun. Anything else is redone.
+tag: input paths relative to the project, sizes and content hashes, so a copied or moved project
+keeps its fingerprints and is not redone); the orthoimage is written last, atomically, so a strip
+whose orthoimage opens, reads and carries the current fingerprint is complete and is skipped on a
+rerun. Anything else is redone.
 
 A strip is a task (:class:`StripTask`, picklable: paths and settings only) that a worker turns
 into outputs with :func:`run_strip_task`; the same function runs in-process, in a process pool
@@ -70,16 +72,40 @@ def output_folder(project: Project, variant: str) -> Path:
     return results_folder(project, variant) / "ortho"
 
 
-def _file_stamp(path: Path) -> list:
+#: Content hashes of this process's runs, by (path, size, mtime, inode): a project's DTM and
+#: project.toml are hashed once a run, not once a strip.
+_HASHES: dict[tuple, str] = {}
+_CHUNK = 1 << 22
+
+
+def content_hash(path: Path) -> str:
+    """SHA-256 of a file's bytes (read in 4 MiB chunks), cached while its size and mtime stay."""
+    st = path.stat()
+    key = (str(path.resolve()), st.st_size, st.st_mtime_ns, st.st_ino)
+    if key not in _HASHES:
+        h = hashlib.sha256()
+        with path.open("rb") as f:
+            while block := f.read(_CHUNK):
+                h.update(block)
+        _HASHES[key] = h.hexdigest()
+    return _HASHES[key]
+
+
+def _file_stamp(path: Path, root: Path) -> list:
+    """Where a file lies relative to the project (outside it: its name) and what it holds (size, hash)."""
     try:
-        st = path.stat()
-        return [str(path), st.st_size, st.st_mtime_ns]
+        where = path.resolve().relative_to(root.resolve()).as_posix()
+    except ValueError:
+        where = path.name
+    try:
+        return [where, path.stat().st_size, content_hash(path)]
     except OSError:
-        return [str(path), None, None]
+        return [where, None, None]
 
 
 def fingerprint(project: Project, source: Orientation, strip_id: str, options: RectifyOptions) -> str:
-    """A hash of everything a strip's outputs depend on (inputs' sizes and times, settings, version)."""
+    """A hash of everything a strip's outputs depend on: the input files (paths relative to the project,
+    sizes and content hashes: the same for a copied or moved project), the settings and the version."""
     s = project.strip(strip_id)
     files = [project.root / "project.toml", project.dtm_path, s.trajectory, s.image]
     files += [s.line_times] if s.line_times else []
@@ -89,7 +115,7 @@ def fingerprint(project: Project, source: Orientation, strip_id: str, options: R
         "variant": source.variant,
         "strip": strip_id,
         "options": asdict(options),
-        "files": [_file_stamp(Path(f)) for f in files if f is not None],
+        "files": [_file_stamp(Path(f), project.root) for f in files if f is not None],
     }
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:24]
 

@@ -38,14 +38,14 @@ def fresh_copy(project, tmp_path, name="p"):
 
 
 def outputs(folder):
-    """Pixel data and tags (less the fingerprint, which names the folder's files) of every output."""
+    """Pixel data and tags of every output (the fingerprint included: it depends on the inputs' paths
+    relative to the project and their content, not on where the project lies)."""
     out = {}
     for p in sorted(folder.iterdir()):
         if p.name.startswith(".") or p.suffix != ".tif":
             continue
         with rasterio.open(p) as d:
-            tags = {k: v for k, v in d.tags().items() if k != "scangeo_fingerprint"}
-            out[p.name] = (d.read(), tags, d.transform)
+            out[p.name] = (d.read(), d.tags(), d.transform)
     return out
 
 
@@ -64,14 +64,46 @@ def test_a_second_run_skips_complete_strips_and_redoes_changed_ones(project, tmp
     # other settings, or a strip's input touched: redone
     third = rectify_project(root, "DG", options=OPTS.replace(resampling="nearest"), strips=["02"])
     assert third.strips["02"]["status"] == "done"
-    os.utime(root / "nav" / "01.csv")
-    fourth = rectify_project(root, "DG", options=OPTS.replace(resampling="nearest"))
-    assert fourth.strips["01"]["status"] == "done" and fourth.strips["02"]["status"] == "skipped"
+    os.utime(root / "nav" / "01.csv")  # touched only: the same content, still complete
+    assert rectify_project(root, "DG", options=OPTS, strips=["01"]).strips["01"]["status"] == "skipped"
+    nav = root / "nav" / "01.csv"
+    text = nav.read_text().rstrip("\n")  # the last digit of the last record changed: redone
+    nav.write_text(text[:-1] + ("1" if text[-1] == "0" else "0") + "\n")
+    fourth = rectify_project(root, "DG", options=OPTS)
+    assert fourth.strips["01"]["status"] == "done" and fourth.strips["02"]["status"] == "done"  # 02: nearest before
+    assert [s["status"] for s in rectify_project(root, "DG", options=OPTS).strips.values()] == ["skipped", "skipped"]
     # a damaged output is not taken as complete
     out = first.folder / "01.tif"
     out.write_bytes(out.read_bytes()[:5000])
     assert not is_complete(out, "anything")
-    assert rectify_project(root, "DG", options=OPTS.replace(resampling="nearest")).strips["01"]["status"] == "done"
+    assert rectify_project(root, "DG", options=OPTS).strips["01"]["status"] == "done"
+
+
+def test_a_copied_or_moved_project_is_complete_and_its_outputs_do_not_name_where_it_lies(project, tmp_path):
+    """The fingerprint hashes paths relative to the project and file content (issue 13): a copy of a
+    rectified project in another folder, its files touched, is complete (skipped) with its outputs
+    unchanged; the same project rectified from scratch elsewhere gives byte-identical files (tags,
+    fingerprint and the GLT's ENVI header included)."""
+    opts = OPTS.replace(glt=True)
+    root = fresh_copy(project, tmp_path, "here")
+    rectify_project(root, "DG", options=opts)
+    ortho = "results/DG/ortho"
+    files = sorted(p.name for p in (root / ortho).iterdir())
+    assert files == ["01.glt", "01.glt.hdr", "01.tif", "02.glt", "02.glt.hdr", "02.tif"]
+    moved = tmp_path / "elsewhere" / "renamed"
+    shutil.copytree(root, moved)
+    later = time.time() + 3600
+    for f in moved.rglob("*"):
+        os.utime(f, (later, later))
+    again = rectify_project(moved, "DG", options=opts)
+    assert [s["status"] for s in again.strips.values()] == ["skipped", "skipped"]
+    scratch = fresh_copy(project, tmp_path / "other" / "place", "p2")
+    assert [s["status"] for s in rectify_project(scratch, "DG", options=opts).strips.values()] == ["done", "done"]
+    for name in files:
+        data = (root / ortho / name).read_bytes()
+        assert (moved / ortho / name).read_bytes() == data, name
+        assert (scratch / ortho / name).read_bytes() == data, name
+    assert b"here" not in (root / ortho / "01.glt.hdr").read_bytes()
 
 
 def test_killed_run_leaves_nothing_finished_looking_and_a_rerun_matches_an_uninterrupted_one(project, tmp_path):
