@@ -63,3 +63,42 @@ def test_a_failure_of_the_background_step_is_raised_by_wait_and_leaves_no_output
         with pytest.raises(OSError, match="disk full"):
             r.wait()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["img0.tif"]
+
+
+CONCURRENT = r"""
+import sys, threading, time
+import numpy as np, rasterio
+from rasterio.transform import from_origin
+from scangeo.rectify.geotiff import GeoTiffProfile, finalise
+from scangeo.rectify.refined_map import _upsample
+
+folder = sys.argv[1]
+data = (np.arange(2300 * 300 * 3) % 4000).astype(np.uint16).reshape(3, 2300, 300)
+with rasterio.open(f"{folder}/w.tif", "w", driver="GTiff", width=300, height=2300, count=3, dtype="uint16",
+                   crs="EPSG:32633", transform=from_origin(5e5, 5.3e6, 2.5, 2.5), tiled=True) as dst:
+    dst.write(data)
+done = threading.Event()
+def background():
+    for i in range(6):
+        finalise(f"{folder}/w.tif", f"{folder}/o{i}.tif", GeoTiffProfile(overviews=True), np.uint16)
+    done.set()
+ln = np.random.default_rng(0).random((60, 60))
+gl, gp = np.empty((600, 600)), np.empty((600, 600))
+_upsample(ln, ln, 10, gl, gp)  # compiled before the race
+thread = threading.Thread(target=background)
+thread.start()
+while not done.is_set():  # the main thread's parallel kernels, as the next strip's pass 1
+    _upsample(ln, ln, 10, gl, gp)
+thread.join()
+print("ok")
+"""
+
+
+def test_the_background_step_runs_no_parallel_kernel(tmp_path):
+    """The finaliser's thread (overviews, compression) runs beside the next strip's parallel
+    kernels: numba's workqueue layer aborts the process if both enter a parallel region."""
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", CONCURRENT, str(tmp_path)], capture_output=True, text=True)
+    assert proc.returncode == 0 and "ok" in proc.stdout, proc.stderr[-2000:]
