@@ -15,7 +15,8 @@ Checked (LAS 1.0-1.4, docs/formats.md "Checks on input"):
 - the point format 0-10 and a record length at least that format's size;
 - uncompressed: point count x record length fits in the file (before the first EVLR);
 - LAZ: the ``laszip encoded`` VLR is there, its items add up to the record length, the chunk table
-  lies within the file, and with a fixed chunk size the chunks hold the point count;
+  lies within the file, its chunks fit in the point data and hold the point count, and the chunks of
+  layered compression (point formats 6-10) hold the count and layer sizes they say;
 - LAS 1.4: the EVLRs (start, count, lengths) lie within the file.
 """
 from __future__ import annotations
@@ -188,8 +189,8 @@ def _chunk_table(path: Path, f: BinaryIO, h: LasHeaderInfo, raw: bytes) -> tuple
 
 
 def _check_laz(path: Path, f: BinaryIO, h: LasHeaderInfo, vlrs: list) -> None:
-    """LAZ: the laszip VLR matches the record; the chunk table lies within the file, its chunks fill the point
-    data exactly and hold the point count; layered chunks (LAS 1.4 formats) hold the sizes they say."""
+    """LAZ: the laszip VLR matches the record; the chunk table lies within the file, its chunks fit in the point
+    data and hold the point count; layered chunks (LAS 1.4 formats) hold the sizes they say."""
     laszip = [(data, length) for user, rid, data, length in vlrs if user == LASZIP_USER_ID and rid == LASZIP_RECORD_ID]
     if not laszip:
         raise _fail(path, "point_format", "compressed points (LAZ) without the 'laszip encoded' VLR")
@@ -198,7 +199,7 @@ def _check_laz(path: Path, f: BinaryIO, h: LasHeaderInfo, vlrs: list) -> None:
     chunk_size, items = _laszip_items(path, raw, h)
     table, chunks = _chunk_table(path, f, h, raw)
     data_bytes = table - h.offset_to_point_data - 8
-    if sum(b for _, b in chunks) != data_bytes or any(b <= 0 for _, b in chunks):
+    if sum(b for _, b in chunks) > data_bytes or any(b <= 0 for _, b in chunks):  # back to back; a gap is let be
         raise _fail(path, "laz.chunk_table", f"{len(chunks)} chunks of {sum(b for _, b in chunks)} bytes, the point "
                                              f"data has {data_bytes} (truncated or corrupted?)")
     if chunk_size == VARIABLE_CHUNKS:
