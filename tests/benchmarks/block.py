@@ -18,7 +18,8 @@ as a user would run it:
   (1 thread each; ``local``) or the given scheduler, through ``--scheduler ADDRESS``.
 
 Figures: wall seconds per stage, seconds per strip, and the peak resident memory of each stage's
-process (``ru_maxrss`` of the process and its children; for Dask the workers' peak as they report
+process (``ru_maxrss`` of the process and its largest child; beside it the peak of the whole
+process tree, worker processes summed, sampled from /proc every 0.25 s; for Dask the workers' peak as they report
 it). Baseline for the scaling: the 1-strip run (time per strip should stay flat as N grows).
 Big outputs go to a temporary folder (``--keep`` to keep them), removed at the end.
 """
@@ -93,20 +94,52 @@ def block_config(lines: int):
     return config_from_dict(data, source="block24 (benchmark)"), data
 
 
+def tree_rss_mib(root: int) -> float:
+    """Resident memory of process ``root`` and all its descendants now (MiB), from /proc."""
+    parent, rss = {}, {}
+    page = os.sysconf("SC_PAGE_SIZE")
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            stat = Path(f"/proc/{entry}/stat").read_text()
+            fields = stat[stat.rindex(")") + 2:].split()
+            parent[int(entry)] = int(fields[1])
+            rss[int(entry)] = int(fields[21]) * page
+        except (OSError, ValueError, IndexError):
+            continue
+    tree, frontier = {root}, [root]
+    while frontier:
+        p = frontier.pop()
+        for child in [c for c, pp in parent.items() if pp == p and c not in tree]:
+            tree.add(child)
+            frontier.append(child)
+    return sum(rss.get(p, 0) for p in tree) / 2**20
+
+
 def run_stage(label: str, args: list[str], log: list) -> tuple[float, float]:
-    """Run ``scangeo ARGS`` in its own process; (wall seconds, peak RSS MiB)."""
+    """Run ``scangeo ARGS`` in its own process; (wall seconds, peak RSS MiB of the largest single
+    process), printing also the peak of the whole process tree (worker processes summed, sampled
+    every 0.25 s)."""
     with tempfile.NamedTemporaryFile(suffix=".rss", delete=False) as f:
         rss_file = f.name
     t0 = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-c", STAGE, rss_file, *args], capture_output=True, text=True)
+    proc = subprocess.Popen([sys.executable, "-c", STAGE, rss_file, *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    tree_peak = 0.0
+    while proc.poll() is None:
+        tree_peak = max(tree_peak, tree_rss_mib(proc.pid))
+        time.sleep(0.25)
+    out, err = proc.communicate()
     dt = time.perf_counter() - t0
     rss = float(Path(rss_file).read_text() or "nan")
     os.unlink(rss_file)
     if proc.returncode:
-        print(proc.stdout[-2000:], proc.stderr[-4000:])
+        print(out[-2000:], err[-4000:])
         raise SystemExit(f"{label}: scangeo {' '.join(args)} failed ({proc.returncode})")
-    log.append((label, dt, rss, os.getloadavg()[0]))
-    print(f"{label:<46}{dt:>9.1f} s{rss:>9.0f} MiB   load {os.getloadavg()[0]:.1f}", flush=True)
+    log.append((label, dt, max(rss, tree_peak), os.getloadavg()[0]))
+    print(f"{label:<46}{dt:>9.1f} s{rss:>9.0f} MiB (all processes {tree_peak:.0f} MiB)   "
+          f"load {os.getloadavg()[0]:.1f}", flush=True)
     return dt, rss
 
 
