@@ -30,13 +30,14 @@ from rasterio.windows import Window
 CHUNK_BYTES = 64 * 2**20
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _halve(src, out, nodata, use_nodata, integer):  # pragma: no cover - compiled
     """``out`` (bands, ceil(h/2), ceil(w/2)): the mean of the valid cells of each 2 x 2 block of
     ``src`` (bands, h, w); a cell is invalid when NaN or, with ``use_nodata``, equal to ``nodata``.
 
     Serial on purpose: it runs in the finaliser's thread while the next strip's parallel kernels
-    run in the main thread, and numba's ``workqueue`` layer must not be entered from two threads."""
+    run in the main thread, and numba's ``workqueue`` layer must not be entered from two threads;
+    without the GIL, so that the main thread's Python code goes on meanwhile."""
     nb, h, w = src.shape
     oh, ow = out.shape[1], out.shape[2]
     for k in range(nb * oh):
