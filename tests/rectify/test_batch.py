@@ -1,4 +1,5 @@
 """Batch rectification of a simulated project: resume, interruption, workers, Dask, mosaic, CLI."""
+import json
 import os
 import shutil
 import signal
@@ -77,6 +78,38 @@ def test_a_second_run_skips_complete_strips_and_redoes_changed_ones(project, tmp
     out.write_bytes(out.read_bytes()[:5000])
     assert not is_complete(out, "anything")
     assert rectify_project(root, "DG", options=OPTS).strips["01"]["status"] == "done"
+
+
+def test_a_rerun_reads_no_input_again_unless_it_changed(project, tmp_path, monkeypatch):
+    """The content hashes of the fingerprint are kept in results/.content-hashes.json: a rerun in a
+    new process (the in-process cache emptied) hashes nothing; a file rewritten with the same size
+    is hashed again and its strips redone; a damaged cache file only costs the hashing."""
+    from scangeo.rectify import batch
+
+    root = fresh_copy(project, tmp_path)
+    rectify_project(root, "DG", options=OPTS)
+    cache = root / batch.HASH_CACHE
+    assert {"project.toml", "nav/01.csv", "images/01.tif", "images/02.tif"} <= set(json.loads(cache.read_text()))
+    hashed = []
+    real = batch.hashlib.sha256
+
+    def counting(*args):
+        hashed.append(1)
+        return real(*args)
+
+    monkeypatch.setattr(batch, "_HASHES", {})
+    monkeypatch.setattr(batch.hashlib, "sha256", counting)
+    statuses = [s["status"] for s in rectify_project(root, "DG", options=OPTS).strips.values()]
+    assert statuses == ["skipped", "skipped"]
+    assert len(hashed) == 2  # the two fingerprints themselves; no file read
+    nav = root / "nav" / "01.csv"
+    text = nav.read_text()
+    nav.write_text(text[:-2] + ("1" if text[-2] == "0" else "0") + "\n")  # same size, other content
+    hashed.clear()
+    assert rectify_project(root, "DG", options=OPTS).strips["01"]["status"] == "done"
+    assert len(hashed) >= 3  # the changed file hashed again, then the fingerprints
+    cache.write_text("{not json")
+    assert [s["status"] for s in rectify_project(root, "DG", options=OPTS).strips.values()] == ["skipped", "skipped"]
 
 
 def test_a_copied_or_moved_project_is_complete_and_its_outputs_do_not_name_where_it_lies(project, tmp_path):
