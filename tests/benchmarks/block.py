@@ -13,7 +13,8 @@ as a user would run it:
   problem strip at its breaks; a ``variants.toml`` with SE and S2 is written into the project);
 * ``scangeo rectify ROOT --variant S2 --strips <first N> --mosaic`` for every N of ``--strips``
   (outputs removed between runs, so each N is rectified from scratch; overviews as the default);
-  then the same with ``--workers 2`` (two local worker processes, one numba thread each);
+  (``--workers 1``: in this process, pipelined), then the same with ``--workers 2`` (two local
+  worker processes, one numba thread each; ``auto``, the default, chooses that here);
   with ``--scheduler`` the same rectifications again on a Dask LocalCluster of 2 worker processes
   (1 thread each; ``local``) or the given scheduler, through ``--scheduler ADDRESS``.
 
@@ -182,7 +183,7 @@ def main() -> None:
         run_stage(f"adjust {variant}", ["adjust", r, "--variant", variant, "--no-progress"], log)
     ortho = root / "results" / args.variant / "ortho"
     ids = [f"{i + 1:02d}" for i in range(int(data["flight"]["strips"]))]
-    routes = [("in process (pipelined)", [])]
+    routes = [("in process (pipelined)", ["--workers", "1"])]
     if args.workers > 1:
         routes.append((f"{args.workers} local worker processes", ["--workers", str(args.workers)]))
     cluster = None
