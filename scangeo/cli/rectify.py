@@ -38,9 +38,7 @@ def add_parser(subparsers, common) -> None:
                    help="internal overviews in the GeoTIFFs (default: for outputs larger than 2048 cells, "
                         "[rectify.geotiff] overviews = \"auto\")")
     p.add_argument("--config", default=None, help="TOML file with a [rectify] table of settings")
-    p.add_argument("--workers", default="auto", metavar="N|auto",
-                   help="strips rectified at once in local processes (default auto: one per core for several "
-                        "strips of over 2 M pixels when the memory allows, else 1: this process, pipelined)")
+    p.add_argument("--workers", type=int, default=1, help="strips rectified at once (local processes)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the strips on a Dask distributed scheduler")
     p.set_defaults(func=run, writes_project=True)  # one run at a time (scangeo.atomic.OutputLock)
@@ -62,27 +60,15 @@ def options_of(args: argparse.Namespace):
     return RectifyOptions.from_dict(table, source=args.config or "rectify options")
 
 
-def workers_of(value: str | int) -> int:
-    """``--workers``: ``auto`` (0 for rectify_project) or a whole number >= 1."""
-    if str(value).strip().lower() == "auto":
-        return 0
-    try:
-        n = int(str(value))
-    except ValueError:
-        n = 0
-    if n < 1:
-        raise ProjectFileError(f"--workers: expected 'auto' or a whole number >= 1, got {value!r}")
-    return n
-
-
 def run(args: argparse.Namespace) -> int:
     from scangeo.cli import progress_of
     from scangeo.rectify.batch import rectify_project
 
-    workers = workers_of(args.workers)
+    if args.workers < 1:
+        raise ProjectFileError(f"--workers must be at least 1, got {args.workers}")
     options = options_of(args)
     result = rectify_project(
-        args.project, args.variant, strips=args.strips, options=options, workers=workers,
+        args.project, args.variant, strips=args.strips, options=options, workers=args.workers,
         scheduler=args.scheduler, progress=progress_of(args),
     )
     for sid, s in result.strips.items():

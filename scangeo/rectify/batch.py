@@ -10,8 +10,7 @@ rerun. Anything else is redone.
 
 A strip is a task (:class:`StripTask`, picklable: paths and settings only) that a worker turns
 into outputs with :func:`run_strip_task`; the same function runs in-process, in a process pool
-(``workers > 1``; ``workers=0``: :func:`auto_workers` chooses) or on a Dask distributed cluster
-(``scheduler``). In-process, the strips are
+(``workers > 1``) or on a Dask distributed cluster (``scheduler``). In-process, the strips are
 pipelined: a :class:`~scangeo.rectify.strip.Finaliser` thread compresses and writes one strip's
 orthoimage while the next strip's inverse map is computed.
 """
@@ -260,7 +259,7 @@ def rectify_project(
     variant : the variant whose orientation is used (``DG``: the GPS/IMU as measured).
     strips : strip ids (default: all strips with an image).
     options : rectification settings; ``resolution=None`` means the first strip's nadir pixel.
-    workers : strips rectified at once in local processes; 0: :func:`auto_workers`.
+    workers : strips rectified at once in local processes.
     scheduler : address of a Dask distributed scheduler to run the strips on instead.
     progress : ``callback(done, total, message)``; in strips (fractional within a strip when one
         worker runs them in this process).
@@ -293,9 +292,6 @@ def rectify_project(
     total = len(ids)
     done = len(ids) - len(tasks)
     progress(done, total, f"rectify {variant}")
-    if workers == 0:  # auto
-        workers = auto_workers(project, tasks, options)
-        log.info("rectify: %d strip(s) to do, %d local worker process(es)", len(tasks), workers)
     if scheduler:
         summaries = _run_dask(tasks, scheduler, lambda n: progress(done + n, total, f"rectify {variant}"))
     elif workers > 1 and len(tasks) > 1:
@@ -323,42 +319,6 @@ def _strip_progress(progress: ProgressCallback, before: int, strips: int, strip:
     def sub(done: float, total: float, message: str = "") -> None:
         progress(before + (done / total if total else 0), strips, f"strip {strip}: {message}")
     return sub
-
-
-#: Image pixels (lines x pixels) of the average strip from which ``auto`` runs strips in worker
-#: processes: below, a strip takes about a second and a worker's start (imports, numba's cache)
-#: would cost as much as it brings.
-AUTO_MIN_PIXELS = 2_000_000
-#: Memory one worker process is given in ``auto`` beyond the strip's memory budget (MiB):
-#: interpreter, libraries, the image lines in use, the GDAL cache (measured: 0.9-1.2 GB per worker
-#: for 7,000-line strips with the default budget of 1024 MiB).
-AUTO_OVERHEAD_MB = 512.0
-
-
-def available_memory_mb() -> float:
-    """MemAvailable of /proc/meminfo (MiB); infinity where it cannot be read."""
-    try:
-        for line in Path("/proc/meminfo").read_text().splitlines():
-            if line.startswith("MemAvailable:"):
-                return int(line.split()[1]) / 1024.0
-    except (OSError, ValueError, IndexError):
-        pass
-    return float("inf")
-
-
-def auto_workers(project: Project, tasks: list[StripTask], options: RectifyOptions) -> int:
-    """Worker processes for ``tasks``: one per core (each with one numba thread; two processes on 2
-    cores measured 1.4x the in-process pipeline on block24, docs/performance.md) when there are
-    several strips of at least ``AUTO_MIN_PIXELS`` on average and the available memory holds one
-    strip per worker; else 1 (this process, pipelined)."""
-    if len(tasks) < 2:
-        return 1
-    pixels = project.sensor.model.pixels
-    sizes = [project.n_lines(t.strip) * pixels for t in tasks]
-    if sum(sizes) / len(sizes) < AUTO_MIN_PIXELS:
-        return 1
-    by_memory = int(available_memory_mb() // (options.memory_budget_mb + AUTO_OVERHEAD_MB))
-    return max(1, min(multiprocessing.cpu_count(), len(tasks), by_memory))
 
 
 def _threads_per_worker(workers: int) -> int:

@@ -253,28 +253,3 @@ def test_cli_rectify_and_its_errors(project, tmp_path, capsys):
     assert "unknown key 'resolutoin'" in capsys.readouterr().err
     with pytest.raises(OrientationFileError, match="no orientation for variant 'S2'"):
         rectify_project(root, "S2", options=OPTS)
-
-
-def test_workers_auto_takes_a_process_per_core_for_large_strips_only(project, monkeypatch):
-    from scangeo.cli.rectify import workers_of
-    from scangeo.errors import ProjectFileError
-    from scangeo.io.project import Project
-    from scangeo.rectify import batch
-
-    assert workers_of("auto") == 0 and workers_of("AUTO") == 0 and workers_of("3") == 3
-    for bad in ("0", "-1", "two", "1.5"):
-        with pytest.raises(ProjectFileError, match=r"--workers: expected 'auto' or a whole number >= 1"):
-            workers_of(bad)
-    p = Project.load(project)
-    tasks = [batch.StripTask(str(project), "DG", sid, OPTS, f"{sid}.tif", "fp") for sid in ("01", "02")]
-    assert batch.auto_workers(p, tasks, OPTS) == 1  # 160-line strips: a worker's start costs more
-    monkeypatch.setattr(batch, "AUTO_MIN_PIXELS", 1)
-    monkeypatch.setattr(batch.multiprocessing, "cpu_count", lambda: 8)
-    monkeypatch.setattr(batch, "available_memory_mb", lambda: 100_000.0)
-    assert batch.auto_workers(p, tasks, OPTS) == 2  # one per strip (8 cores)
-    assert batch.auto_workers(p, tasks[:1], OPTS) == 1
-    monkeypatch.setattr(batch.multiprocessing, "cpu_count", lambda: 1)
-    assert batch.auto_workers(p, tasks, OPTS) == 1  # one core
-    monkeypatch.setattr(batch.multiprocessing, "cpu_count", lambda: 8)
-    monkeypatch.setattr(batch, "available_memory_mb", lambda: 1500.0)  # memory for one strip only
-    assert batch.auto_workers(p, tasks, OPTS) == 1
