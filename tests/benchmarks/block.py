@@ -14,7 +14,7 @@ as a user would run it:
 * ``scangeo rectify ROOT --variant S2 --strips <first N> --mosaic`` for every N of ``--strips``
   (outputs removed between runs, so each N is rectified from scratch; overviews as the default);
   (``--workers 1``: in this process, pipelined), then the same with ``--workers 2`` (two local
-  worker processes, one numba thread each; ``auto``, the default, chooses that here);
+  worker processes, one numba thread each);
   with ``--scheduler`` the same rectifications again on a Dask LocalCluster of 2 worker processes
   (1 thread each; ``local``) or the given scheduler, through ``--scheduler ADDRESS``.
 
