@@ -106,6 +106,22 @@ def _save_cache(root: Path, cache: dict[str, list]) -> None:
         tmp.unlink(missing_ok=True)
 
 
+def _relative(path: Path, root: Path) -> str | None:
+    """``path`` relative to the project folder ``root`` (posix), None if it lies outside."""
+    try:
+        return path.resolve().relative_to(root.resolve()).as_posix()
+    except ValueError:
+        return None
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        while block := f.read(_CHUNK):
+            h.update(block)
+    return h.hexdigest()
+
+
 def content_hash(path: Path, root: Path | None = None) -> str:
     """SHA-256 of a file's bytes (read in 4 MiB chunks), cached while its size, mtime and inode
     stay: in this process, and with ``root`` (the project) in ``root/results/.content-hashes.json``."""
@@ -113,36 +129,25 @@ def content_hash(path: Path, root: Path | None = None) -> str:
     key = _cache_key(path, st)
     if key in _HASHES:
         return _HASHES[key]
-    cache: dict[str, list] = {}
-    rel = None
-    if root is not None:
-        try:
-            rel = path.resolve().relative_to(root.resolve()).as_posix()
-        except ValueError:
-            rel = None
-    if rel is not None and root is not None:
-        cache = _load_cache(root)
-        hit = cache.get(rel)
-        if isinstance(hit, list) and hit[:3] == [st.st_size, st.st_mtime_ns, st.st_ino] and len(hit) == 4:
-            _HASHES[key] = str(hit[3])
-            return _HASHES[key]
-    h = hashlib.sha256()
-    with path.open("rb") as f:
-        while block := f.read(_CHUNK):
-            h.update(block)
-    _HASHES[key] = h.hexdigest()
-    if rel is not None and root is not None:
-        cache[rel] = [st.st_size, st.st_mtime_ns, st.st_ino, _HASHES[key]]
+    rel = None if root is None else _relative(path, root)
+    if root is None or rel is None:  # no project to keep it in
+        _HASHES[key] = _sha256(path)
+        return _HASHES[key]
+    stamp = [st.st_size, st.st_mtime_ns, st.st_ino]
+    cache = _load_cache(root)
+    hit = cache.get(rel)
+    if isinstance(hit, list) and len(hit) == 4 and hit[:3] == stamp:
+        _HASHES[key] = str(hit[3])
+    else:
+        _HASHES[key] = _sha256(path)
+        cache[rel] = [*stamp, _HASHES[key]]
         _save_cache(root, cache)
     return _HASHES[key]
 
 
 def _file_stamp(path: Path, root: Path) -> list:
     """Where a file lies relative to the project (outside it: its name) and what it holds (size, hash)."""
-    try:
-        where = path.resolve().relative_to(root.resolve()).as_posix()
-    except ValueError:
-        where = path.name
+    where = _relative(path, root) or path.name
     try:
         return [where, path.stat().st_size, content_hash(path, root)]
     except OSError:
