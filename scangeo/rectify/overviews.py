@@ -78,12 +78,10 @@ def halve(src: np.ndarray, nodata: float | None) -> np.ndarray:
 
 
 def _level_profile(src: rasterio.io.DatasetReader, width: int, height: int) -> dict:
-    return {
-        "driver": "GTiff", "width": width, "height": height, "count": src.count, "dtype": src.dtypes[0],
-        "crs": src.crs, "transform": src.transform @ Affine.scale(2.0),
-        "nodata": src.nodata, "tiled": True, "blockxsize": 256, "blockysize": 256, "compress": "none",
-        "BIGTIFF": "IF_SAFER", "interleave": "band",
-    }
+    """The finer level's own profile (tiled, its bands, type and nodata) at half its cells per side,
+    uncompressed."""
+    return {**src.profile, "width": width, "height": height, "transform": src.transform @ Affine.scale(2.0),
+            "compress": "none", "BIGTIFF": "IF_SAFER"}
 
 
 def write_level(finer: Path, coarser: Path) -> None:
