@@ -37,16 +37,10 @@ import tomllib
 import warnings
 from pathlib import Path
 
-STAGE = r"""
-import resource, sys
-from scangeo.cli import main
-try:
-    code = main(sys.argv[2:])
-finally:
-    peak = max(resource.getrusage(who).ru_maxrss for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
-    open(sys.argv[1], "w").write(str(peak / 1024.0))
-sys.exit(code or 0)
-"""
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+# the script that runs one `scangeo` command and records its peak memory, shared with the scale test
+from tests.rectify.test_block_scale import STAGE  # noqa: E402
 
 VARIANTS = """[defaults]
 gps_sigma_m = [0.05, 0.05, 0.10]
