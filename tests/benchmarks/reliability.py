@@ -30,13 +30,18 @@ from tests.adjustment.test_block import SHIFT_ONLY, _simulate  # noqa: E402
 from tests.adjustment.test_reliability import VARIANT, _detectable, inject  # noqa: E402
 
 
-def cost(root: Path, label: str) -> None:
+def adjusted_with_reliability(root: Path, variant):
+    """(result, reliability, seconds of the adjustment, seconds of the reliability figures)."""
     t = time.perf_counter()
-    result = run_variant(root, VARIANT)
+    result = run_variant(root, variant)
     t_adj = time.perf_counter() - t
     t = time.perf_counter()
     vr = variant_reliability(result)
-    t_rel = time.perf_counter() - t
+    return result, vr, t_adj, time.perf_counter() - t
+
+
+def cost(root: Path, label: str) -> None:
+    result, vr, t_adj, t_rel = adjusted_with_reliability(root, VARIANT)
     acc = result.adjustment.statistics.accounting
     rows = sum(int((r == r).sum()) for r in vr.reliability.mdb)
     print(f"{label}: {acc.observations} observations, {acc.unknowns} unknowns; adjustment {t_adj:.2f} s, "
@@ -74,12 +79,7 @@ def false_alarms(root: Path) -> None:
     ground.write_text(ground.read_text().replace(",0,0.1,height", ",1,0.1,height"))
     split = StripModels("02", position_degree=2, breaks_lines=(2400.0, 4900.0))
     for v in (Variant("S", "S", strips=(split,), dtm_heights=True), Variant("BE", "BE")):
-        t = time.perf_counter()
-        r = run_variant(root, v)
-        t_adj = time.perf_counter() - t
-        t = time.perf_counter()
-        vr = variant_reliability(r)
-        t_rel = time.perf_counter() - t
+        r, vr, t_adj, t_rel = adjusted_with_reliability(root, v)
         points = {str(p) for g in r.adjustment.solution.groups if g.kind == "observation" and g.snooped for p in g.ids}
         rej = r.adjustment.rejections
         rows = sum(a.size for a, g in zip(vr.status, r.adjustment.solution.groups) if g.kind == "observation")
