@@ -23,7 +23,9 @@ def summary_lines(d: Diagnosis) -> list[str]:
         breaks = [b for b in d.breaks if b.strip == s]
         if breaks:
             text = ", ".join(f"line {b.line:.0f} (95 %: {b.low:.0f}-{b.high:.0f}"
-                             + (f"; BIC {b.bic_line:.0f})" if b.bic_line is not None else ")") for b in breaks)
+                             + (f"; BIC {b.bic_line:.0f}" if b.bic_line is not None else "")
+                             + (f"; F {b.f_statistic:.1f}, p {b.p_value:.2g}" if b.p_value is not None else "") + ")"
+                             for b in breaks)
             out.append(f"  strip {s}: PROBLEM STRIP, breaks at {text}")
         elif s in constant:
             out.append(f"  strip {s}: good (a constant correction explains it)")

@@ -96,7 +96,8 @@ class Fit:
 @dataclass
 class BreakEstimate:
     """A break of a strip: its line and 95 % interval; ``method`` says what placed it (``bic_line``: the
-    BIC's line when the S model moved it, :mod:`scangeo.adjustment.diagnosis_refine`)."""
+    BIC's line when the S model moved it, :mod:`scangeo.adjustment.diagnosis_refine`, which also tests it:
+    ``f_statistic``, ``p_value``)."""
 
     strip: str
     line: float
@@ -104,6 +105,10 @@ class BreakEstimate:
     high: float
     bic_line: float | None = None
     method: str = "BIC"
+    #: the split model's test of the break (:func:`scangeo.adjustment.diagnosis_refine.break_tests`):
+    #: F statistic of the parameters it adds, and its p-value
+    f_statistic: float | None = None
+    p_value: float | None = None
 
     @property
     def half_width(self) -> float:

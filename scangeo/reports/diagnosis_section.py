@@ -54,13 +54,16 @@ def diagnosis_section(project_root, comparison: Comparison) -> html.Section:
             "piecewise-linear error functions of every strip fitted to the tie points' DTM misclosures and the "
             "control points' across-track residuals, breaks chosen by BIC "
             f"({crit.get('with_breaks', float('nan')):.1f} with, {crit.get('without_breaks', float('nan')):.1f} "
-            f"without), each break then placed where the split model (S2's set-up) adjusts best. Problem strips: "
-            f"{problems}. Check points were not used."))
+            f"without), each break then placed where the split model (S2's set-up) adjusts best and tested there "
+            "(F test of the parameters it adds; a strip's extra breaks that fail it at 5 % are dropped). "
+            f"Problem strips: {problems}. Check points were not used."))
         rows = [[b["strip"], f"{b['line']:.0f}", f"{b['low']:.0f} - {b['high']:.0f}",
-                 "-" if b.get("bic_line") is None else f"{b['bic_line']:.0f}"] for b in d.get("breaks", [])]
+                 "-" if b.get("bic_line") is None else f"{b['bic_line']:.0f}",
+                 "-" if b.get("p_value") is None else f"{b['f_statistic']:.2f} (p {b['p_value']:.2g})"]
+                for b in d.get("breaks", [])]
         if rows:
-            sec.parts.append(html.table(["strip", "break line", "95 % interval", "BIC's line"], rows,
-                                        table_id="breaks-table"))
+            sec.parts.append(html.table(["strip", "break line", "95 % interval", "BIC's line",
+                                         "F test in the split model"], rows, table_id="breaks-table"))
         if d.get("series"):
             sec.parts.append(html.figure(misclosure_plot(d), "DTM misclosures of the tie points after SE; red: "
                                          "proposed breaks with their 95 % intervals", "fig-diagnosis"))

@@ -24,6 +24,7 @@ def test_the_problem_strip_and_its_breaks_are_found(problem_small):
     for b, line in zip(found, truth["breaks_lines"]):
         assert abs(b.line - line) <= 30 and b.low <= line <= b.high, (b, line)
         assert b.method == "S model" and b.bic_line is not None  # placed by adjusting the split model
+        assert b.p_value is not None and b.p_value < 1e-3 and b.f_statistic > 3  # and needed by it (F test)
     assert d.fit.bic < d.null.bic
     # the series the report plots: every tie point of strip 02 in both of its overlaps
     s02 = next(s for s in d.series if s.strip == "02")
