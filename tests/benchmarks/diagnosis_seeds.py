@@ -10,6 +10,10 @@ against the best variant's, and the good strips' worst P/S change against SE. Th
 N seeds of a block without a problem strip (the ``small`` preset with three strips): breaks proposed.
 
     python tests/benchmarks/diagnosis_seeds.py OUT [--factor 0.5] [--seeds 1 2 3 4 5] [--quiet 5] [--table]
+    python tests/benchmarks/diagnosis_seeds.py OUT --factor 1 --ties 240 --diagnose-only
+
+``--ties N`` simulates N tie points per overlap instead of the preset's 60; ``--diagnose-only`` runs the
+diagnosis alone (no compare, no recommendation) and prints every break found with its offset and F test.
 
 and the figures of the paper's Table 2 over the seeds (``--table``: only those, from the comparisons in OUT).
 
@@ -34,12 +38,32 @@ from scangeo.simulate.block import simulate  # noqa: E402
 from scangeo.simulate.config import load_preset  # noqa: E402
 
 
-def vienna_row(root: Path, seed: int, factor: float) -> str:
+def simulate_vienna(root: Path, seed: int, factor: float, ties: int | None) -> None:
     if not (root / "project.toml").exists():
-        over = {"output": {"images": False, "truth_ortho": False}, "seed": seed}
+        over: dict = {"output": {"images": False, "truth_ortho": False}, "seed": seed}
         if factor != 1.0:
             over.update(reduced_overrides("vienna2000", factor))
+        if ties is not None:
+            over.setdefault("points", {})["tie_per_overlap"] = ties
         simulate(root, load_preset("vienna2000", over))
+
+
+def diagnosis_row(root: Path, seed: int, factor: float, ties: int | None) -> str:
+    simulate_vienna(root, seed, factor, ties)
+    t0 = time.perf_counter()
+    d = diagnose(root)
+    seconds = time.perf_counter() - t0
+    truth = json.loads((root / "truth" / "errors.json").read_text())
+    injected = truth["breaks_lines"]
+    found = ", ".join(f"{b.strip}@{b.line:.0f} ({b.line - min(injected, key=lambda x: abs(x - b.line)):+.0f}; "
+                      f"95 % {b.low:.0f}-{b.high:.0f}; BIC {b.bic_line if b.bic_line is not None else b.line:.0f}; "
+                      f"F {b.f_statistic if b.f_statistic is not None else float('nan'):.2f})" for b in d.breaks)
+    strips = ", ".join(d.problem_strips) or "–"
+    return f"| {seed} | {strips} ({truth['problem_strip']}) | {found or '–'} | {seconds:.0f} s |"
+
+
+def vienna_row(root: Path, seed: int, factor: float, ties: int | None = None) -> str:
+    simulate_vienna(root, seed, factor, ties)
     t0 = time.perf_counter()
     c = compare_project(root, folds=2)
     seconds = time.perf_counter() - t0
@@ -112,17 +136,28 @@ def main() -> None:
     ap.add_argument("--quiet", type=int, default=5, help="seeds of the block without a problem strip")
     ap.add_argument("--table", action="store_true",
                     help="only print the paper's Table 2 figures over the seeds already compared in OUT")
+    ap.add_argument("--ties", type=int, default=None, help="tie points per overlap (default: the preset's)")
+    ap.add_argument("--diagnose-only", action="store_true", help="the diagnosis alone, no compare")
     a = ap.parse_args()
-    roots = [a.out / f"vienna_{a.factor:g}_s{seed}" for seed in a.seeds]
+    tag = f"vienna_{a.factor:g}" + (f"_t{a.ties}" if a.ties is not None else "")
+    roots = [a.out / f"{tag}_s{seed}" for seed in a.seeds]
     if a.table:
         print(table2(roots))
+        return
+    if a.diagnose_only:
+        ties = a.ties if a.ties is not None else "the preset's"
+        print(f"vienna2000 at {a.factor:g} of its length, {ties} tie points per overlap:\n")
+        print("| seed | problem strips found (injected) | breaks: line (offset; 95 %; BIC; F) | diagnosis |")
+        print("|---|---|---|---|")
+        for seed, root in zip(a.seeds, roots):
+            print(diagnosis_row(root, seed, a.factor, a.ties), flush=True)
         return
     print(f"vienna2000 at {a.factor:g} of its length:\n")
     print("| seed | problem strips found (injected) | breaks found | injected: found (offset; 95 %; BIC) | "
           "recommended: pooled true error | worst good-strip change P/S vs SE | compare |")
     print("|---|---|---|---|---|---|---|")
-    for seed in a.seeds:
-        print(vienna_row(a.out / f"vienna_{a.factor:g}_s{seed}", seed, a.factor), flush=True)
+    for seed, root in zip(a.seeds, roots):
+        print(vienna_row(root, seed, a.factor, a.ties), flush=True)
     print("\n" + table2(roots))
     if a.quiet:
         print("\nsmall, 3 strips, no problem strip:\n\n| seed | problem strips | breaks |\n|---|---|---|")
