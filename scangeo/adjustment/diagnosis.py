@@ -252,6 +252,15 @@ def _control_rows(result: VariantResult, strips, axes, value, channel, trow, tst
                 tw.append(float(w))
 
 
+def dropped_notes(proposed: list[BreakEstimate], kept: list[BreakEstimate], level: float | None) -> list[str]:
+    """A note for every break the BIC proposed (``proposed``) that the split model's test dropped (absent
+    from ``kept``, whose breaks carry their BIC line in ``bic_line``)."""
+    lines = {(b.strip, b.bic_line if b.bic_line is not None else b.line) for b in kept}
+    test = f" (F test at {100 * level:g} %)" if level is not None else ""
+    return [f"strip {b.strip}: the BIC's break at line {b.line:.0f} was dropped, the split model does not need it{test}"
+            for b in proposed if (b.strip, b.line) not in lines]
+
+
 def se_variant() -> Variant:
     """The adjustment the diagnosis starts from: SE, degree 0, no DTM heights, no automatic rejection."""
     return Variant("diagnosis-SE", "SE", "strip models of degree 0 for the diagnosis", snooping=False)
@@ -291,9 +300,11 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
         breaks = break_intervals(data, fit, options)
         if refine is not None and breaks:
             n_lines = dict(zip(data.strips, data.n_lines))
+            proposed = breaks
             breaks, _ = refine_breaks(
                 breaks, n_lines, s_model_cost(root, dtm_height_points, refine.position_degree), refine,
                 lambda i, n: callback(3 + i / n, steps, f"diagnosis: placing break {i} of {n} with the S model"))
+            notes += dropped_notes(proposed, breaks, refine.test_level)
     callback(steps, steps, "diagnosis: done")
     d = Diagnosis(str(root), list(data.strips), dict(zip(data.strips, data.n_lines)), breaks, fit, null,
                   float(result.adjustment.statistics.sigma0), series, notes, options, data.channels)
@@ -302,4 +313,4 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
     return d
 
 
-__all__ = ["COMPONENTS", "Diagnosis", "StripSeries", "diagnose", "pattern_data", "se_variant"]
+__all__ = ["COMPONENTS", "Diagnosis", "StripSeries", "diagnose", "dropped_notes", "pattern_data", "se_variant"]

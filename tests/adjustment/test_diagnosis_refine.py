@@ -6,6 +6,7 @@ import math
 import pytest
 from scipy import stats
 
+from scangeo.adjustment.diagnosis import dropped_notes
 from scangeo.adjustment.diagnosis_patterns import BreakEstimate
 from scangeo.adjustment.diagnosis_refine import Profile, RefineOptions, break_tests, refine_breaks
 
@@ -129,3 +130,14 @@ def test_break_tests_follow_the_f_distribution():
         assert t.p_value == pytest.approx(stats.f.sf(gain / 7.0, 7, 400.0))
     # 14 / 7 = 2.0 lies just below F(7, 400) at 95 % (2.03): the second break is not significant
     assert tests[1].p_value > 0.05 > tests[0].p_value
+
+
+def test_a_dropped_break_is_named_in_the_diagnosis_notes():
+    cost = kinked_cost([2400.0, 4900.0], [60.0, 60.0], 300.0)
+    proposed = [BreakEstimate("02", 700.0, 600.0, 800.0), BreakEstimate("02", 2000.0, 1900.0, 2100.0),
+                BreakEstimate("02", 4500.0, 4400.0, 4600.0)]
+    kept, _ = refine_breaks(proposed, {"02": 7000}, cost)
+    notes = dropped_notes(proposed, kept, 0.05)
+    assert notes == ["strip 02: the BIC's break at line 700 was dropped, the split model does not need it "
+                     "(F test at 5 %)"]
+    assert dropped_notes(proposed, proposed, 0.05) == []
