@@ -174,8 +174,10 @@ def test_pushbroom_image_jacobian_matches_finite_differences(sensor):
              Boresight(): 1e-5, LeverArm(): 1e-3, TimeOffset(): 1e-5}
     for i in range(len(pts)):
         steps[Ground(f"G{i}")] = 1e-3
-    check = check_jacobian(group, vals, steps)
+    # every 7th spline coefficient: each of the 6 components across the knots (the whiskbroom test checks all)
+    check = check_jacobian(group, vals, steps, stride={Knots("A"): 7})
     assert check.max_relative_error < 1e-4, check.worst()
+    assert len({name for key, name in check.labels if key == Knots("A")}) >= 6 * 3
     for key in (Knots("A"), Ground("G0"), Boresight(), LeverArm(), TimeOffset()):
         cols = [j for j, (k, _) in enumerate(check.labels) if k == key]
         assert np.abs(check.analytic[:, cols]).max() > 0, key
