@@ -11,6 +11,8 @@ import numba
 import numpy as np
 from affine import Affine
 
+from scangeo.threading_layer import choose_threading_layer
+
 
 @dataclass(frozen=True)
 class RasterGrid:
@@ -54,6 +56,7 @@ class RasterGrid:
         inv = ~self.transform
         out = np.empty((ys.size, xs.size))
         values = self.values if self.values.dtype == np.float64 else self.values.astype(np.float64)
+        choose_threading_layer()
         _lattice_kernel(np.ascontiguousarray(values), inv.a, inv.b, inv.c, inv.d, inv.e, inv.f, xs, ys, out)
         return out
 

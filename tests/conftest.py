@@ -8,6 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from scangeo.threading_layer import choose_threading_layer
+
+# Some tests call numba kernels directly, without the entry points that choose the threading layer
+# first: choose it for the test process as scangeo's entry points would (workqueue, unless set).
+choose_threading_layer()
+
 pytest_plugins = ["tests.session_projects"]  # session-scoped simulated projects (small_block)
 
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"

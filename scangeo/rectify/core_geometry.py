@@ -22,6 +22,7 @@ from scangeo.frames import MapFrame
 from scangeo.localmap import LocalPolynomialMap, poly_eval_point
 from scangeo.sensors import StripGeometry as CoreGeometry
 from scangeo.sensors.kernels import MULTIPLE, OK
+from scangeo.threading_layer import choose_threading_layer
 
 #: points per call into the core (bounds the temporary arrays of the conversions)
 CHUNK = 262_144
@@ -52,6 +53,7 @@ def _apply(local: LocalPolynomialMap, x: np.ndarray, y: np.ndarray, H: np.ndarra
     x, y, H = (np.ascontiguousarray(v, dtype=float).ravel() for v in (x, y, H))
     out = np.empty((x.size, 3))
     inside = np.empty(x.size, dtype=np.bool_)
+    choose_threading_layer()
     _poly_eval(local.coef, local.exps, local.centre, local.scale, np.ascontiguousarray(local.box, dtype=float),
                x, y, H, out, inside)
     return out, inside

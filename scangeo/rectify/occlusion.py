@@ -21,6 +21,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from scangeo.threading_layer import choose_threading_layer
+
 #: largest half-extent of a cell footprint in image pixels that is splatted (guards degenerate maps)
 MAX_HALF_EXTENT = 16.0
 #: constant part of the range tolerance, metres
@@ -88,6 +90,7 @@ def _step_sum(a, out):
 
 def _steps(a: np.ndarray) -> np.ndarray:
     out = np.empty(np.shape(a))
+    choose_threading_layer()
     _step_sum(np.ascontiguousarray(a, dtype=np.float64), out)
     return out
 
@@ -179,6 +182,7 @@ def folded(line: np.ndarray, pixel: np.ndarray, orientation: float) -> np.ndarra
     not folded. Triangles with a missing corner do not count; a cell with none is not folded.
     """
     out = np.empty(np.shape(line), dtype=np.bool_)
+    choose_threading_layer()
     _folded(np.ascontiguousarray(line, dtype=np.float64), np.ascontiguousarray(pixel, dtype=np.float64),
             float(orientation), out)
     return out

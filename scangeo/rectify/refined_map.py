@@ -35,6 +35,7 @@ import numpy as np
 from scangeo.rectify.geometry import MapStripGeometry
 from scangeo.rectify.inverse_map import InverseMapOptions, InverseMapStats, TileGrid, solve_cells, validate
 from scangeo.sensors.kernels import NO_CONVERGENCE
+from scangeo.threading_layer import choose_threading_layer
 
 
 @runtime_checkable
@@ -143,6 +144,7 @@ class _Lattice:
         """(line, pixel) bilinear between the nodes at every cell of the tile."""
         gl = np.empty(shape)
         gp = np.empty(shape)
+        choose_threading_layer()
         _upsample(self.line, self.pixel, self.step, gl, gp)
         return gl, gp
 
@@ -196,6 +198,7 @@ def _project_points(geometry: RefinableStrip, X, Y, S, H: np.ndarray, idx: np.nd
     every = idx is None
     cells = np.empty(0, dtype=np.int64) if idx is None else idx.astype(np.int64)
     out = np.empty((Hf.size if every else cells.size, 3))
+    choose_threading_layer()
     _lattice_points(A, B, S, cells, every, H.shape[1], Hf, h0, out)
     return out
 

@@ -43,6 +43,7 @@ from scangeo.rectify.options import LAYERS, RectifyOptions
 from scangeo.rectify.output_grid import OutputGrid, nice_resolution
 from scangeo.rectify.refined_map import RefinableStrip, build_refined_map
 from scangeo.rectify.resample import RESAMPLING, in_image, line_window, remap_bands, source_nodata_mask
+from scangeo.threading_layer import choose_threading_layer
 
 log = logging.getLogger(__name__)
 
@@ -305,6 +306,7 @@ def _map_tile(run: StripRun, w: Window, track: tuple[np.ndarray, ...], facing: f
     pixel[~near] = np.nan
     rng = np.empty(line.shape)
     sH = np.empty(line.shape)
+    choose_threading_layer()
     _ranges(line, x, y, H, track[0], track[1], track[2], rng, sH)
     rs, cs = _tile_slices(w)
     work = run.work

@@ -23,6 +23,7 @@ from scangeo.sensors.ground_to_image_kernels import (
 )
 from scangeo.sensors.models import SensorModel
 from scangeo.sensors.raycast import ray_cast_kernel
+from scangeo.threading_layer import choose_threading_layer
 from scangeo.timing import LineTiming
 from scangeo.trajectory.spline import OrientationSpline
 
@@ -107,6 +108,7 @@ class StripGeometry:
         n = len(t)
         R, dR = np.empty((n, 3, 3)), np.empty((n, 3, 3))
         p, dp = np.empty((n, 3)), np.empty((n, 3))
+        choose_threading_layer()
         _poses(t, *self._mount_args(), R, p, dR, dp)
         return (p, R, dp, dR) if derivatives else (p, R)
 
@@ -122,6 +124,7 @@ class StripGeometry:
         kind, sp, table = self.sensor.kernel_params()
         o = np.empty((len(line), 3))
         d = np.empty((len(line), 3))
+        choose_threading_layer()
         K.rays_kernel(line, pixel, *self._mount_args(), kind, sp, np.ascontiguousarray(table, dtype=float),
                       *self._timing_args(), o, d)
         return o, d
@@ -226,6 +229,7 @@ class StripGeometry:
         pixel = np.empty(n)
         status = np.empty(n, dtype=np.int64)
         window = self.overscan_window(p_P)
+        choose_threading_layer()
         K.ground_to_image_kernel(
             p_P, *self._mount_args(), kind, sp, np.ascontiguousarray(table, dtype=float),
             *self._timing_args(), float(self.n_lines), times, cA, cC, window,
@@ -239,6 +243,7 @@ class StripGeometry:
         times, tab, gtab, err, cA, cC = self._whiskbroom_tables
         line, pixel = np.empty(n), np.empty(n)
         status, exact = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.uint8)
+        choose_threading_layer()
         whiskbroom_ground_to_image(
             p_P, times, tab, gtab, err, cA, cC, self.overscan_window(p_P), *self._mount_args(), sp,
             *self._timing_args(), float(self.n_lines), float(tol_line), tol_line / self.timing.mean_rate,
@@ -272,12 +277,14 @@ class StripGeometry:
             times, tab, _, err, cA, cC = self._whiskbroom_tables
             gl = np.ascontiguousarray(line0, dtype=float).ravel()
             gp = np.ascontiguousarray(pixel0, dtype=float).ravel()
+            choose_threading_layer()
             whiskbroom_ground_to_image_near(
                 p_P, gl, gp, times, tab, err, cA, cC, *self._mount_args(), sp, *self._timing_args(),
                 float(self.n_lines), float(tol_line), tol_line / rate, max_step_lines / rate, int(max_iter),
                 max(1, min(n, 256)), line, pixel, status, steps,
             )
             return line, pixel, status, steps
+        choose_threading_layer()
         K.refine_kernel(
             p_P, np.ascontiguousarray(line0, dtype=float).ravel(), np.ascontiguousarray(pixel0, dtype=float).ravel(),
             *self._mount_args(), kind, sp, np.ascontiguousarray(table, dtype=float), *self._timing_args(),
@@ -340,6 +347,7 @@ def cast_rays(o: np.ndarray, d: np.ndarray, dtm: DTM, step: float | None = None)
     inv = ~dtm.grid.transform
     inv_arr = np.array([inv.a, inv.b, inv.c, inv.d, inv.e, inv.f])
     block = 8
+    choose_threading_layer()
     ray_cast_kernel(o, d, local.coef, local.exps, local.centre, local.scale,
                     np.ascontiguousarray(dtm.grid.values), inv_arr, dtm.h_min, dtm.h_max,
                     step if step is not None else 0.25 * dtm.cell_size(), dtm.block_max(block), block,

@@ -12,6 +12,8 @@ import math
 import numba as nb
 import numpy as np
 
+from scangeo.threading_layer import choose_threading_layer
+
 _M1 = np.uint64(0x9E3779B97F4A7C15)
 _M2 = np.uint64(0xBF58476D1CE4E5B9)
 _M3 = np.uint64(0x94D049BB133111EB)
@@ -106,5 +108,6 @@ def fbm(x: np.ndarray, y: np.ndarray, wavelength_m: float, seed: int, octaves: i
     xa = np.ascontiguousarray(np.asarray(x, dtype=float).ravel())
     ya = np.ascontiguousarray(np.broadcast_to(np.asarray(y, dtype=float), np.shape(x)).ravel())
     out = np.empty(xa.size)
+    choose_threading_layer()
     _fbm_array(xa, ya, float(wavelength_m), int(seed), int(octaves), float(gain), out)
     return out.reshape(np.shape(x))

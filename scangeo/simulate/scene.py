@@ -20,6 +20,7 @@ import numba as nb
 import numpy as np
 
 from scangeo.simulate.fields import fbm, fbm_at, hash01, noise_at
+from scangeo.threading_layer import choose_threading_layer
 
 #: Daedalus AADS 1268 channels: band name, lower and upper wavelength (micrometres).
 BANDS = (
@@ -110,6 +111,7 @@ class LandcoverScene:
         X = np.ascontiguousarray(np.asarray(x, float).ravel() - self.x0)
         Y = np.ascontiguousarray(np.asarray(y, float).ravel() - self.y0)
         out = np.empty((X.size, N_BANDS))
+        choose_threading_layer()
         _landcover_values(X, Y, self.seed, self._params(), _SPECTRA, _TEMPERATURE, out)
         return out
 
@@ -123,6 +125,7 @@ class LandcoverScene:
         Ya = np.ascontiguousarray(np.broadcast_to(np.asarray(Y, float), np.shape(X)).ravel())
         cls = np.empty(Xa.size, dtype=np.int64)
         bright = np.empty(Xa.size)
+        choose_threading_layer()
         _landcover(Xa, Ya, self.seed, self._params(), cls, bright)
         return cls.reshape(np.shape(X)), bright.reshape(np.shape(X))
 

@@ -151,8 +151,9 @@ def main() -> None:
     args = ap.parse_args()
     import numba
 
-    import scangeo  # noqa: F401  (chooses numba's threading layer)
+    from scangeo.threading_layer import choose_threading_layer
 
+    choose_threading_layer()  # what scangeo's kernels do before their first run, so the line below is true
     print(f"cores {os.cpu_count()}, numba threading layer {numba.config.THREADING_LAYER}, "
           f"load average {os.getloadavg()[0]:.1f}")
     tmp = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="scangeo-bench-block-"))

@@ -98,6 +98,9 @@ def main() -> None:
     args = ap.parse_args()
     import numba
 
+    from scangeo.threading_layer import choose_threading_layer
+
+    choose_threading_layer()  # before get_num_threads below starts numba's threading layer
     print(f"cores: {os.cpu_count()}, numba threads: {numba.get_num_threads()}, threading layer "
           f"{numba.config.THREADING_LAYER}, OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE', '-')}, "
           f"load average {os.getloadavg()[0]:.1f}")
