@@ -95,7 +95,7 @@ def read_rejected(path) -> list[RejectedMeasurement]:
         kind = text(row, "kind")
         if kind not in ("image", "ground"):
             raise ProjectFileError(f"{path} line {numbers[i]}: kind {kind!r} is not image or ground")
-        value = {c: float(v[i]) for c, v in cols.items()}
+        value: dict[str, float] = {c: float(v[i]) for c, v in cols.items()}
         try:
             value["mdb"] = float(text(row, "mdb") or "nan")  # inf: a blunder there cannot be detected
         except ValueError:
@@ -134,10 +134,10 @@ def set_aside(project_root, points: ImagePoints, ground: GroundPoints
     n = int((~keep).sum() + (~keep_g).sum())
     if n:
         log.info("%d measurements set aside by the cleaning (%s; scangeo clean --restore brings them back)", n, path)
-        points = ImagePoints(*(a[keep] for a in (points.point, points.strip, points.line, points.pixel,
-                                                 points.sigma_px, points.file_line)), points.source)
-        ground = GroundPoints(*(a[keep_g] for a in (ground.point, ground.xyz, ground.sigma_xy, ground.sigma_z,
-                                                    ground.role, ground.file_line)), ground.source)
+        points = ImagePoints(points.point[keep], points.strip[keep], points.line[keep], points.pixel[keep],
+                             points.sigma_px[keep], points.file_line[keep], points.source)
+        ground = GroundPoints(ground.point[keep_g], ground.xyz[keep_g], ground.sigma_xy[keep_g],
+                              ground.sigma_z[keep_g], ground.role[keep_g], ground.file_line[keep_g], ground.source)
     return points, ground, n
 
 
