@@ -4,6 +4,12 @@
   atomic on every POSIX file system); on success it is renamed over the final name, on any error it
   is removed, so nothing partial ever sits under a final name (a kill leaves at most a hidden
   ``.NAME.PID.tmp`` that the next successful run does not read).
+* :func:`atomic_directory` does the same for a whole folder (an existing one is moved aside, then
+  removed), :func:`atomic_files` for writers that add sidecar files (ENVI's ``.hdr``, GDAL's
+  ``.aux.xml``): they write into a hidden staging folder whose files are moved beside the final name,
+  the named file last.
+* :func:`commit` is the one rename: a finished temporary file over its final name, for writers that
+  must choose their own temporary names (resumable partials that a later run cleans up).
 * :class:`OutputLock` takes ``PROJECT/.scangeo.lock`` with ``flock`` for the duration of a command that
   writes into the project; a second run is refused with :class:`~scangeo.errors.OutputLockedError`
   naming the holder. The kernel drops the lock when its process dies (even by SIGKILL), so a killed
@@ -13,6 +19,7 @@ from __future__ import annotations
 
 import csv
 import os
+import shutil
 import time
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
@@ -28,6 +35,12 @@ def temporary_name(path: Path) -> Path:
     return path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
 
 
+def commit(tmp, path) -> Path:
+    """Rename the finished file (or folder) ``tmp`` over ``path`` (same folder: atomic); returns ``path``."""
+    os.replace(tmp, path)
+    return Path(path)
+
+
 @contextmanager
 def atomic_path(path) -> Iterator[Path]:
     """Yield a temporary path to write; rename it to ``path`` when the block ends without error."""
@@ -35,10 +48,65 @@ def atomic_path(path) -> Iterator[Path]:
     tmp = temporary_name(path)
     try:
         yield tmp
-        os.replace(tmp, path)
+        commit(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+@contextmanager
+def atomic_directory(path) -> Iterator[Path]:
+    """Yield a new empty hidden folder beside ``path``; it becomes ``path`` when the block ends without error.
+
+    An existing ``path`` is replaced: moved aside under a hidden name, the new folder renamed into
+    place, the old one removed. On any error the new folder is removed and ``path`` stays as it was.
+    """
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    try:
+        yield tmp
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    if path.exists():
+        old = path.with_name(f".{path.name}.{os.getpid()}.old")
+        shutil.rmtree(old, ignore_errors=True)
+        commit(path, old)
+        commit(tmp, path)
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        commit(tmp, path)
+
+
+@contextmanager
+def atomic_files(path) -> Iterator[Path]:
+    """Yield ``STAGING/NAME`` for a writer that adds sidecar files beside ``path`` (ENVI's ``.hdr``).
+
+    ``STAGING`` is a hidden folder beside ``path``. When the block ends without error every file
+    written there is renamed into ``path``'s folder, the sidecars first and ``path`` itself last (so
+    the named file appears only complete, with its sidecars); on any error the folder is removed.
+    """
+    path = Path(path)
+    staging = path.with_name(f".{path.name}.{os.getpid()}.staging")
+    shutil.rmtree(staging, ignore_errors=True)
+    staging.mkdir(parents=True)
+    try:
+        yield staging / path.name
+        written = sorted(staging.iterdir(), key=lambda p: p.name == path.name)
+        for item in written:
+            commit(item, path.with_name(item.name))
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+
+
+def write_bytes(path, data: bytes) -> Path:
+    """Write a binary file atomically; returns ``path``."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
+    return path
 
 
 def write_text(path, text: str) -> Path:

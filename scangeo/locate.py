@@ -17,8 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+from scangeo.atomic import write_csv
 from scangeo.errors import ProjectFileError
-from scangeo.io.points import column_floats, read_rows, write_csv
+from scangeo.io.points import column_floats, read_rows
 from scangeo.io.project import Project
 from scangeo.sensors.strip import StripGeometry, status_text
 

@@ -9,12 +9,12 @@ is a tie point.
 from __future__ import annotations
 
 import csv
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from scangeo.atomic import write_csv
 from scangeo.errors import ProjectFileError
 
 ROLES = ("control", "check", "height", "planimetric")
@@ -179,13 +179,3 @@ class GroundPoints:
         )
 
 
-def write_csv(path, header: list[str], rows) -> None:
-    """Write a CSV atomically (temporary name, then rename)."""
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(header)
-        for row in rows:
-            w.writerow(list(row))
-    os.replace(tmp, path)

@@ -14,6 +14,7 @@ import re
 import sys
 from pathlib import Path
 
+from scangeo.atomic import write_text
 from scangeo.io.schema import Key, keys, type_text
 
 BLOCK = re.compile(r"(<!-- schema: (?P<name>[\w.]+) -->\n)(?P<body>.*?)(<!-- /schema -->)", re.S)
@@ -77,9 +78,7 @@ def main(argv: list[str] | None = None) -> int:
         if new != text:
             stale.append(path)
             if not args.check:
-                tmp = path.with_name(path.name + ".tmp")
-                tmp.write_text(new, encoding="utf-8")
-                tmp.replace(path)
+                write_text(path, new)
     for path in stale:
         print(f"{path}: schema tables {'are stale' if args.check else 'regenerated'}")
     return 1 if (stale and args.check) else 0

@@ -11,11 +11,10 @@ from __future__ import annotations
 
 import csv
 import json
-import os
 from pathlib import Path
 
+from scangeo.atomic import write_csv, write_text
 from scangeo.errors import ProjectFileError
-from scangeo.io.points import write_csv
 
 POINT_COLUMNS = ["point", "strip", "line", "pixel", "sigma_px"]
 GROUND_COLUMNS = ["point", "x", "y", "z", "sigma_xy", "sigma_z", "role"]
@@ -53,6 +52,4 @@ def merge_rows(path: Path, required: list[str], replace_prefixes: tuple[str, ...
 
 
 def write_json(path: Path, data: dict) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1, default=float) + "\n", encoding="utf-8")
-    os.replace(tmp, path)
+    write_text(path, json.dumps(data, indent=1, default=float) + "\n")

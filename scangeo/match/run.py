@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from scangeo.atomic import write_csv
 from scangeo.dtm import DTM
 from scangeo.errors import GeometryError, MissingDependencyError, ProjectFileError
 from scangeo.io.project import Project
@@ -284,8 +285,6 @@ def _summary(report: dict, result: MatchResult, res: float) -> None:
 
 
 def _write_cells(path: Path, report: dict) -> None:
-    from scangeo.io.points import write_csv
-
     rows = []
     for name, o in report["overlaps"].items():
         for (x, y), n in zip(o.get("cell_centres", []), o.get("points_per_cell", [])):

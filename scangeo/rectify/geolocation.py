@@ -13,7 +13,6 @@ Both are written in a hidden work folder and moved into place header first, data
 """
 from __future__ import annotations
 
-import os
 import re
 import shutil
 import tempfile
@@ -25,6 +24,7 @@ import rasterio
 from rasterio.errors import NotGeoreferencedWarning
 from rasterio.windows import Window
 
+from scangeo.atomic import commit
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify.geometry import MapStripGeometry
 from scangeo.rectify.geotiff import remove_partials
@@ -46,9 +46,8 @@ def _commit_envi(data: Path, final: Path) -> Path:
     if not n:
         text = text.replace("ENVI\n", f"ENVI\ndescription = {{{name}}}\n", 1)
     header.write_text(text, encoding="latin-1")
-    os.replace(header, final.with_name(final.name + ".hdr"))
-    os.replace(data, final)
-    return final
+    commit(header, final.with_name(final.name + ".hdr"))  # the header first: the data file appears last
+    return commit(data, final)
 
 
 class GltWriter:

@@ -19,6 +19,7 @@ import rasterio
 import rasterio.enums
 import rasterio.shutil
 
+from scangeo.atomic import commit
 from scangeo.errors import RectifyOptionsError
 from scangeo.io.schema import setting
 from scangeo.rectify.output_grid import OutputGrid
@@ -211,7 +212,7 @@ def finalise(working: Path, final: Path, profile: GeoTiffProfile, dtype) -> None
         made = with_overviews(Path(working), factors) if overviews else []
         source = made[0] if made else Path(working)
         rasterio.shutil.copy(str(source), str(tmp), driver=driver, **profile.creation_options(dtype, overviews))
-        os.replace(tmp, final)
+        commit(tmp, final)
     finally:
         for path in [tmp, *made]:
             path.unlink(missing_ok=True)

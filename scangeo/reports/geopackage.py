@@ -15,12 +15,12 @@ Written with pyogrio (GDAL's GPKG driver) to a temporary name and renamed.
 """
 from __future__ import annotations
 
-import os
 import struct
 from pathlib import Path
 
 import numpy as np
 
+from scangeo.atomic import atomic_path
 from scangeo.reports.residual_vectors import ResidualVectors
 
 
@@ -48,20 +48,18 @@ def write_geopackage(path, vectors: list[ResidualVectors], crs: str, exaggeratio
     from pyogrio.raw import write as ogr_write
 
     path = Path(path)
-    tmp = path.with_name(f".{path.stem}.tmp.gpkg")
-    tmp.unlink(missing_ok=True)
     wkt = pyproj.CRS.from_user_input(crs).to_wkt()
-    for v in vectors:
-        names, data = _fields(v)
-        ogr_write(tmp, _wkb_points(v.x, v.y), data, names, layer=f"check_{v.variant}", driver="GPKG",
+    with atomic_path(path) as tmp:
+        for v in vectors:
+            names, data = _fields(v)
+            ogr_write(tmp, _wkb_points(v.x, v.y), data, names, layer=f"check_{v.variant}", driver="GPKG",
                       geometry_type="Point", crs=wkt)
-        ok = np.isfinite(v.dx_m) & np.isfinite(v.dy_m)
-        ex = np.full(int(ok.sum()), float(exaggeration))
-        ogr_write(tmp, _wkb_lines(v.x[ok], v.y[ok], v.x[ok] + exaggeration * v.dx_m[ok],
+            ok = np.isfinite(v.dx_m) & np.isfinite(v.dy_m)
+            ex = np.full(int(ok.sum()), float(exaggeration))
+            ogr_write(tmp, _wkb_lines(v.x[ok], v.y[ok], v.x[ok] + exaggeration * v.dx_m[ok],
                                       v.y[ok] + exaggeration * v.dy_m[ok]),
                       [d[ok] for d in data] + [ex], names + ["exaggeration"], layer=f"vectors_{v.variant}",
                       driver="GPKG", geometry_type="LineString", crs=wkt)
-    os.replace(tmp, path)
     return path
 
 

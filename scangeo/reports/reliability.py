@@ -14,13 +14,13 @@ import csv
 import datetime
 import json
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from scangeo import __version__
+from scangeo.atomic import write_text
 from scangeo.reports import html
 from scangeo.reports.figures import png
 
@@ -182,10 +182,7 @@ def write_plan_report(plan, path: Path) -> Path:
     stamp = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     intro = [html.paragraph(f"Project {root.resolve()}; scangeo {__version__}, {stamp}.")]
     text = html.document(f"scangeo plan: {root.name}, variant {name}", intro, [sec, strips])
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
-    return path
+    return write_text(path, text)
 
 
 __all__ = ["interpretation", "plan_map", "read_variant_reliability", "reliability_section", "strip_map",

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import shutil
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pyproj
 
+from scangeo.atomic import atomic_directory, write_text
 from scangeo.dtm import DTM
 from scangeo.errors import ProjectFileError
 from scangeo.frames import Geoid, MapFrame, parse_crs
@@ -128,21 +128,12 @@ def simulate(out: str | Path, config: SimulationConfig, seed: int | None = None,
     seed = config.seed if seed is None else int(seed)
     if out.exists() and any(out.iterdir()) and not overwrite:
         raise ProjectFileError(f"{out}: the folder exists and is not empty (choose another or overwrite it)")
-    staging = out.with_name(out.name + ".partial")
-    if staging.exists():
-        shutil.rmtree(staging)
-    (staging / "truth").mkdir(parents=True)
-    (staging / "nav").mkdir()
-    if config.output.images:
-        (staging / "images").mkdir()
-    try:
+    with atomic_directory(out) as staging:  # the project appears whole, or not at all
+        (staging / "truth").mkdir()
+        (staging / "nav").mkdir()
+        if config.output.images:
+            (staging / "images").mkdir()
         block = _simulate_into(staging, config, seed, dtm_file, texture, progress)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
-    if out.exists():
-        shutil.rmtree(out)
-    staging.rename(out)
     block.root = out
     return block
 
@@ -297,4 +288,4 @@ def _write_project(root: Path, config: SimulationConfig, seed: int, map_frame: M
         sensor=config.sensor,
         strips=entries,
     )
-    writer.write_text(root / "project.toml", text)
+    write_text(root / "project.toml", text)

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from scangeo.atomic import atomic_path
 from scangeo.trajectory import read_trajectory_csv
 
 KIND_STYLE = {"E": ("^", "gold", "control"), "B": ("s", "orange", "break band"), "K": ("o", "white", "check"),
@@ -103,8 +104,7 @@ def strip_figure(project_dir: str | Path, strip_id: str, path: str | Path, step:
     ax.grid(alpha=0.3)
     fig.suptitle(f"{scenario['config']['block']['name']}: strip {strip_id}, injected GPS/IMU errors over time")
     path = Path(path)
-    tmp = path.with_name(path.stem + ".tmp.png")
-    fig.savefig(tmp, dpi=90)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=90)
     plt.close(fig)
-    tmp.replace(path)
     return path

@@ -14,13 +14,13 @@ holds every injected error, with ``c = true - measured`` as the adjustment estim
 from __future__ import annotations
 
 import json
-import os
 import tomllib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from scangeo.atomic import atomic_path, write_text
 from scangeo.errors import ProjectFileError
 from scangeo.frames import MapFrame
 from scangeo.io.schema import read
@@ -219,9 +219,8 @@ def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = 
         las.scan_angle = np.round(np.degrees(theta) / 0.006).astype(np.int16)
         las.point_source_id = np.full(t.size, int(plan.id), np.uint16)
         las.intensity = np.full(t.size, 100, np.uint16)
-        tmp = path.with_name(path.name + ".part")
-        las.write(str(tmp), laz_backend=None) if las_extension == ".las" else las.write(str(tmp))
-        os.replace(tmp, path)
+        with atomic_path(path) as tmp:
+            las.write(str(tmp), laz_backend=None) if las_extension == ".las" else las.write(str(tmp))
         # the measured GPS/IMU at the trajectory rate, a second beyond the strip at both ends
         tn = np.arange(plan.t0 - 1.0, plan.t0 + plan.duration + 1.0, 1.0 / cfg.trajectory_rate_hz)
         pn, an = _true_trajectory(plan, cfg, tn, phase)
@@ -241,9 +240,9 @@ def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = 
         f"scan_rate_hz = {cfg.scan_rate_hz}\nrange_sigma_m = {cfg.range_sigma}\n"
         f"boresight_deg = {list(cfg.boresight_deg)}\nlever_arm_m = {list(cfg.lever_arm)}\n\n" + "\n".join(strips_toml)
     )
-    (out / "project.toml").write_text(project)
+    write_text(out / "project.toml", project)
     summary = {"config": asdict(cfg), "truth": asdict(truth), "buildings": scene.buildings.count}
-    (out / "truth.json").write_text(json.dumps(summary, indent=1))
+    write_text(out / "truth.json", json.dumps(summary, indent=1))
     return summary
 
 
@@ -284,6 +283,4 @@ def _write_ground(out: Path, scene: LaserScene, frame: MapFrame, cfg: LaserBlock
             rows.append(
                 f"{pid}.{j + 1},{pid},{X[0]:.4f},{Y[0]:.4f},{Z[0]:.4f},{cfg.control_sigma},{cfg.control_sigma},{role}"
             )
-    tmp = out / "ground.csv.part"
-    tmp.write_text("point,patch,x,y,z,sigma_xy,sigma_z,role\n" + "\n".join(rows) + "\n")
-    os.replace(tmp, out / "ground.csv")
+    write_text(out / "ground.csv", "point,patch,x,y,z,sigma_xy,sigma_z,role\n" + "\n".join(rows) + "\n")

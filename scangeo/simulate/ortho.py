@@ -5,12 +5,12 @@ the centres of the output grid's cells, so a rectified image can be compared cel
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 from affine import Affine
 
+from scangeo.atomic import atomic_path
 from scangeo.progress import no_progress
 from scangeo.simulate.scene import BANDS, N_BANDS, dn_to_uint16, to_dn
 from scangeo.simulate.terrain import Extent
@@ -32,12 +32,11 @@ def write_truth_ortho(path: Path, scene, extent: Extent, resolution_m: float, cr
     from rasterio.windows import Window
 
     transform, rows, cols = ortho_grid(extent, resolution_m)
-    tmp = path.with_name(path.stem + ".tmp.tif")
     profile = dict(driver="GTiff", width=cols, height=rows, count=N_BANDS, dtype="uint16", crs=crs,
                    transform=transform, tiled=True, blockxsize=256, blockysize=256, compress="deflate",
                    predictor=2, interleave="band")
     xs = transform.c + (np.arange(cols) + 0.5) * transform.a
-    with rasterio.open(tmp, "w", **profile) as dst:
+    with atomic_path(path) as tmp, rasterio.open(tmp, "w", **profile) as dst:
         for b, (name, lo, hi) in enumerate(BANDS, start=1):
             dst.set_band_description(b, f"{name} {lo}-{hi} um")
         for r0 in range(0, rows, rows_per_chunk):
@@ -47,4 +46,3 @@ def write_truth_ortho(path: Path, scene, extent: Extent, resolution_m: float, cr
             dn = dn_to_uint16(to_dn(scene.values(X.ravel(), Y.ravel())))
             dst.write(np.moveaxis(dn.reshape(r1 - r0, cols, N_BANDS), -1, 0), window=Window(0, r0, cols, r1 - r0))
             progress(r1, rows, "truth orthoimage")
-    os.replace(tmp, path)

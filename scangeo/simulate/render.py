@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from scangeo.atomic import atomic_files
 from scangeo.dtm import DTM
 from scangeo.progress import no_progress
 from scangeo.sensors import StripGeometry
@@ -60,8 +61,6 @@ def write_image(path: Path, image: np.ndarray, image_format: str = "GTiff") -> N
 
     path = Path(path)
     lines, pixels, bands = image.shape
-    staging = path.parent / f".{path.name}.partial"
-    staging.mkdir(parents=True, exist_ok=True)
     profile = dict(driver=image_format, width=pixels, height=lines, count=bands, dtype="uint16")
     if image_format == "GTiff":
         profile.update(tiled=True, blockxsize=256, blockysize=256, compress="deflate", predictor=2,
@@ -70,12 +69,9 @@ def write_image(path: Path, image: np.ndarray, image_format: str = "GTiff") -> N
         profile.update(interleave="bsq")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NotGeoreferencedWarning)
-        with rasterio.open(staging / path.name, "w", **profile) as dst:
+        with atomic_files(path) as staged, rasterio.open(staged, "w", **profile) as dst:
             dst.write(np.moveaxis(image, -1, 0))
             for b, (name, lo, hi) in enumerate(BANDS[:bands], start=1):
                 dst.set_band_description(b, f"{name} {lo}-{hi} um")
             dst.update_tags(kind="scanner image (lines x pixels)", gains="bands 1-10: reflectance*10000; "
                             "band 11: (brightness temperature K - 200)*100")
-    for written in staging.iterdir():
-        written.replace(path.parent / written.name)
-    staging.rmdir()

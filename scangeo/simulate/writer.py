@@ -11,36 +11,18 @@ kind, land cover), ``truth/measurements.csv`` (true and measured image coordinat
 """
 from __future__ import annotations
 
-import csv
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 
+from scangeo.atomic import atomic_path, write_csv, write_text
 from scangeo.grid import RasterGrid
 from scangeo.simulate.gpsimu_errors import StripErrors
 from scangeo.simulate.points import ROLE_OF_KIND, PointSet
 from scangeo.simulate.scene import BANDS
 
 CSV_FLOAT = "{:.4f}"
-
-
-def write_text(path: Path, text: str) -> None:
-    """Write a text file atomically (temporary name, then rename)."""
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
-
-
-def write_csv(path: Path, header: list[str], rows) -> None:
-    """Write a CSV file atomically."""
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(header)
-        w.writerows(rows)
-    os.replace(tmp, path)
 
 
 def write_raster(path: Path, grid: RasterGrid, dtype: str = "float32", nodata: float | None = -9999.0,
@@ -51,15 +33,14 @@ def write_raster(path: Path, grid: RasterGrid, dtype: str = "float32", nodata: f
     values = grid.values
     if nodata is not None:
         values = np.where(np.isfinite(values), values, nodata)
-    tmp = path.with_name(path.stem + ".tmp.tif")
     rows, cols = values.shape
-    with rasterio.open(tmp, "w", driver="GTiff", width=cols, height=rows, count=1, dtype=dtype,
-                       crs=grid.crs, transform=grid.transform, nodata=nodata, tiled=True,
-                       blockxsize=256, blockysize=256, compress="deflate") as dst:
+    profile = dict(driver="GTiff", width=cols, height=rows, count=1, dtype=dtype, crs=grid.crs,
+                   transform=grid.transform, nodata=nodata, tiled=True, blockxsize=256, blockysize=256,
+                   compress="deflate")
+    with atomic_path(path) as tmp, rasterio.open(tmp, "w", **profile) as dst:
         dst.write(values.astype(dtype), 1)
         if description:
             dst.set_band_description(1, description)
-    os.replace(tmp, path)
 
 
 def project_toml(*, crs: str, origin_deg: tuple[float, float, float], geoid_undulation_m: float, dtm_sigma_m: float,
@@ -167,11 +148,9 @@ def write_errors(path: Path, errors: StripErrors) -> None:
     header += ["total_x_m", "total_y_m", "total_z_m", "total_roll_deg", "total_pitch_deg", "total_heading_deg"]
     columns += [errors.position_total, np.degrees(errors.attitude_total)]
     data = np.hstack(columns)
-    tmp = path.with_name(path.name + ".tmp")
-    np.savetxt(
-        tmp, data, delimiter=",", header=",".join(header), comments="", fmt=["%.6f"] + ["%.6g"] * (data.shape[1] - 1)
-    )
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        np.savetxt(tmp, data, delimiter=",", header=",".join(header), comments="",
+                   fmt=["%.6f"] + ["%.6g"] * (data.shape[1] - 1))
 
 
 def write_json(path: Path, data: dict) -> None:

@@ -9,12 +9,12 @@ columns are ignored; a UTF-8 byte-order mark is allowed.
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pyproj
 
+from scangeo.atomic import atomic_path
 from scangeo.errors import TrajectoryError
 from scangeo.frames import parse_crs
 from scangeo.trajectory.stream import GpsImuStream, check_times
@@ -215,13 +215,12 @@ def write_trajectory_csv(path, stream: GpsImuStream) -> None:
             np.degrees(stream.heading),
         ]
     )
-    tmp = path.with_name(path.name + ".tmp")
-    np.savetxt(
-        tmp,
-        data,
-        delimiter=",",
-        header="time,lat,lon,h,roll,pitch,heading",
-        comments="",
-        fmt=["%.6f", "%.11f", "%.11f", "%.4f", "%.8f", "%.8f", "%.8f"],
-    )
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        np.savetxt(
+            tmp,
+            data,
+            delimiter=",",
+            header="time,lat,lon,h,roll,pitch,heading",
+            comments="",
+            fmt=["%.6f", "%.11f", "%.11f", "%.4f", "%.8f", "%.8f", "%.8f"],
+        )
