@@ -143,15 +143,6 @@ class DTM:
             self._local_maps[key] = LocalPolynomialMap.fit(exact, box_P)
         return self._local_maps[key]
 
-    def project_box(self, z_max: float) -> np.ndarray:
-        """(3, 2) bounds in P of the DTM's extent, from its lowest height - 100 m to z_max."""
-        xmin, ymin, xmax, ymax = self.grid.bounds()
-        xs = np.array([xmin, xmax, xmin, xmax, 0.5 * (xmin + xmax), 0.5 * (xmin + xmax), xmin, xmax])
-        ys = np.array([ymin, ymin, ymax, ymax, ymin, ymax, 0.5 * (ymin + ymax), 0.5 * (ymin + ymax)])
-        p = self.map_frame.map_to_project(xs, ys, np.full(8, self.h_min))
-        return np.array([[p[:, 0].min(), p[:, 0].max()], [p[:, 1].min(), p[:, 1].max()],
-                         [self.h_min - 300.0, z_max]])
-
     def block_max(self, block: int = 8) -> np.ndarray:
         """Highest height within each ``block`` x ``block`` cell block and its 8 neighbours (+inf
         where nodata is near): lets ray casting jump over terrain it cannot touch. Cached."""

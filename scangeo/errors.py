@@ -49,10 +49,6 @@ class SensorError(ScangeoError, ValueError):
     """A sensor model is configured inconsistently."""
 
 
-class ConvergenceError(ScangeoError, RuntimeError):
-    """An iterative computation did not converge."""
-
-
 class AdjustmentError(ScangeoError):
     """The adjustment cannot be set up or solved."""
 

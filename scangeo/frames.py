@@ -128,11 +128,6 @@ class ProjectFrame:
         """Rotation (..., 3, 3) from the navigation frame L (NED) at (lat, lon) (rad) into P."""
         return self.R_ecef_P.T @ R_ecef_ned(lat, lon)
 
-    def R_PL_at(self, p_P: np.ndarray) -> np.ndarray:
-        """``R_PL`` at project-frame points (..., 3)."""
-        lat, lon, _ = self.project_to_geodetic(p_P)
-        return self.R_PL(lat, lon)
-
     def to_dict(self) -> dict:
         return {"lat0_deg": float(np.degrees(self.lat0)), "lon0_deg": float(np.degrees(self.lon0)), "h0": self.h0}
 
@@ -233,8 +228,3 @@ class MapFrame:
         lat, lon, h = self.frame.project_to_geodetic(p_P)
         x, y = self.geodetic_to_map_2d(lat, lon)
         return x, y, h - self.geoid.undulation(lat, lon)
-
-    def R_PL_at_map(self, x, y) -> np.ndarray:
-        """``R_PL`` at map points."""
-        lat, lon = self.map_to_geodetic_2d(x, y)
-        return self.frame.R_PL(lat, lon)

@@ -103,10 +103,6 @@ class LocalPolynomialMap:
             _design((pts.reshape(-1, 3) - self.centre) / self.scale, self.exps).__matmul__(self.coef).reshape(pts.shape)
         )
 
-    def contains(self, pts: np.ndarray) -> np.ndarray:
-        pts = np.asarray(pts, dtype=float)
-        return np.all((pts >= self.box[:, 0]) & (pts <= self.box[:, 1]), axis=-1)
-
 
 def _design(u: np.ndarray, exps: np.ndarray) -> np.ndarray:
     deg = int(exps.max())

@@ -28,7 +28,6 @@ from scangeo.simulate.config import load_preset
     (errors.RectifyOptionsError, (ValueError,)),
     (errors.GeometryError, (ValueError,)),
     (errors.MissingDependencyError, (ImportError,)),
-    (errors.ConvergenceError, (RuntimeError,)),
 ])
 def test_hierarchy(cls, builtins):
     err = cls("some.file [key]: expected x, found y")

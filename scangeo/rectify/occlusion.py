@@ -37,16 +37,6 @@ def finite_difference(a: np.ndarray, axis: int) -> np.ndarray:
     return np.where(both, 0.5 * (fwd + bwd), np.where(np.isfinite(fwd), fwd, bwd))
 
 
-def smaller_step(a: np.ndarray, axis: int) -> np.ndarray:
-    """The smaller of |forward| and |backward| difference along ``axis``; NaN when neither exists.
-
-    Across a discontinuity (a cliff edge) this is the step on the cell's own side.
-    """
-    fwd = np.abs(_shifted_difference(np.asarray(a, float), 1, axis))
-    bwd = np.abs(_shifted_difference(np.asarray(a, float), -1, axis))
-    return np.fmin(fwd, bwd)
-
-
 def image_jacobian(line: np.ndarray, pixel: np.ndarray) -> tuple[np.ndarray, ...]:
     """d(line, pixel)/d(row, col) per cell: (dl_dr, dl_dc, dp_dr, dp_dc)."""
     return (
@@ -64,7 +54,7 @@ def _abs_or_inf(d):
 
 @numba.njit(parallel=True, cache=True)
 def _step_sum(a, out):
-    """Per cell: the smaller one-sided step along rows plus that along columns (``smaller_step``),
+    """Per cell: the smaller one-sided step along rows plus that along columns,
     a missing or non-finite step counting 0."""
     R, C = a.shape
     for i in numba.prange(R):

@@ -97,11 +97,6 @@ def _fbm_array(x, y, wavelength_m, seed, octaves, gain, out):
         out[i] = fbm_at(x[i], y[i], wavelength_m, seed, octaves, gain)
 
 
-def value_noise(x: np.ndarray, y: np.ndarray, wavelength_m: float, seed: int) -> np.ndarray:
-    """Lattice noise (``noise_at``) at arrays of map points."""
-    return fbm(x, y, wavelength_m, seed, octaves=1)
-
-
 def fbm(x: np.ndarray, y: np.ndarray, wavelength_m: float, seed: int, octaves: int = 4,
         gain: float = 0.5) -> np.ndarray:
     """Fractal noise (``fbm_at``) at arrays of map points."""
