@@ -1,5 +1,8 @@
 """Small simulated projects built once per test session (registered in tests/conftest.py).
 
+``problem_small`` (a three-strip block with a problem strip) and ``compared_small`` (it compared with
+the default variants and reported) serve the diagnosis, strategy and report tests.
+
 ``small_block``: the ``small`` preset cut to 2 strips x 200 lines x 100 pixels, no rendered images
 (3 s instead of a minute); each strip gets an 11-band uint8 image of a fixed pattern so that the
 commands that read images (rectify) run. Tests copy it (``copy_project``) before changing anything.
@@ -66,8 +69,8 @@ TWO_VARIANTS = '[variants.DG]\nstrategy = "DG"\nsnooping = false\n\n[variants.SE
 @pytest.fixture(scope="session")
 def compared_block(tmp_path_factory, small_block) -> Path:
     """A copy of ``small_block`` compared with DG and SE (results/, no report): read-only."""
-    from scangeo.reports.comparison import compare_project
     from scangeo.reports.tables import write_comparison
+    from scangeo.strategy.comparison import compare_project
 
     root = copy_project(small_block, tmp_path_factory.mktemp("session") / "compared", truth=True)
     (root / "variants.toml").write_text(TWO_VARIANTS, encoding="utf-8")
@@ -88,3 +91,45 @@ def laser_block(tmp_path_factory) -> Path:
     sets = [a for k, v in LASER_BLOCK.items() for a in ("--set", f"laser.{k}={str(v).lower()}")]
     assert main(["simulate", str(root), "--preset", "laser", *sets, "--no-progress"]) == 0
     return root
+
+
+#: The ``small`` preset without images and with three strips, the middle one made a problem strip:
+#: height excursions of +-20 m with kinks at two break lines (the pattern of vienna2000 on 600 lines),
+#: 40 tie points per overlap (the diagnosis finds the problem strip from them: a strip with one
+#: neighbour only cannot be told from it, hence three strips).
+PROBLEM_SMALL = {
+    "output": {"images": False, "truth_ortho": False},
+    "flight": {"strips": 3},
+    "gpsimu_errors": {"problem_strip": 2, "breaks_lines": [200.0, 400.0], "strip": [{
+        "strip": 2, "shift_m": [1.0, 3.0], "excursion_lines": [0.0, 200.0, 400.0, 599.0],
+        "excursion_x_m": [0.0, 3.0, -3.0, 1.0], "excursion_z_m": [4.0, 20.0, -20.0, -4.0]}]},
+    "points": {"break_points_per_band_per_strip": 3, "break_band_lines": 60.0, "tie_per_overlap": 40},
+}
+
+
+@pytest.fixture(scope="session")
+def problem_small(tmp_path_factory):
+    """The simulated project folder (no results yet; tests copy it before writing into it)."""
+    from scangeo.simulate.block import simulate
+    from scangeo.simulate.config import load_preset
+
+    root = tmp_path_factory.mktemp("reports") / "small"
+    simulate(root, load_preset("small", PROBLEM_SMALL))
+    return root
+
+
+@pytest.fixture(scope="session")
+def compared_small(tmp_path_factory, problem_small):
+    """A copy of ``problem_small`` compared with the default variants and reported.
+
+    Returns (root, comparison, report files).
+    """
+    from scangeo.reports.report import write_report
+    from scangeo.reports.tables import write_comparison
+    from scangeo.strategy.comparison import compare_project
+
+    root = tmp_path_factory.mktemp("compared") / "small"
+    shutil.copytree(problem_small, root)
+    comparison = compare_project(root, folds=2)
+    write_comparison(comparison)
+    return root, comparison, write_report(root)

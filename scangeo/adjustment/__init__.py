@@ -1,33 +1,9 @@
-"""The least-squares adjustment engine: keyed unknowns, observation groups, solver, statistics.
+"""The line-scanner block: observation groups of scanner images, GPS/IMU samples, ground points and
+DTM heights on the least-squares engine (:mod:`scangeo.lsq`), the block's set-up from a project and a
+variant (:mod:`scangeo.adjustment.block`), one variant adjusted (:mod:`scangeo.adjustment.results`)
+and written (:mod:`scangeo.adjustment.outputs`), reliability and planning, and the drift diagnosis
+(:mod:`scangeo.adjustment.diagnosis`).
 
-Typical use::
-
-    params = Parameters()
-    params.add(Ground("P1"), [0.0, 0.0, 0.0])
-    result = adjust(params, [my_group], SolverOptions(), SnoopingOptions(critical_value=3.29))
-    result.statistics.sigma0, result.statistics.sigmas(Ground("P1"))
+Its keys are in :mod:`scangeo.adjustment.keys`; the orientation file and the GPS/IMU correction
+models one layer below, in :mod:`scangeo.orientation`.
 """
-from scangeo.adjustment.engine import Adjustment, Rejection, SnoopingOptions, adjust
-from scangeo.adjustment.keys import (
-                                     Boresight,
-                                     Correction,
-                                     Ground,
-                                     Key,
-                                     Knots,
-                                     LeverArm,
-                                     ScanIndex,
-                                     ScanScale,
-                                     TimeOffset,
-                                     Unknown,
-)
-from scangeo.adjustment.observations import Linearisation, ObservationGroup, PseudoObservations
-from scangeo.adjustment.parameters import JacobianPart, Layout, ParameterBlock, Parameters
-from scangeo.adjustment.solver import RegularisationNote, Solution, Solver, SolverOptions
-from scangeo.adjustment.statistics import Accounting, Coefficient, Statistics
-
-__all__ = [
-    "Accounting", "Adjustment", "Boresight", "Coefficient", "Correction", "Ground", "JacobianPart", "Key",
-    "Knots", "Layout", "LeverArm", "Linearisation", "ObservationGroup", "ParameterBlock", "Parameters",
-    "PseudoObservations", "RegularisationNote", "Rejection", "ScanIndex", "ScanScale", "SnoopingOptions",
-    "Solution", "Solver", "SolverOptions", "Statistics", "TimeOffset", "Unknown", "adjust",
-]

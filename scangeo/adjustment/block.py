@@ -17,14 +17,14 @@ from scangeo.adjustment.gpsimu import GpsImuSamples
 from scangeo.adjustment.ground import DtmHeights, GroundControl
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
-from scangeo.adjustment.models import GpsImuModel, ModelSet
-from scangeo.adjustment.observations import ObservationGroup
-from scangeo.adjustment.parameters import Parameters
 from scangeo.adjustment.variants import Variant
 from scangeo.errors import AdjustmentError
 from scangeo.io.point_checks import check_points
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
+from scangeo.lsq.observations import ObservationGroup
+from scangeo.lsq.parameters import Parameters
+from scangeo.orientation.models import GpsImuModel, ModelSet
 from scangeo.sensors.models import Whiskbroom
 from scangeo.sensors.strip import StripGeometry
 from scangeo.trajectory.spline import COMPONENTS, OrientationSpline

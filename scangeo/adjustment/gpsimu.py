@@ -6,7 +6,7 @@ point in P, metres; roll, pitch, heading w.r.t. the project NED frame, radians) 
     gpsimu(t_k) = s(t_k) - c_m(t_k) + v
 
 with ``s`` the spline (``Knots(strip)``) and ``c_m`` the correction function of the serving model
-(``Correction(model)``, see ``scangeo.adjustment.models``). The group is linear: its Jacobian is built once.
+(``Correction(model)``, see ``scangeo.orientation.models``). The group is linear: its Jacobian is built once.
 Rows are epoch-major: ``x, y, z, roll, pitch, heading`` of epoch 0, then epoch 1, ...
 """
 from __future__ import annotations
@@ -15,9 +15,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from scangeo.adjustment.keys import Knots
-from scangeo.adjustment.models import ModelSet
-from scangeo.adjustment.observations import Linearisation, ObservationGroup
-from scangeo.adjustment.parameters import JacobianPart
+from scangeo.lsq.observations import Linearisation, ObservationGroup
+from scangeo.lsq.parameters import JacobianPart
+from scangeo.orientation.models import ModelSet
 from scangeo.trajectory.spline import COMPONENTS, OrientationSpline
 
 UNITS = ("m", "m", "m", "rad", "rad", "rad")

@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from scangeo.adjustment.keys import Ground
-from scangeo.adjustment.observations import Linearisation, ObservationGroup
-from scangeo.adjustment.parameters import JacobianPart
 from scangeo.frames import MapFrame
+from scangeo.lsq.observations import Linearisation, ObservationGroup
+from scangeo.lsq.parameters import JacobianPart
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 

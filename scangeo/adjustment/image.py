@@ -23,10 +23,10 @@ from __future__ import annotations
 import numpy as np
 
 from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, TimeOffset
-from scangeo.adjustment.observations import Linearisation, ObservationGroup
-from scangeo.adjustment.parameters import JacobianPart
 from scangeo.adjustment.scanplane import scan_plane
 from scangeo.errors import AdjustmentError
+from scangeo.lsq.observations import Linearisation, ObservationGroup
+from scangeo.lsq.parameters import JacobianPart
 from scangeo.rotation import R_ENU_NED, rph_to_matrix_with_derivatives
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.timing import LineTiming

@@ -1,26 +1,14 @@
-"""Typed keys of the unknowns: one small frozen dataclass per kind of parameter block.
+"""Typed keys of the line-scanner block's unknowns: one small frozen dataclass per kind of parameter block.
 
 A key names a block of unknowns (``Knots("12")`` are the spline knot values of strip 12,
-``Ground("P17")`` the coordinates of ground point P17). Keys are hashable values, compared by kind
-and fields; never build them from f-strings. ``key.label`` gives a readable name for reports.
+``Ground("P17")`` the coordinates of ground point P17). The base class :class:`~scangeo.lsq.keys.Key`
+is the engine's; ``Correction(model)`` lives with the GPS/IMU models in :mod:`scangeo.orientation.models`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
-
-@dataclass(frozen=True, slots=True)
-class Key:
-    """Base of every key. Subclasses are frozen dataclasses whose fields identify the block."""
-
-    @property
-    def label(self) -> str:
-        """``Kind(field=value, ...)`` or ``Kind()`` for singletons, for reports and messages."""
-        args = ", ".join(f"{f.name}={getattr(self, f.name)}" for f in fields(self))
-        return f"{type(self).__name__}({args})"
-
-    def __str__(self) -> str:
-        return self.label
+from scangeo.lsq.keys import Key
 
 
 @dataclass(frozen=True, slots=True)
@@ -28,13 +16,6 @@ class Knots(Key):
     """Knot values of the orientation spline of one strip (``n_knots x 6``: x, y, z, roll, pitch, heading)."""
 
     strip: str
-
-
-@dataclass(frozen=True, slots=True)
-class Correction(Key):
-    """Coefficients of the correction function of one GPS/IMU model (see ``scangeo.adjustment.models``)."""
-
-    model: str
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,13 +48,6 @@ class ScanIndex(Key):
 @dataclass(frozen=True, slots=True)
 class ScanScale(Key):
     """Whiskbroom scan-angle scale error (dimensionless, relative)."""
-
-
-@dataclass(frozen=True, slots=True)
-class Unknown(Key):
-    """A generic named block, for problems outside the photogrammetric model (tests, laser strips)."""
-
-    name: str
 
 
 @dataclass(frozen=True, slots=True)

@@ -3,7 +3,7 @@
 - ``trajectory_<strip>.csv``: the adjusted orientation of the navigation reference point at the
   GPS/IMU sample times, ``time,lat,lon,h,roll,pitch,heading`` (degrees; as the input trajectories);
 - ``orientation.json``: the adjusted orientation, machine-readable (splines, GPS/IMU corrections,
-  mounting, scanner calibration, project frame; SI units; ``scangeo.adjustment.orientation``,
+  mounting, scanner calibration, project frame; SI units; ``scangeo.orientation.file``,
   docs/formats.md). Everything that rebuilds the variant's geometry reads this file;
 - ``residuals.csv``: every observation row with its residual, w-test, redundancy number and flag;
 - ``report.json``: sigma0, accounting, iterations, rms per strip, coefficients, notes;
@@ -21,14 +21,14 @@ import os
 import shutil
 from pathlib import Path
 
-from scangeo.adjustment.factor import available_backends
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex, ScanScale, TimeOffset
-from scangeo.adjustment.orientation import FILE_NAME as ORIENTATION_FILE
-from scangeo.adjustment.orientation import write_orientation
 from scangeo.adjustment.reliability_summary import COLUMNS as RELIABILITY_COLUMNS
 from scangeo.adjustment.reliability_summary import check_columns, row_columns, variant_reliability, write_reliability
 from scangeo.adjustment.results import VariantResult
+from scangeo.lsq.factor import available_backends
+from scangeo.orientation.file import FILE_NAME as ORIENTATION_FILE
+from scangeo.orientation.file import write_orientation
 from scangeo.trajectory.readers import write_trajectory_csv
 from scangeo.trajectory.stream import GpsImuStream, ProjectTrajectory
 

@@ -20,14 +20,14 @@ from pathlib import Path
 import numpy as np
 
 from scangeo.adjustment.block import build_block
-from scangeo.adjustment.engine import SnoopingOptions, adjust
 from scangeo.adjustment.reliability_summary import VariantReliability, variant_reliability
 from scangeo.adjustment.results import CheckResiduals, VariantResult
-from scangeo.adjustment.solver import SolverOptions
 from scangeo.adjustment.variants import Variant, find_variant
 from scangeo.errors import AdjustmentError
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
+from scangeo.lsq.engine import SnoopingOptions, adjust
+from scangeo.lsq.solver import SolverOptions
 from scangeo.progress import ProgressCallback, no_progress
 
 #: Probe grid of the planning maps (lines x pixels per strip): denser than for an adjusted variant.

@@ -1,6 +1,6 @@
 """Reliability of an adjusted variant: per observation, per point and per strip and kind of point.
 
-:func:`variant_reliability` computes the figures of :mod:`scangeo.adjustment.reliability` for a
+:func:`variant_reliability` computes the figures of :mod:`scangeo.lsq.reliability` for a
 :class:`~scangeo.adjustment.results.VariantResult`, with the strips' ground positions probed on a
 grid of image positions (:func:`strip_probes`), and gives every observation row a **status**:
 
@@ -33,10 +33,10 @@ import scipy.sparse as sp
 
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Ground
-from scangeo.adjustment.parameters import Layout
-from scangeo.adjustment.reliability import OrientationProbe, Reliability, compute_reliability, delta0
 from scangeo.adjustment.results import VariantResult
-from scangeo.adjustment.statistics import MIN_REDUNDANCY
+from scangeo.lsq.parameters import Layout
+from scangeo.lsq.reliability import OrientationProbe, Reliability, compute_reliability, delta0
+from scangeo.lsq.statistics import MIN_REDUNDANCY
 
 #: Per strip, the probe grid of image positions: lines x pixels.
 PROBE_GRID = (9, 5)
@@ -140,7 +140,7 @@ def variant_reliability(result: VariantResult, external: bool = True,
         return cached
     adj = result.adjustment
     probes = strip_probes(result, grid) if external else []
-    rel = compute_reliability(adj.solution, adj.statistics, probes, external=external)
+    rel = compute_reliability(adj.solution, adj.statistics, probes, external=external, point_key=Ground)
     out = VariantReliability(result, rel, _statuses(result, rel), _kinds(result, adj.solution.groups), probes, grid)
     if external and grid == PROBE_GRID:
         result.__dict__["_reliability"] = out

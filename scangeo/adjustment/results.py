@@ -13,14 +13,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from scangeo.adjustment.block import Block, build_block
-from scangeo.adjustment.engine import Adjustment, SnoopingOptions, adjust
 from scangeo.adjustment.image import ImageObservations
-from scangeo.adjustment.keys import Boresight, Key, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
-from scangeo.adjustment.orientation import DIRECT, Orientation, StripOrientation, map_reference
-from scangeo.adjustment.solver import SolverOptions
+from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
 from scangeo.adjustment.variants import Variant, find_variant
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
+from scangeo.lsq.engine import Adjustment, SnoopingOptions, adjust
+from scangeo.lsq.keys import Key
+from scangeo.lsq.solver import SolverOptions
+from scangeo.orientation.file import DIRECT, Orientation, StripOrientation, map_reference
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.sensors.models import Whiskbroom
 from scangeo.sensors.strip import Mounting, StripGeometry
@@ -188,6 +189,7 @@ def run_variant(project_root, variant: str | Variant, variants_file=None,
             method=v.snooping_method,
         ),
         callback,
+        point_key=Ground,
     )
     result = VariantResult(block, adj, CheckResiduals(*(np.zeros(0),) * 5), 0.0, list(block.notes))
     result.checks = evaluate_checks(block, result.geometry)

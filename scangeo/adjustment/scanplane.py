@@ -23,7 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from scangeo.adjustment.keys import Key, ScanIndex, ScanScale
+from scangeo.adjustment.keys import ScanIndex, ScanScale
+from scangeo.lsq.keys import Key
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 
 

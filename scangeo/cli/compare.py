@@ -1,6 +1,6 @@
 """``scangeo compare PROJECT``: every strategy of a variants file, the comparison table and the report.
 
-A thin shell over :func:`scangeo.reports.comparison.compare_project`,
+A thin shell over :func:`scangeo.strategy.comparison.compare_project`,
 :func:`scangeo.reports.tables.write_comparison` and :func:`scangeo.reports.report.write_report`.
 """
 from __future__ import annotations
@@ -34,9 +34,9 @@ def add_parser(subparsers, common) -> None:
 
 def run(args) -> int:
     from scangeo.cli import progress_of
-    from scangeo.reports.comparison import compare_project
     from scangeo.reports.report import write_report
     from scangeo.reports.tables import markdown_tables, text_table, write_comparison
+    from scangeo.strategy.comparison import compare_project
 
     progress = progress_of(args)
     comparison = compare_project(args.project, args.variants, reference=args.reference, names=args.only,

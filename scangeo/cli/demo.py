@@ -1,6 +1,6 @@
 """``scangeo demo [OUT]``: simulate the reference block, compare all strategies, rectify, report.
 
-A thin shell over :func:`scangeo.reports.demo.run_demo` (docs/reports.md).
+A thin shell over :func:`scangeo.pipeline.demo.run_demo` (docs/reports.md).
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ def add_parser(subparsers, common) -> None:
 
 def run(args) -> int:
     from scangeo.cli import progress_of
-    from scangeo.reports.demo import run_demo
+    from scangeo.pipeline.demo import run_demo
     from scangeo.reports.tables import markdown_tables, text_table
 
     preset = "quick" if args.quick else args.preset

@@ -1,8 +1,8 @@
 """``scangeo diagnose PROJECT``: problem strips and their breaks from an SE adjustment, and variants for them.
 
-A thin shell over :func:`scangeo.adjustment.diagnosis.diagnose`,
-:func:`scangeo.adjustment.diagnosis_output.write_diagnosis` and
-:func:`scangeo.reports.default_variants.write_variants_file`.
+A thin shell over :func:`scangeo.adjustment.diagnosis.diagnose.diagnose`,
+:func:`scangeo.adjustment.diagnosis.output.write_diagnosis` and
+:func:`scangeo.strategy.default_variants.write_variants_file`.
 """
 from __future__ import annotations
 
@@ -34,13 +34,13 @@ def add_parser(subparsers, common) -> None:
 def run(args) -> int:
     from pathlib import Path
 
-    from scangeo.adjustment.diagnosis import diagnose
-    from scangeo.adjustment.diagnosis_output import summary_lines, write_diagnosis
-    from scangeo.adjustment.diagnosis_patterns import SelectionOptions
-    from scangeo.adjustment.diagnosis_refine import DEFAULT_REFINE
+    from scangeo.adjustment.diagnosis.diagnose import diagnose
+    from scangeo.adjustment.diagnosis.output import summary_lines, write_diagnosis
+    from scangeo.adjustment.diagnosis.patterns import SelectionOptions
+    from scangeo.adjustment.diagnosis.refine import DEFAULT_REFINE
     from scangeo.cli import progress_of
     from scangeo.errors import ProjectFileError
-    from scangeo.reports.default_variants import ProblemStrip, write_variants_file
+    from scangeo.strategy.default_variants import ProblemStrip, write_variants_file
 
     if args.max_breaks < 0:
         raise ProjectFileError(f"--max-breaks: expected 0 or more, found {args.max_breaks}")

@@ -33,9 +33,9 @@ def add_parser(subparsers, common: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from scangeo.adjustment.orientation import FILE_NAME, load_adjusted_geometry, results_folder
     from scangeo.io.project import Project
     from scangeo.locate import locate_ground_file, locate_image_file
+    from scangeo.orientation.file import FILE_NAME, load_adjusted_geometry, results_folder
 
     project = Project.load(args.project)
     project.strip(args.strip)  # an unknown strip is named before any orientation is read

@@ -25,12 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scangeo.adjustment.engine import Adjustment, SnoopingOptions, adjust
 from scangeo.adjustment.keys import Boresight, LeverArm, RangeOffset, ScanIndex
-from scangeo.adjustment.models import GpsImuModel, ModelSet
-from scangeo.adjustment.observations import ObservationGroup
-from scangeo.adjustment.parameters import Parameters
-from scangeo.adjustment.solver import SolverOptions
 from scangeo.errors import LidarError, ProjectFileError
 from scangeo.io.points import column_floats, read_rows
 from scangeo.io.schema import read, setting
@@ -47,6 +42,11 @@ from scangeo.lidar.patches import (
 )
 from scangeo.lidar.planes import Planes, anchors
 from scangeo.lidar.project import LaserProject, LaserStrip
+from scangeo.lsq.engine import Adjustment, SnoopingOptions, adjust
+from scangeo.lsq.observations import ObservationGroup
+from scangeo.lsq.parameters import Parameters
+from scangeo.lsq.solver import SolverOptions
+from scangeo.orientation.models import GpsImuModel, ModelSet
 from scangeo.progress import ProgressCallback, no_progress
 
 log = logging.getLogger(__name__)

@@ -20,11 +20,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scangeo.adjustment.keys import Boresight, Key, LeverArm, Plane, RangeOffset, ScanIndex
-from scangeo.adjustment.models import ModelSet
-from scangeo.adjustment.observations import Linearisation, ObservationGroup
-from scangeo.adjustment.parameters import JacobianPart
+from scangeo.adjustment.keys import Boresight, LeverArm, Plane, RangeOffset, ScanIndex
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, derivatives, georeference
+from scangeo.lsq.keys import Key
+from scangeo.lsq.observations import Linearisation, ObservationGroup
+from scangeo.lsq.parameters import JacobianPart
+from scangeo.orientation.models import ModelSet
 
 CALIBRATION_KEYS = (Boresight(), LeverArm(), RangeOffset(), ScanIndex())
 

@@ -14,12 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from scangeo.adjustment.engine import Adjustment
-from scangeo.adjustment.keys import Boresight, Correction, LeverArm, RangeOffset, ScanIndex
+from scangeo.adjustment.keys import Boresight, LeverArm, RangeOffset, ScanIndex
 from scangeo.lidar.adjust import LaserBlock, anchor_points, corrector, map_unit, read_cloud
 from scangeo.lidar.differences import Differences, common_rows, strip_differences
 from scangeo.lidar.lasio import StripCloud, write_corrected
 from scangeo.lidar.patches import StripPatches, find_strip_patches
+from scangeo.lsq.engine import Adjustment
+from scangeo.orientation.models import Correction
 from scangeo.progress import ProgressCallback, no_progress
 
 

@@ -17,10 +17,10 @@ import cv2
 import numpy as np
 import rasterio
 
-from scangeo.adjustment.orientation import load_orientation
 from scangeo.errors import InputFileError, ProjectFileError
 from scangeo.io.project import Project
 from scangeo.match.options import DEFAULT_BAND_RANGE_NM, MatchOptions
+from scangeo.orientation.file import load_orientation
 from scangeo.rectify.core_geometry import CoreStripGeometry
 
 log = logging.getLogger(__name__)

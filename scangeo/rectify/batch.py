@@ -31,9 +31,9 @@ import rasterio
 from rasterio.windows import Window
 
 from scangeo import __version__
-from scangeo.adjustment.orientation import Orientation, load_orientation, results_folder
 from scangeo.errors import MissingDependencyError, ProjectFileError
 from scangeo.io.project import Project
+from scangeo.orientation.file import Orientation, load_orientation, results_folder
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify.core_geometry import CoreStripGeometry
 from scangeo.rectify.geolocation import write_igm

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scangeo.adjustment.orientation import FILE_NAME, Orientation, load_orientation, read_orientation
 from scangeo.io.project import Project
+from scangeo.orientation.file import FILE_NAME, Orientation, load_orientation, read_orientation
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from scangeo.adjustment.keys import Boresight, Correction, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.orientation.models import Correction
 
 _CALIBRATION = (Boresight(), LeverArm(), TimeOffset(), ScanIndex(), ScanScale())
 _KIND = {"x": "shift in x", "y": "shift in y", "z": "height shift", "roll": "roll", "pitch": "pitch",

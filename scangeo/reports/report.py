@@ -29,19 +29,19 @@ from pathlib import Path
 import numpy as np
 
 from scangeo import __version__
-from scangeo.adjustment.orientation import FILE_NAME as ORIENTATION_FILE
-from scangeo.adjustment.orientation import read_orientation
 from scangeo.io.project import Project
 from scangeo.match.figure import match_section
+from scangeo.orientation.file import FILE_NAME as ORIENTATION_FILE
+from scangeo.orientation.file import read_orientation
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.reports import figures, html
-from scangeo.reports.comparison import Comparison
 from scangeo.reports.corrections import breaks_of, correction_series, gpsimu_series, problem_strips, true_gps_error
 from scangeo.reports.diagnosis_section import diagnosis_section
 from scangeo.reports.geopackage import write_geopackage
 from scangeo.reports.reliability import reliability_section
 from scangeo.reports.residual_vectors import ResidualVectors, check_vectors
 from scangeo.reports.tables import markdown_tables, read_comparison
+from scangeo.strategy.comparison import Comparison
 
 
 @dataclass(frozen=True)

@@ -104,7 +104,7 @@ def check_vectors(project: Project, variant: str, geometry_of=None) -> ResidualV
     """The check-point residual vectors of ``variant`` (its results in PROJECT/results/NAME).
 
     ``geometry_of(strip_id)`` gives the variant's adjusted strip geometry (default: from the
-    results folder's ``orientation.json``, :func:`scangeo.adjustment.orientation.load_orientation`).
+    results folder's ``orientation.json``, :func:`scangeo.orientation.file.load_orientation`).
     """
     folder = project.root / "results" / variant
     rows = read_check_rows(folder / "residuals.csv")
@@ -124,7 +124,7 @@ def check_vectors(project: Project, variant: str, geometry_of=None) -> ResidualV
     strip = np.array([k[1] for k in keys], dtype=object)
     dx, dy = np.full(n, np.nan), np.full(n, np.nan)
     if geometry_of is None:
-        from scangeo.adjustment.orientation import load_orientation
+        from scangeo.orientation.file import load_orientation
 
         geometry_of = load_orientation(project, variant).geometry
     for sid in dict.fromkeys(strip):

@@ -18,8 +18,7 @@ from scangeo.simulate.block import simulate
 from scangeo.simulate.config import load_preset
 from scangeo.trajectory.readers import read_trajectory
 from scangeo.trajectory.spline import OrientationSpline
-
-from .backends import require_cholmod
+from tests.lsq.backends import require_cholmod
 
 NO_IMAGES = {"output": {"images": False, "truth_ortho": False}}
 #: GPS/IMU errors a degree-0 model describes exactly: per-strip position shifts only.

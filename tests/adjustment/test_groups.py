@@ -4,11 +4,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scangeo.adjustment import Boresight, Correction, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
-from scangeo.adjustment.checks import check_jacobian
 from scangeo.adjustment.gpsimu import GpsImuSamples
 from scangeo.adjustment.image import ImageObservations
-from scangeo.adjustment.models import GpsImuModel, ModelSet
+from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.lsq.checks import check_jacobian
+from scangeo.orientation.models import Correction, GpsImuModel, ModelSet
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.sensors.strip import Mounting, StripGeometry
 from scangeo.timing import LineTiming

@@ -11,25 +11,17 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from scangeo.adjustment import (
-    Ground,
-    JacobianPart,
-    Linearisation,
-    ObservationGroup,
-    Parameters,
-    SnoopingOptions,
-    Unknown,
-    adjust,
-)
+from scangeo.adjustment.keys import Ground
 from scangeo.adjustment.outputs import write_results
-from scangeo.adjustment.reliability import blunder_effect, compute_reliability, delta0
 from scangeo.adjustment.reliability_summary import strip_probes, variant_reliability
 from scangeo.adjustment.results import run_variant
 from scangeo.adjustment.variants import Variant
 from scangeo.io.project import Project
+from scangeo.lsq import JacobianPart, Linearisation, ObservationGroup, Parameters, SnoopingOptions, Unknown, adjust
+from scangeo.lsq.reliability import blunder_effect, compute_reliability, delta0
 from scangeo.reports.reliability import reliability_section
+from tests.lsq.problems import HeightDifferences
 
-from .problems import HeightDifferences
 from .test_block import SHIFT_ONLY, _simulate
 
 NO_SNOOPING = SnoopingOptions(enabled=False)
@@ -111,7 +103,8 @@ def test_single_ray_with_control_closed_forms():
     params.add(Ground("C"), [10.0, 20.0, 30.0])
     groups = [DirectCoordinates("C", [10.0, 20.0, 30.0], [sc, sc, 0.08]), VerticalRay("C", [10.0, 20.0], sg)]
     result = adjust(params, groups, snooping=NO_SNOOPING)
-    rel = compute_reliability(result.solution, result.statistics)
+    rel = compute_reliability(result.solution, result.statistics, point_key=Ground)
+    assert np.isnan(compute_reliability(result.solution, result.statistics).ext_point_m[1]).all()  # no hook: no point
     q = sc ** 2 + sg ** 2   # two direct measurements of x (and of y): r_i = sigma_i^2 / q
     np.testing.assert_allclose(rel.redundancy[0][:2], sc ** 2 / q, rtol=1e-9)
     np.testing.assert_allclose(rel.redundancy[1], sg ** 2 / q, rtol=1e-9)
@@ -137,10 +130,13 @@ def test_single_ray_with_control_blunder_is_not_separable():
         ray = VerticalRay(p, np.array(xyz[:2]) + (0.4 if p == "C2" else 0.0), 0.1)   # blunder 0.4 m in C2's x
         ray.name = f"ray {p}"
         groups.append(ray)
-    result = adjust(params, groups, snooping=SnoopingOptions())
+    result = adjust(params, groups, snooping=SnoopingOptions(), point_key=Ground)
     assert len(result.rejections) == 1
     rej = result.rejections[0]
     assert rej.id == "C2" and not rej.separable and "not separable" in rej.note
+    # the point left without measurements is regularised, and the note says why (the point_key hook)
+    notes = {n.key: n.reason for n in result.solution.regularisation}
+    assert "every measurement of the point removed" in notes[Ground("C2")]
     # the whole point is out: its ray and its control coordinates
     for g, act in zip(result.solution.groups, result.solution.active):
         if g.kind == "observation":

@@ -1,7 +1,7 @@
 """Issue 12's acceptance figures per seed: the diagnosis and the recommendation on vienna2000 (docs/adjustment.md).
 
 Not collected by pytest. For every seed: simulate vienna2000 (``--factor`` of its length, every line-based
-key scaled as in tests/reports/test_physics.py; 1 = the preset as it is) without images, run ``compare``
+key scaled as in tests/strategy/test_physics.py; 1 = the preset as it is) without images, run ``compare``
 without a variants file (the diagnosis finds the problem strips and breaks; 2-fold cross-validation
 recommends a variant; results/comparison.* written as ``scangeo compare`` does), and print one row: the
 problem strips found, every injected break with the nearest
@@ -31,11 +31,11 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "reports"))
 from test_physics import CORRECTED, pooled_true, reduced_overrides  # noqa: E402
 
-from scangeo.adjustment.diagnosis import diagnose  # noqa: E402
-from scangeo.reports.comparison import Comparison, compare_project  # noqa: E402
+from scangeo.adjustment.diagnosis.diagnose import diagnose  # noqa: E402
 from scangeo.reports.tables import write_comparison  # noqa: E402
 from scangeo.simulate.block import simulate  # noqa: E402
 from scangeo.simulate.config import load_preset  # noqa: E402
+from scangeo.strategy.comparison import Comparison, compare_project  # noqa: E402
 
 
 def simulate_vienna(root: Path, seed: int, factor: float, ties: int | None) -> None:

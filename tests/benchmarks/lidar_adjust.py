@@ -26,7 +26,7 @@ from scangeo.simulate.laser import LaserBlockConfig, simulate_laser
 def main() -> None:
     import logging
 
-    logging.getLogger("scangeo.adjustment.solver").setLevel(logging.ERROR)
+    logging.getLogger("scangeo.lsq.solver").setLevel(logging.ERROR)
     ap = argparse.ArgumentParser()
     ap.add_argument("--strips", type=int, default=9, help="parallel strips (plus one cross strip)")
     ap.add_argument("--pulse-rate", type=float, default=100000.0)

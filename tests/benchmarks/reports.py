@@ -40,10 +40,10 @@ def main() -> None:
     cache.mkdir(parents=True, exist_ok=True)
     root = prepared(cache)
 
-    from scangeo.reports.comparison import compare_project
-    from scangeo.reports.default_variants import ensure_variants_file
     from scangeo.reports.report import write_report
     from scangeo.reports.tables import write_comparison
+    from scangeo.strategy.comparison import compare_project
+    from scangeo.strategy.default_variants import ensure_variants_file
 
     t = time.perf_counter()
     variants_file = ensure_variants_file(root)  # no variants.toml yet: scangeo diagnose (an SE adjustment + the fit)
@@ -61,7 +61,7 @@ def main() -> None:
     cmp_s = time.perf_counter() - t
     print(f"compare_project (+ true error, tables)        {cmp_s:6.1f} s  x{base / cmp_s:.2f} vs baseline", flush=True)
     from scangeo.adjustment.variants import read_variants
-    from scangeo.reports.crossvalidation import cross_validate
+    from scangeo.strategy.crossvalidation import cross_validate
 
     t = time.perf_counter()
     cv = cross_validate(root, read_variants(variants_file), c.variants, 4, variants_file)
@@ -74,7 +74,7 @@ def main() -> None:
         f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:6.0f} MiB"
     )
     if args.demo:
-        from scangeo.reports.demo import run_demo
+        from scangeo.pipeline.demo import run_demo
 
         t = time.perf_counter()
         r = run_demo(cache / "demo", overwrite=True)

@@ -20,8 +20,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from scangeo.adjustment.factor import Factorizer, available_backends
-from scangeo.adjustment.selinv import SparseInverse
+from scangeo.lsq.factor import Factorizer, available_backends
+from scangeo.lsq.selinv import SparseInverse
 
 
 def normal_matrix(n_strips=24, n_knots=700, n_ties=3000, n_corr=18, n_calib=7, seed=0) -> sp.csc_matrix:

@@ -9,17 +9,17 @@ import laspy
 import numpy as np
 import pytest
 
-from scangeo.adjustment.checks import check_jacobian
-from scangeo.adjustment.engine import SnoopingOptions, adjust
-from scangeo.adjustment.keys import Boresight, Correction, LeverArm, Plane, RangeOffset, ScanIndex
-from scangeo.adjustment.models import GpsImuModel, ModelSet
-from scangeo.adjustment.solver import SolverOptions
+from scangeo.adjustment.keys import Boresight, LeverArm, Plane, RangeOffset, ScanIndex
 from scangeo.cli import main
 from scangeo.lidar.adjust import LaserOptions, build, run
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, georeference, recover
 from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors
 from scangeo.lidar.outputs import apply, evaluate
 from scangeo.lidar.project import LaserProject
+from scangeo.lsq.checks import check_jacobian
+from scangeo.lsq.engine import SnoopingOptions, adjust
+from scangeo.lsq.solver import SolverOptions
+from scangeo.orientation.models import Correction, GpsImuModel, ModelSet
 from scangeo.simulate.laser import LaserBlockConfig, simulate_laser
 from scangeo.trajectory.stream import ProjectTrajectory
 

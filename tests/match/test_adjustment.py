@@ -15,7 +15,7 @@ import pytest
 
 from scangeo.match import match_project
 from scangeo.match.truth import matched_points_project
-from scangeo.reports.comparison import compare_project
+from scangeo.strategy.comparison import compare_project
 
 FULL = os.environ.get("SCANGEO_SCALE", "").lower() == "full"
 SMALL_VARIANTS = """

@@ -25,8 +25,8 @@ import pytest
 import rasterio
 from rasterio.windows import from_bounds
 
-from scangeo.adjustment.orientation import direct_orientation, load_adjusted_geometry, write_orientation
 from scangeo.io.project import Project
+from scangeo.orientation.file import direct_orientation, load_adjusted_geometry, write_orientation
 from scangeo.rectify.batch import grid_of, rectify_project
 from scangeo.rectify.core_geometry import CoreStripGeometry
 from scangeo.rectify.gdal_route import corner_geolocation, warp_with_geolocation

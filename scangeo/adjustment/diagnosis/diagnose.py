@@ -1,0 +1,316 @@
+"""Which strips need more than a constant GPS/IMU correction, and where their error changes course.
+
+``diagnose(project)`` adjusts the project with strip models of degree 0 (SE: control, tie points,
+no DTM heights, no automatic rejection, the paper's reference) and arranges what that model leaves
+along each strip's lines:
+
+* the **DTM-height misclosure** of every tie point on open terrain (adjusted height minus the DTM's):
+  a height or across-track error of one strip moves the intersection of its ray with the other
+  strips' rays, so the misclosure of a tie point seen in strips a and b is, to first order,
+  ``g_a . e_a(l_a) + g_b . e_b(l_b)``, with ``e_s(l)`` the (across-track, vertical) position error of
+  strip s at line l and ``g_s`` the sensitivity of the least-squares ray intersection's height to
+  a shift of strip s's sensor (``e_z^T (sum_t A_t)^-1 A_s``, ``A_s = I - d_s d_s^T`` for the ray
+  direction ``d_s``); a common shift of all strips moves it by the shift, an across-track shift of
+  one strip up on one side and down on the other;
+* the **image residuals** (along and across track, pixels) of the tie and control measurements,
+  one function per strip and direction (optional; measured to add nothing on the simulated blocks,
+  see docs/adjustment.md).
+
+:mod:`scangeo.adjustment.diagnosis.patterns` fits C0 piecewise-linear error functions to them and
+chooses the breaks by BIC; a strip with at least one break is a problem strip. Check points are
+never used: they stay independent for the comparison.
+"""
+from __future__ import annotations
+
+import fnmatch
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from scangeo.adjustment.diagnosis.patterns import (
+    BreakEstimate,
+    Fit,
+    PatternData,
+    SelectionOptions,
+    break_intervals,
+    evaluate,
+    select_breaks,
+)
+from scangeo.adjustment.diagnosis.refine import DEFAULT_REFINE, RefineOptions, refine_breaks, s_model_cost
+from scangeo.adjustment.keys import Ground
+from scangeo.adjustment.results import VariantResult, run_variant
+from scangeo.adjustment.variants import Variant
+from scangeo.progress import ProgressCallback, no_progress
+
+log = logging.getLogger(__name__)
+
+#: The components of the strip error functions the misclosures observe (metres).
+COMPONENTS = ("across_m", "vertical_m", "along_px", "across_px")
+
+
+@dataclass
+class StripSeries:
+    """What SE leaves along one strip (for the report): misclosures and image residuals by line."""
+
+    strip: str
+    n_lines: int
+    tie_line: np.ndarray
+    tie_misclosure_m: np.ndarray
+    tie_point: np.ndarray
+    image_line: np.ndarray
+    image_along_px: np.ndarray
+    image_across_px: np.ndarray
+    image_kind: np.ndarray
+
+    def as_dict(self) -> dict:
+        return {"strip": self.strip, "n_lines": self.n_lines,
+                "tie": {"point": [str(p) for p in self.tie_point], "line": _r(self.tie_line, 1),
+                        "misclosure_m": _r(self.tie_misclosure_m, 3)},
+                "image": {"line": _r(self.image_line, 1), "along_px": _r(self.image_along_px, 3),
+                          "across_px": _r(self.image_across_px, 3), "kind": [str(k) for k in self.image_kind]}}
+
+
+def _r(a, d):
+    return [round(float(v), d) for v in a]
+
+
+@dataclass
+class Diagnosis:
+    """The result of :func:`diagnose`."""
+
+    project: str
+    strips: list[str]
+    n_lines: dict[str, int]
+    breaks: list[BreakEstimate]
+    fit: Fit
+    null: Fit
+    sigma0: float
+    series: list[StripSeries] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    options: SelectionOptions = field(default_factory=SelectionOptions)
+    channels: tuple[str, ...] = ()
+
+    @property
+    def problem_strips(self) -> list[str]:
+        """Strips with at least one break, in the project's order."""
+        return [s for s in self.strips if any(b.strip == s for b in self.breaks)]
+
+    def breaks_of(self, strip: str) -> tuple[float, ...]:
+        return tuple(round(b.line) for b in self.breaks if b.strip == strip)
+
+    def as_dict(self) -> dict:
+        return {"project": self.project, "strips": self.strips, "n_lines": self.n_lines,
+                "problem_strips": self.problem_strips,
+                "breaks": [{"strip": b.strip, "line": round(b.line, 1), "low": round(b.low, 1),
+                            "high": round(b.high, 1), "method": b.method,
+                            "bic_line": None if b.bic_line is None else round(b.bic_line, 1),
+                            "f_statistic": None if b.f_statistic is None else round(b.f_statistic, 3),
+                            "p_value": None if b.p_value is None else float(f"{b.p_value:.3g}")} for b in self.breaks],
+                "criterion": {"name": "BIC", "with_breaks": self.fit.bic, "without_breaks": self.null.bic,
+                              "parameters": self.fit.k, "parameters_without_breaks": self.null.k,
+                              "serial_correlation": self.fit.rho, "rss": self.fit.rss, "channels": list(self.channels)},
+                "se_sigma0": self.sigma0, "notes": list(self.notes),
+                "series": [s.as_dict() for s in self.series]}
+
+
+def _across_axes(result: VariantResult) -> dict[str, np.ndarray]:
+    """Per strip, the horizontal unit vector across its flight, all pointing to the same side."""
+    out: dict[str, np.ndarray] = {}
+    ref = None
+    for sid, s in result.block.strips.items():
+        p = s.gpsimu[:, :3]
+        v = p[-1] - p[0]
+        a = np.array([v[1], -v[0], 0.0])
+        a /= np.linalg.norm(a) or 1.0
+        if ref is None:
+            ref = a
+        out[sid] = a if a @ ref >= 0 else -a
+    return out
+
+
+def _ray_weights(centres: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """(m, 3): sensitivity of the height of the least-squares intersection of m rays to each sensor's shift."""
+    d = point[None, :] - centres
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    A = np.eye(3)[None] - d[:, :, None] * d[:, None, :]
+    G = np.linalg.inv(A.sum(axis=0))
+    return np.einsum("k,mkl->ml", G[2], A)
+
+
+def pattern_data(result: VariantResult, dtm_height_points=("*",), image_channels: bool = False
+                 ) -> tuple[PatternData, list[StripSeries]]:
+    """The diagnosis's observations from an adjusted SE block (module docstring)."""
+    block, adj = result.block, result.adjustment
+    project = block.project
+    strips = list(block.strips)
+    n_lines = [project.n_lines(s) for s in strips]
+    axes = _across_axes(result)
+    params = adj.parameters
+    pts, sts = block.points.point.astype(str), block.points.strip.astype(str)
+    ties = sorted({p for p in pts if block.role(p) == "tie" and Ground(p) in params
+                   and any(fnmatch.fnmatchcase(p, pat) for pat in dtm_height_points)})
+    P = np.array([params[Ground(p)].values for p in ties]).reshape(-1, 3)
+    mis, _ = project.dtm.height_condition(P) if ties else (np.zeros(0), None)
+    centre = {}
+    for sid in strips:
+        sel = np.flatnonzero(sts == sid)
+        t = project.timing(sid).time_of_line(block.points.line[sel])
+        centre[sid] = dict(zip(pts[sel], result.spline(sid).evaluate(t)[:, :3]))
+    value: list[float] = []
+    channel: list[int] = []
+    trow: list[int] = []
+    tstrip: list[int] = []
+    tcomp: list[int] = []
+    tline: list[float] = []
+    tw: list[float] = []
+    lines_of = {(p, s): line for p, s, line in zip(pts, sts, block.points.line)}
+    tie_series: dict[str, list] = {s: [] for s in strips}
+    for i, p in enumerate(ties):
+        seen = [s for s in strips if p in centre[s]]
+        if len(seen) < 2 or not np.isfinite(mis[i]):
+            continue
+        g = _ray_weights(np.array([centre[s][p] for s in seen]), P[i])
+        r = len(value)
+        value.append(float(mis[i]))
+        channel.append(0)
+        for s, gs in zip(seen, g):
+            line = float(lines_of[(p, s)])
+            tie_series[s].append((line, float(mis[i]), p))
+            for k, w in ((0, -float(gs @ axes[s])), (1, -float(gs[2]))):
+                trow.append(r)
+                tstrip.append(strips.index(s))
+                tcomp.append(k)
+                tline.append(line)
+                tw.append(w)
+    _control_rows(result, strips, axes, value, channel, trow, tstrip, tcomp, tline, tw)
+    ip, istrip, dl, dp, act = result.image_residuals(("control", "height", "planimetric", "tie"))
+    image_lines = {}
+    for s in strips:
+        sel = (istrip == s) & act
+        lines = np.array([lines_of[(p, s)] for p in ip[sel]], float)
+        image_lines[s] = (lines, dl[sel], dp[sel], np.array([block.role(p) for p in ip[sel]], dtype=object))
+        if image_channels:
+            for c, (res, k) in enumerate(((dl[sel], 2), (dp[sel], 3)), start=2):
+                for line, v in zip(lines, res):
+                    trow.append(len(value))
+                    value.append(float(v))
+                    channel.append(c)
+                    tstrip.append(strips.index(s))
+                    tcomp.append(k)
+                    tline.append(float(line))
+                    tw.append(1.0)
+    channels = ("misclosure_m", "control_across_px") + (("along_px", "across_px") if image_channels else ())
+    data = PatternData(np.asarray(value, float), np.asarray(channel, int), np.asarray(trow, int),
+                       np.asarray(tstrip, int), np.asarray(tcomp, int), np.asarray(tline, float),
+                       np.asarray(tw, float), tuple(strips), tuple(n_lines), channels, COMPONENTS)
+    series = []
+    for s, n in zip(strips, n_lines):
+        ties_s = sorted(tie_series[s])
+        lines, along, across, kind = image_lines[s]
+        order = np.argsort(lines)
+        series.append(StripSeries(s, n, np.array([x[0] for x in ties_s]), np.array([x[1] for x in ties_s]),
+                                  np.array([x[2] for x in ties_s], dtype=object), lines[order], along[order],
+                                  across[order], kind[order]))
+    return data, series
+
+
+def _control_rows(result: VariantResult, strips, axes, value, channel, trow, tstrip, tcomp, tline, tw) -> None:
+    """Rows of the across-track image residuals of full control points: ``J . e_s(l)``, with ``J`` the
+    change of the point's pixel with its ground position (a shift of the sensor by ``e`` moves the
+    pixel as a shift of the point by ``-e``, and the model lacks ``e``)."""
+    block = result.block
+    ip, istrip, dl, dp, act = result.image_residuals(("control",))
+    given = {str(p): i for i, p in enumerate(block.ground.point)}
+    frame = block.project.map_frame
+    lines_of = {(str(p), str(s)): line for p, s, line in zip(block.points.point, block.points.strip, block.points.line)}
+    for s in strips:
+        sel = np.flatnonzero((istrip == s) & act)
+        if sel.size == 0:
+            continue
+        xyz = block.ground.xyz[[given[str(p)] for p in ip[sel]]]
+        P = frame.map_to_project(xyz[:, 0], xyz[:, 1], xyz[:, 2])
+        geometry = result.geometry(s)
+        _, pix0, st0 = geometry.ground_to_image(P)
+        jac = []
+        for d in (axes[s], np.array([0.0, 0.0, 1.0])):
+            _, pix1, st1 = geometry.ground_to_image(P + d)
+            jac.append(np.where((st0 == 0) & (st1 == 0), pix1 - pix0, np.nan))
+        for i, k in enumerate(sel):
+            if not (np.isfinite(jac[0][i]) and np.isfinite(jac[1][i])):
+                continue
+            r = len(value)
+            value.append(float(dp[k]))
+            channel.append(1)
+            line = float(lines_of[(str(ip[k]), s)])
+            for comp, w in ((0, jac[0][i]), (1, jac[1][i])):
+                trow.append(r)
+                tstrip.append(strips.index(s))
+                tcomp.append(comp)
+                tline.append(line)
+                tw.append(float(w))
+
+
+def dropped_notes(proposed: list[BreakEstimate], kept: list[BreakEstimate], level: float | None) -> list[str]:
+    """A note for every break the BIC proposed (``proposed``) that the split model's test dropped (absent
+    from ``kept``, whose breaks carry their BIC line in ``bic_line``)."""
+    lines = {(b.strip, b.bic_line if b.bic_line is not None else b.line) for b in kept}
+    test = f" (F test at {100 * level:g} %)" if level is not None else ""
+    return [f"strip {b.strip}: the BIC's break at line {b.line:.0f} was dropped, the split model does not need it{test}"
+            for b in proposed if (b.strip, b.line) not in lines]
+
+
+def se_variant() -> Variant:
+    """The adjustment the diagnosis starts from: SE, degree 0, no DTM heights, no automatic rejection."""
+    return Variant("diagnosis-SE", "SE", "strip models of degree 0 for the diagnosis", snooping=False)
+
+
+def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = False,
+             options: SelectionOptions | None = None, refine: RefineOptions | None = DEFAULT_REFINE,
+             callback: ProgressCallback = no_progress) -> Diagnosis:
+    """Find the problem strips and their breaks from an SE adjustment of the project (module docstring).
+
+    Parameters
+    ----------
+    project_root : the project folder.
+    dtm_height_points : glob patterns of the tie points on open terrain (their DTM misclosure is used).
+    image_channels : also fit the image residuals of tie and control measurements.
+    options : the break selection's options.
+    refine : options of placing every break by adjusting the S model around the BIC's line
+        (:mod:`scangeo.adjustment.diagnosis.refine`); None keeps the BIC's lines.
+    """
+    root = Path(project_root)
+    options = options or SelectionOptions()
+    steps = 4 if refine is not None else 3
+    callback(0, steps, "diagnosis: adjusting SE")
+    result = run_variant(root, se_variant())
+    callback(1, steps, "diagnosis: choosing breaks")
+    data, series = pattern_data(result, dtm_height_points, image_channels)
+    notes = []
+    n_ties = int((data.channel == 0).sum())
+    if n_ties < 10:
+        notes.append(f"only {n_ties} tie points with a DTM misclosure: too few to look for breaks")
+        null = evaluate(data, [[] for _ in data.strips], None, options.degree, range(len(data.strips)))
+        fit, breaks = null, []
+    else:
+        fit = select_breaks(data, options)
+        null = evaluate(data, [[] for _ in data.strips], fit.rho, options.degree, range(len(data.strips)))
+        callback(2, steps, "diagnosis: break intervals")
+        breaks = break_intervals(data, fit, options)
+        if refine is not None and breaks:
+            n_lines = dict(zip(data.strips, data.n_lines))
+            proposed = breaks
+            breaks, _ = refine_breaks(
+                breaks, n_lines, s_model_cost(root, dtm_height_points, refine.position_degree), refine,
+                lambda i, n: callback(3 + i / n, steps, f"diagnosis: placing break {i} of {n} with the S model"))
+            notes += dropped_notes(proposed, breaks, refine.test_level)
+    callback(steps, steps, "diagnosis: done")
+    d = Diagnosis(str(root), list(data.strips), dict(zip(data.strips, data.n_lines)), breaks, fit, null,
+                  float(result.adjustment.statistics.sigma0), series, notes, options, data.channels)
+    log.info("diagnosis of %s: problem strips %s, breaks %s", root, d.problem_strips or "none",
+             ", ".join(f"{b.strip}@{b.line:.0f}" for b in breaks) or "none")
+    return d
+
+
+__all__ = ["COMPONENTS", "Diagnosis", "StripSeries", "diagnose", "dropped_notes", "pattern_data", "se_variant"]

@@ -1,0 +1,160 @@
+"""Observations removed from a solved adjustment without refactorising: a low-rank (Woodbury) update.
+
+Data snooping removes one observation unit (a few rows) at a time and needs the new solution and the
+new redundancy numbers of every tested row. Refactorising and re-inverting the normal matrix for
+every removal is what made large blocks slow. With the scaled normal matrix ``N`` of the last full
+solution, its factor and its selected inverse, removing the scaled Jacobian rows ``A`` (k x n) gives
+
+    N' = N - A^T A,   N'^-1 = N^-1 + U S^-1 U^T,   U = N^-1 A^T,   S = I - A U
+
+(Sherman-Morrison-Woodbury; ``S`` is the redundancy matrix of the removed rows, singular exactly when
+the removal leaves some unknown undetermined). Every removal since the last full solution is kept in
+``A``: one solve with the existing factor per removed row, no factorisation.
+
+- The new solution: Gauss-Newton steps ``dx = -N'^-1 g`` with the gradient ``g`` of the current
+  linearisation (removed rows left out) and ``N'^-1`` as above, until the step promises a cost
+  decrease below the solver's ``chi2_tolerance``, the solver's own convergence test. The normal
+  matrix stays that of the last factorisation (a chord iteration: linearly convergent, one or two
+  steps after a removal).
+- The new leverages of the tested rows: ``h'_i = h_i + (j_i U) S^-1 (j_i U)^T`` from those of the
+  last full solution (same linearisation), so the redundancy numbers ``1 - h'_i`` and the w-tests
+  are those of the reduced adjustment.
+
+The update declines (the caller then refactorises) when ``S`` is nearly singular (the removal leaves
+an unknown undetermined, which needs the solver's regularisation), when a step does not lower the
+cost, or when the chord iteration has not converged in a few steps.
+"""
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import scipy.sparse as sp
+
+from scangeo.errors import AdjustmentError
+from scangeo.lsq.solver import Solution, Solver
+from scangeo.lsq.statistics import MIN_REDUNDANCY
+
+log = logging.getLogger(__name__)
+
+#: ``S`` with an eigenvalue below this: the removal leaves an unknown (nearly) undetermined.
+MIN_EIGENVALUE = 1e-8
+#: At most this many chord steps per removal.
+MAX_STEPS = 6
+
+
+class RemovalUpdate:
+    """The adjustment of ``solution`` with rows removed since, kept up to date without refactorising.
+
+    Parameters
+    ----------
+    solver : the solver that produced ``solution`` (its groups, layout and options).
+    solution : the last full solution: factor, linearisation, values, active rows.
+    leverage : (m,) ``h_i = j_i N^-1 j_i^T`` of every row of ``solution``'s system (its statistics).
+    tested : (m,) rows whose w-tests are wanted (their leverages are updated).
+    """
+
+    def __init__(self, solver: Solver, solution: Solution, leverage: np.ndarray, tested: np.ndarray) -> None:
+        self.solver = solver
+        self.solution = solution
+        system = solution.system
+        self.scale = system.scale
+        self._Js = (system.jacobian @ sp.diags(1.0 / system.scale)).tocsr()
+        self._tested = np.flatnonzero(tested)
+        self._J_tested = self._Js[self._tested]
+        self._h0 = leverage[self._tested]
+        self.active = [a.copy() for a in solution.active]
+        self.values = solution.parameters.values()
+        self.removed = np.zeros(0, dtype=np.int64)
+        self._U = np.zeros((solver.layout.n, 0))
+        self._S_inv = np.zeros((0, 0))
+        self._residuals = system.residuals
+        self._jacobian = system.jacobian
+        self.cost = system.cost
+        self.steps = 0
+
+    # -- removal --------------------------------------------------------------------------------
+    def _deactivate(self, rows: np.ndarray) -> None:
+        for act, sl in zip(self.active, self.solution.system.row_slices):
+            inside = rows[(rows >= sl.start) & (rows < sl.stop)]
+            act[inside - sl.start] = False
+
+    def remove(self, rows: np.ndarray, max_rows: int | None = None) -> bool:
+        """Remove the (global) rows from ``active`` and update the solution; False when that needs a
+        full solution instead (also when more than ``max_rows`` rows would be removed in all)."""
+        rows = np.asarray(rows, dtype=np.int64)
+        self._deactivate(rows)
+        if max_rows is not None and self.removed.size + rows.size > max_rows:
+            return False
+        A = self._Js[rows]
+        U_new = np.asarray(self.solution.factor.solve(A.T.toarray())).reshape(self._U.shape[0], rows.size)
+        self.removed = np.concatenate([self.removed, rows])
+        self._U = np.hstack([self._U, U_new])
+        AU = self._Js[self.removed] @ self._U
+        S = np.eye(self.removed.size) - 0.5 * (AU + AU.T)
+        smallest = float(np.linalg.eigvalsh(S)[0])
+        if smallest < MIN_EIGENVALUE:
+            log.info("removal leaves unknowns undetermined (redundancy eigenvalue %.3g): refactorising", smallest)
+            return False
+        self._S_inv = np.linalg.inv(S)
+        return self._solve()
+
+    @property
+    def scaled_jacobian(self) -> sp.csr_matrix:
+        """``J D^-1`` of the last full solution's linearisation (removed rows included)."""
+        return self._Js
+
+    def apply_inverse(self, b: np.ndarray) -> np.ndarray:
+        """``N'^-1 b`` for one or several (n x k) right-hand sides."""
+        b = np.asarray(b, dtype=float)
+        y = np.asarray(self.solution.factor.solve(b)).reshape(b.shape)
+        return y + self._U @ (self._S_inv @ (self._U.T @ b))
+
+    def _apply_inverse(self, b: np.ndarray) -> np.ndarray:
+        """``N'^-1 b`` for the scaled normal matrix with the removed rows left out."""
+        y = np.asarray(self.solution.factor.solve(b)).ravel()
+        return y + self._U @ (self._S_inv @ (self._U.T @ b))
+
+    def _solve(self) -> bool:
+        solver, opts = self.solver, self.solver.options
+        r = self._residuals * np.concatenate(self.active)
+        values, J, cost = self.values, self._jacobian, float(r @ r)
+        for _ in range(MAX_STEPS):
+            gradient = (J.T @ r) / self.scale
+            step = self._apply_inverse(-gradient)
+            self.steps += 1
+            if float(step @ -gradient) < opts.chi2_tolerance:  # converged (the solver's test)
+                self.values, self._residuals, self._jacobian, self.cost = values, r, J, cost
+                return True
+            trial = solver.layout.add_step(values, step / self.scale)
+            try:
+                r_new, J_new, _ = solver.linearisation(trial, self.active)
+            except AdjustmentError as exc:  # a model that cannot be evaluated there: let the solver damp
+                log.info("chord step failed (%s): refactorising", exc)
+                return False
+            cost_new = float(r_new @ r_new)
+            log.debug("chord step: cost %.6g -> %.6g, predicted decrease %.3g", cost, cost_new, float(step @ -gradient))
+            if not cost_new <= cost * (1 + 1e-12):
+                log.info("chord step raised the cost (%.6g -> %.6g): refactorising", cost, cost_new)
+                return False
+            values, r, J, cost = trial, r_new, J_new, cost_new
+        log.info("chord iteration did not converge in %d steps: refactorising", MAX_STEPS)
+        return False
+
+    # -- tests ----------------------------------------------------------------------------------
+    def leverages(self) -> np.ndarray:
+        """``h'_i = j_i N'^-1 j_i^T`` of every tested row of the stack (NaN for the others)."""
+        B = self._J_tested @ self._U
+        h = np.full(self._residuals.size, np.nan)
+        h[self._tested] = self._h0 + np.einsum("ik,ik->i", B @ self._S_inv, B)
+        return h
+
+    def w_tests(self) -> list[np.ndarray]:
+        """Per group, Baarda's w of every active tested row (NaN elsewhere), as ``Statistics.w_tests``."""
+        h = self.leverages()
+        out = []
+        for act, sl in zip(self.active, self.solution.system.row_slices):
+            red = 1.0 - h[sl]
+            w = self._residuals[sl] / np.sqrt(np.maximum(red, MIN_REDUNDANCY))
+            out.append(np.where(act & (red >= MIN_REDUNDANCY), w, np.nan))
+        return out

@@ -1,0 +1,73 @@
+"""The default variants (scangeo/data/variants.toml) filled in for a project's problem strips."""
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+from scangeo.adjustment.variants import read_variants
+from scangeo.errors import ProjectFileError
+from scangeo.strategy.default_variants import (
+    DEFAULT_VARIANTS,
+    ProblemStrip,
+    ensure_variants_file,
+    render_default_variants,
+)
+
+
+def test_data_file_holds_the_strategies_of_the_reference_case():
+    text = DEFAULT_VARIANTS.read_text()
+    assert '"@PROBLEM_STRIP@"' in text and '"@BREAKS_LINES@"' in text
+
+
+def test_rendered_variants_follow_the_papers_set_up(tmp_path):
+    path = tmp_path / "variants.toml"
+    path.write_text(render_default_variants([ProblemStrip("07", (1234.0, 4321.5)), ProblemStrip("09", (99.0,))]))
+    v = read_variants(path)
+    assert list(v) == ["DG", "BE", "SE", "SE_DTM", "P2", "P4", "S2", "S4"]
+    assert [v[n].strategy for n in v] == ["DG", "BE", "SE", "SE", "P", "P", "S", "S"]
+    for name in ("P2", "P4"):
+        for strip in ("07", "09"):
+            m = v[name].strip_models(strip)
+            assert m.position_degree == 4 and m.breaks_lines == ()
+    for name in ("S2", "S4"):
+        assert v[name].strip_models("07").breaks_lines == (1234.0, 4321.5)
+        assert v[name].strip_models("09").breaks_lines == (99.0,)
+        assert v[name].strip_models("09").position_degree == 2
+    # other strips keep the strategy's degree 0 and no breaks
+    assert v["S4"].strip_models("01").position_degree is None
+    # 2 bands: break-band points stay check points; 4 bands: they become control
+    for name in ("DG", "BE", "SE", "SE_DTM", "P2", "S2"):
+        assert v[name].role_of("B003", "check") == "check"
+    for name in ("P4", "S4"):
+        assert v[name].role_of("B003", "check") == "control"
+        assert v[name].role_of("K003", "check") == "check"
+    # the paper: SE without DTM heights, P/S with them; SE_DTM for sigma0 on identical observations
+    assert [n for n in v if v[n].dtm_height_at("T001")] == ["SE_DTM", "P2", "P4", "S2", "S4"]
+    assert [n for n in v if v[n].snooping] == []
+
+
+def test_without_problem_strips_there_are_no_p_or_s_variants(tmp_path):
+    path = tmp_path / "variants.toml"
+    text = render_default_variants([])
+    assert "no problem strip" in text
+    path.write_text(text)
+    assert list(read_variants(path)) == ["DG", "BE", "SE", "SE_DTM"]
+
+
+def test_problem_strip_from_the_command_line(problem_small, tmp_path):
+    root = tmp_path / "p"
+    shutil.copytree(problem_small, root)
+    shutil.rmtree(root / "truth")
+    with pytest.raises(ProjectFileError, match="strip '9' is not in"):
+        ensure_variants_file(root, "9", (100.0,))
+    with pytest.raises(ProjectFileError, match="break line 5000 is not inside strip 01"):
+        ensure_variants_file(root, "01", (100.0, 5000.0))
+    with pytest.raises(ProjectFileError, match="needs --problem-strip"):
+        ensure_variants_file(root, None, (100.0,))
+    assert not (root / "variants.toml").exists()
+    v = read_variants(ensure_variants_file(root, "01", (150.0, 300.0)))
+    assert v["S4"].strip_models("01").breaks_lines == (150.0, 300.0)
+    # an existing file is kept as it is
+    (root / "variants.toml").write_text('[variants.MINE]\nstrategy = "SE"\n')
+    assert list(read_variants(ensure_variants_file(root))) == ["MINE"]
