@@ -50,7 +50,7 @@ def main() -> None:
     from scangeo.io.project import Project
     from scangeo.rectify.core_geometry import CoreStripGeometry
     from scangeo.rectify.options import RectifyOptions
-    from scangeo.rectify.strip import strip_grid
+    from scangeo.rectify.strip_run import strip_grid
 
     tmp = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="scangeo-bench-interp-"))
     root = tmp / "project"

@@ -136,7 +136,7 @@ def main() -> None:
     options = RectifyOptions(resolution=2.5, resampling=args.resampling, geotiff=GeoTiffProfile(compress=args.compress))
     # warm-up (numba compilation or cache loading of the kernels, GDAL drivers), not timed: the
     # first 200 m of the strip's grid
-    from scangeo.rectify.strip import strip_grid
+    from scangeo.rectify.strip_run import strip_grid
 
     full = strip_grid(geometry, options)
     xmin, ymin, xmax, ymax = full.bounds

@@ -10,7 +10,8 @@ from rectify_synthetic import AnalyticStrip, Texture, estimate_shift, flat, hill
 from scangeo.errors import InputFileError, ScangeoError
 from scangeo.rectify.geotiff import GeoTiffProfile
 from scangeo.rectify.options import RectifyOptions
-from scangeo.rectify.strip import choose_tile_size, rectify_strip
+from scangeo.rectify.strip import rectify_strip
+from scangeo.rectify.strip_run import choose_tile_size
 
 TEX = Texture()
 
