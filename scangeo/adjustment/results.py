@@ -16,6 +16,7 @@ from scangeo.adjustment.block import Block, build_block
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
 from scangeo.adjustment.variants import Variant, find_variant
+from scangeo.io import rejected
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
 from scangeo.lsq.engine import Adjustment, SnoopingOptions, adjust
@@ -159,13 +160,17 @@ def evaluate_checks(result_block: Block, geometry_of) -> CheckResiduals:
     return CheckResiduals(*(np.concatenate(c) for c in (pts, strips, dl, dp, st, sig)))
 
 
-def read_measurements(project: Project) -> tuple[ImagePoints, GroundPoints]:
-    """The project's ``points.csv`` and ``ground.csv`` (no ground points when there is no ``ground.csv``)."""
+def read_measurements(project: Project, set_aside: bool = True) -> tuple[ImagePoints, GroundPoints]:
+    """The project's ``points.csv`` and ``ground.csv`` (no ground points when there is no ``ground.csv``),
+    without the measurements the cleaning stage set aside (``PROJECT/results/cleaning/rejected.csv``,
+    :mod:`scangeo.io.rejected`) unless ``set_aside`` is False."""
     points = ImagePoints.read(project.root / "points.csv")
     ground_file = project.root / "ground.csv"
     ground = GroundPoints.read(ground_file) if ground_file.exists() else GroundPoints(
         *(np.zeros(0, dtype=object),), np.zeros((0, 3)), np.zeros(0), np.zeros(0),
         np.zeros(0, dtype=object), np.zeros(0, int))
+    if set_aside:
+        points, ground, _ = rejected.set_aside(project.root, points, ground)
     return points, ground
 
 

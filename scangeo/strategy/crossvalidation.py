@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from scangeo.adjustment.plausibility import sigma0_warning
 from scangeo.adjustment.variants import Variant
 from scangeo.errors import ScangeoError
 from scangeo.progress import ProgressCallback, no_progress
@@ -56,17 +57,19 @@ class CrossValidation:
     reason: str = ""
     tolerance: float = 0.05
     errors: dict[str, str] = field(default_factory=dict)
+    #: sigma0 far above 1 in the recommended variant (:func:`scangeo.adjustment.plausibility.sigma0_warning`)
+    warnings: list[str] = field(default_factory=list)
 
     def as_dict(self) -> dict:
         return {"folds": self.folds, "points": self.points, "rms_px": self.rms_px, "n": self.n, "bic": self.bic,
                 "group": self.group, "control": self.control, "recommended": self.recommended, "reason": self.reason,
-                "tolerance": self.tolerance, "errors": self.errors}
+                "tolerance": self.tolerance, "errors": self.errors, "warnings": self.warnings}
 
     @classmethod
     def from_dict(cls, d: dict) -> CrossValidation:
         return cls(**{k: d[k] for k in ("folds", "points", "rms_px", "n", "bic", "group", "control", "recommended",
                                         "reason",
-                                        "tolerance", "errors") if k in d})
+                                        "tolerance", "errors", "warnings") if k in d})
 
 
 def folds_of(control_ids, k: int) -> list[list[str]]:
@@ -151,6 +154,14 @@ def cross_validate(project_root, variants: dict[str, Variant], summaries, folds:
             cv.control[s.name] = sum(s.control.values())
     callback(total, total, "cross-validation: done")
     recommend(cv, summaries)
+    # the recommended variant decides: its sigma0 far above 1 is never silent (a stiffer variant that lost
+    # may well have it: a strip model too stiff for its drift is what the comparison is there to show)
+    chosen = next((s for s in summaries if s.name == cv.recommended), None)
+    warning = sigma0_warning(chosen.sigma0, f"the recommended variant {chosen.name}", root) if chosen else None
+    if warning:
+        log.warning("%s", warning)
+        cv.warnings.append(warning)
+        cv.reason += "; warning: its sigma0 is far above 1, the recommendation is suspect (crossvalidation.warnings)"
     return cv
 
 

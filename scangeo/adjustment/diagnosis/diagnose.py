@@ -40,6 +40,7 @@ from scangeo.adjustment.diagnosis.patterns import (
 )
 from scangeo.adjustment.diagnosis.refine import DEFAULT_REFINE, RefineOptions, refine_breaks, s_model_cost
 from scangeo.adjustment.keys import Ground
+from scangeo.adjustment.plausibility import sigma0_warning
 from scangeo.adjustment.results import VariantResult, run_variant
 from scangeo.adjustment.variants import Variant
 from scangeo.progress import ProgressCallback, no_progress
@@ -306,6 +307,10 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
                 lambda i, n: callback(3 + i / n, steps, f"diagnosis: placing break {i} of {n} with the S model"))
             notes += dropped_notes(proposed, breaks, refine.test_level)
     callback(steps, steps, "diagnosis: done")
+    warning = sigma0_warning(float(result.adjustment.statistics.sigma0), "the diagnosis's SE adjustment", root)
+    if warning:
+        log.warning("%s", warning)
+        notes.insert(0, warning)
     d = Diagnosis(str(root), list(data.strips), dict(zip(data.strips, data.n_lines)), breaks, fit, null,
                   float(result.adjustment.statistics.sigma0), series, notes, options, data.channels)
     log.info("diagnosis of %s: problem strips %s, breaks %s", root, d.problem_strips or "none",

@@ -1,0 +1,277 @@
+"""Clean first: find the blunders among a project's measurements before anything decides with them.
+
+:func:`clean` adjusts the whole block once, robustly, in a model flexible enough that a GPS/IMU drift
+is not taken for blunders, and removes blunders by data snooping (Baarda's iterative w-test, the
+engine's :class:`~scangeo.lsq.engine.SnoopingOptions`, with the separability check of
+:mod:`scangeo.lsq.separability`):
+
+* **the model**: every strip split into pieces of about ``piece_lines`` lines, each with a linear
+  position correction (C0 at the joins: a piecewise-linear GPS/IMU drift with a kink every piece) and
+  a constant attitude correction, the tie points carrying DTM heights, the coefficients regularised
+  as in the default variants. A drift of the problem strip with kinks (the reference case: +-20 m in
+  height) is followed to within the noise, so its residuals are not blunders; a 10-40 px blunder of
+  one measurement is not followed by a piece that holds dozens of measurements;
+* **the check points** enter as control points: their measurements and coordinates are tested too
+  (a blunder there would otherwise spoil the comparison's figures unseen). Cleaning only decides what
+  is set aside; the variants later adjusted never use check points;
+* **the method**: data snooping at the critical value 3.29 (alpha0 = 0.1 %), several units of
+  distinct points per round. A blunder the adjustment cannot attribute to one measurement (a tie point
+  in two strips, a control point measured once) removes every measurement of its point, reported as
+  not separable.
+
+What it removes is written to ``PROJECT/results/cleaning/rejected.csv`` (:mod:`scangeo.io.rejected`)
+and ``cleaning.json``; every later adjustment sets those measurements aside (``read_measurements``),
+until ``scangeo clean PROJECT --restore`` (:func:`restore`) deletes the files. Measured and argued in
+docs/adjustment.md ("Cleaning").
+"""
+from __future__ import annotations
+
+import json
+import logging
+import math
+import shutil
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from scangeo.adjustment.block import Block, build_block
+from scangeo.adjustment.ground import DtmHeights, GroundControl
+from scangeo.adjustment.image import ImageObservations
+from scangeo.adjustment.results import read_measurements
+from scangeo.adjustment.variants import StripModels, Variant
+from scangeo.atomic import write_text
+from scangeo.errors import ProjectFileError
+from scangeo.io.points import GroundPoints
+from scangeo.io.project import Project
+from scangeo.io.rejected import CLEANING_DIR, RejectedMeasurement, rejected_path, write_rejected
+from scangeo.lsq.engine import Adjustment, SnoopingOptions, adjust
+from scangeo.lsq.reliability import delta0
+from scangeo.lsq.solver import SolverOptions
+from scangeo.lsq.statistics import MIN_REDUNDANCY
+from scangeo.progress import ProgressCallback, no_progress, scaled
+
+log = logging.getLogger(__name__)
+
+METHODS = ("snooping",)
+
+
+@dataclass(frozen=True)
+class CleaningOptions:
+    """How :func:`clean` adjusts and tests (module docstring).
+
+    piece_lines : length of the pieces every strip's GPS/IMU model is split into (lines).
+    position_degree : degree of each piece's position correction (1: piecewise linear).
+    critical_value : of Baarda's |w| (3.29: alpha0 = 0.1 %, two-sided).
+    per_round : units of distinct points removed per re-solution.
+    max_fraction : at most this fraction of the image measurements is removed (a stop for a hopeless
+        project: more blunders than that say the model or the sigmas are wrong, not the points).
+    dtm_height_points : glob patterns of the tie points on open terrain (DTM heights).
+    check_as_control : test the check points too (as control points of the cleaning adjustment).
+    """
+
+    method: str = "snooping"
+    piece_lines: float = 700.0
+    position_degree: int = 1
+    critical_value: float = 3.29
+    per_round: int = 4
+    max_fraction: float = 0.2
+    dtm_heights: bool = True
+    dtm_sigma_factor: float = 3.0
+    dtm_height_points: tuple[str, ...] = ("*",)
+    check_as_control: bool = True
+    constant_sigma_m: float = 5.0
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ProjectFileError(f"cleaning method: expected one of {', '.join(METHODS)}, found {self.method!r}")
+        if not self.piece_lines > 0:
+            raise ProjectFileError(f"cleaning piece_lines: expected a positive number of lines, "
+                                   f"found {self.piece_lines}")
+
+
+@dataclass(frozen=True)
+class Cleaning:
+    """The result of :func:`clean`."""
+
+    project: str
+    rejected: tuple[RejectedMeasurement, ...]
+    sigma0_before: float
+    sigma0_after: float
+    model: str
+    n_image: int
+    n_ground: int
+    options: CleaningOptions = field(default_factory=CleaningOptions)
+    #: DTM heights the snooping rejected (tie points not on open terrain): not set aside, named here
+    dtm_rejected: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
+    #: MDB (pixels) of every image measurement of the cleaning adjustment, ``(point, strip) -> MDB``, kept
+    #: and rejected (not written; a measurement absent here was not in the adjustment: MDB infinite)
+    mdb: dict[tuple[str, str], float] = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def rejected_keys(self) -> frozenset[tuple[str, str]]:
+        """``(point, strip)`` of every rejected measurement (strip ``""``: the point's ground.csv coordinates)."""
+        return frozenset(r.key for r in self.rejected)
+
+    @property
+    def not_separable(self) -> list[str]:
+        """Points removed whole because the blunder could not be attributed."""
+        return sorted({r.point for r in self.rejected if not r.separable})
+
+    def as_dict(self) -> dict:
+        def num(x: float) -> float | str | None:
+            return None if math.isnan(x) else ("inf" if math.isinf(x) else round(float(x), 4))
+
+        return {"project": self.project, "method": self.options.method, "model": self.model,
+                "options": asdict(self.options), "sigma0_before": num(self.sigma0_before),
+                "sigma0_after": num(self.sigma0_after),
+                "measurements": {"image": self.n_image, "ground": self.n_ground},
+                "rejected": {"image": sum(r.kind == "image" for r in self.rejected),
+                             "ground": sum(r.kind == "ground" for r in self.rejected),
+                             "not_separable_points": self.not_separable},
+                "dtm_heights_rejected": list(self.dtm_rejected), "notes": list(self.notes),
+                "measurements_rejected": [{**dict(zip(("kind", "point", "strip"), r.row()[:3])),
+                                           "w": num(r.w), "mdb": num(r.mdb), "separable": r.separable,
+                                           "reason": r.reason} for r in self.rejected]}
+
+
+def cleaning_variant(project: Project, options: CleaningOptions) -> Variant:
+    """The flexible model of the cleaning adjustment (module docstring)."""
+    strips = []
+    for s in project.strips:
+        n = project.n_lines(s.id)
+        k = max(1, round(n / options.piece_lines))
+        breaks = tuple(float(round(n * i / k)) for i in range(1, k))
+        strips.append(StripModels(s.id, position_degree=options.position_degree, breaks_lines=breaks))
+    return Variant("cleaning", "S", f"every strip split into pieces of about {options.piece_lines:g} lines, "
+                   f"position degree {options.position_degree} per piece"
+                   + (f"; DTM heights (sigma x {options.dtm_sigma_factor:g})" if options.dtm_heights else ""),
+                   strips=tuple(strips), dtm_heights=options.dtm_heights,
+                   dtm_height_points=tuple(options.dtm_height_points),
+                   constant_sigma_m=options.constant_sigma_m, snooping=True, critical_value=options.critical_value,
+                   rejections_per_round=options.per_round)
+
+
+def _checks_as_control(ground: GroundPoints) -> GroundPoints:
+    role = np.where(ground.role == "check", "control", ground.role).astype(object)
+    return replace(ground, role=role)
+
+
+def _rejected(block: Block, adj: Adjustment, ground: GroundPoints
+              ) -> tuple[list[RejectedMeasurement], list[str], dict[tuple[str, str], float]]:
+    """Every measurement the snooping removed, with its w and MDB, the DTM heights it rejected, and the
+    MDB of every image measurement. The MDBs are those of the final solution, the cleaned set's:
+    ``sigma delta0 / sqrt(r)`` for a row in the adjustment, ``sigma delta0 sqrt(1 + h)`` for a row
+    outside it with leverage ``h`` (its redundancy number were it put back: ``1 / (1 + h)``)."""
+    sol, stats = adj.solution, adj.statistics
+    h = stats.leverages
+    d0 = delta0()
+    why = {(r.group, r.id): (r.w, r.separable, r.note) for r in adj.rejections}
+    why_point = {r.id: (r.w, r.separable, r.note) for r in adj.rejections}  # the point's other measurements
+    given = {str(p): i for i, p in enumerate(ground.point)}
+    out: list[RejectedMeasurement] = []
+    dtm: list[str] = []
+    mdb: dict[tuple[str, str], float] = {}
+    for g, act, sl in zip(sol.groups, sol.active, sol.system.row_slices):
+        if not isinstance(g, (ImageObservations, GroundControl, DtmHeights)):
+            continue
+        ids = np.asarray(g.ids).astype(str)
+        hg = np.maximum(h[sl], 0.0)
+        red = 1.0 - hg
+        mdb_rows = np.asarray(g.sigma, float) * d0 * np.where(
+            act, 1.0 / np.sqrt(np.where(red >= MIN_REDUNDANCY, red, np.nan)), np.sqrt(1.0 + hg))
+        mdb_rows = np.where(np.isnan(mdb_rows), math.inf, mdb_rows)
+        if isinstance(g, ImageObservations):
+            per_unit = np.full(len(g.points), -math.inf)
+            np.maximum.at(per_unit, g.row_unit, mdb_rows)
+            mdb.update({(str(p), g.strip): float(m) for p, m in zip(g.points, per_unit)})
+        for unit in np.unique(g.row_unit[~act]) if not act.all() else ():
+            rows = np.flatnonzero(g.row_unit == unit)
+            pid = str(ids[rows[0]])
+            w, separable, note = why.get((g.name, pid)) or why_point.get(pid, (math.nan, False, "with its point"))
+            unit_mdb = float(np.max(mdb_rows[rows]))
+            if isinstance(g, ImageObservations):
+                k = int(unit)
+                out.append(RejectedMeasurement("image", pid, g.strip, float(g.line[k]), float(g.pixel[k]),
+                                               w=w, mdb=unit_mdb, separable=separable, reason=note))
+            elif isinstance(g, GroundControl):
+                x, y, z = (float(c) for c in ground.xyz[given[pid]])
+                out.append(RejectedMeasurement("ground", pid, "", xyz=(x, y, z), w=w, mdb=unit_mdb,
+                                               separable=separable, reason=note))
+            else:
+                dtm.append(pid)
+    return out, sorted(set(dtm)), mdb
+
+
+def clean(project: Project | Path | str, options: CleaningOptions = CleaningOptions(),  # noqa: B008 (frozen)
+          progress: ProgressCallback = no_progress) -> Cleaning:
+    """Find and set aside the project's blunders (module docstring); writes ``PROJECT/results/cleaning/``.
+
+    The measurements are read as the project's files give them (a previous cleaning's set-aside is
+    ignored: cleaning starts afresh and replaces it).
+    """
+    project = project if isinstance(project, Project) else Project.load(project)
+    points, ground = read_measurements(project, set_aside=False)
+    variant = cleaning_variant(project, options)
+    cleaning_ground = _checks_as_control(ground) if options.check_as_control else ground
+    progress(0.0, 1.0, "cleaning: setting up the flexible model")
+    block = build_block(project, variant, points, cleaning_ground)
+    for g in block.groups:
+        if isinstance(g, DtmHeights):  # the DTM's own errors are no blunders of the measurements
+            g.sigma = g.sigma * options.dtm_sigma_factor
+    solver = SolverOptions(max_iterations=variant.max_iterations, backend=variant.backend)
+    first = adjust(block.parameters, block.groups, solver, SnoopingOptions(enabled=False),
+                   scaled(progress, 0.05, 0.3))
+    n_image = sum(g.n_rows // 2 for g in block.groups if isinstance(g, ImageObservations))
+    snooping = SnoopingOptions(critical_value=options.critical_value, per_round=options.per_round,
+                               max_rejections=max(1, int(options.max_fraction * n_image)))
+    adj = adjust(block.parameters, block.groups, solver, snooping, scaled(progress, 0.3, 1.0))
+    rejected, dtm, mdb = _rejected(block, adj, cleaning_ground)
+    notes = list(block.notes)
+    if len(adj.rejections) >= snooping.max_rejections:
+        notes.append(f"data snooping stopped at {snooping.max_rejections} rejections ({100 * options.max_fraction:g} "
+                     "% of the image measurements): the model, the sigmas or the data need a look")
+    n_ground = sum(len(g.points) for g in block.groups if isinstance(g, GroundControl))
+    result = Cleaning(str(project.root), tuple(rejected), float(first.statistics.sigma0),
+                      float(adj.statistics.sigma0), variant.description, n_image, n_ground,
+                      options, tuple(dtm), tuple(notes), mdb)
+    write_cleaning(result)
+    progress(1.0, 1.0, f"cleaning: {len(rejected)} measurements set aside")
+    log.info("cleaning: sigma0 %.2f -> %.2f, %d measurements set aside", result.sigma0_before, result.sigma0_after,
+             len(rejected))
+    return result
+
+
+def write_cleaning(cleaning: Cleaning) -> list[Path]:
+    """``rejected.csv`` and ``cleaning.json`` in ``PROJECT/results/cleaning/``."""
+    folder = Path(cleaning.project) / CLEANING_DIR
+    folder.mkdir(parents=True, exist_ok=True)
+    return [write_rejected(rejected_path(cleaning.project), list(cleaning.rejected)),
+            write_text(folder / "cleaning.json", json.dumps(cleaning.as_dict(), indent=1) + "\n")]
+
+
+def restore(project_root) -> bool:
+    """Bring every set-aside measurement back: delete ``PROJECT/results/cleaning/``; False when there was none."""
+    folder = Path(project_root) / CLEANING_DIR
+    if not folder.exists():
+        return False
+    shutil.rmtree(folder)
+    return True
+
+
+def summary_lines(cleaning: Cleaning) -> list[str]:
+    """The cleaning for the terminal: sigma0 before and after, and every measurement set aside."""
+    lines = [f"cleaning ({cleaning.model}): sigma0 {cleaning.sigma0_before:.2f} -> {cleaning.sigma0_after:.2f}, "
+             f"{len(cleaning.rejected)} of {cleaning.n_image} image measurements and ground coordinates set aside"]
+    for r in cleaning.rejected:
+        where = f"strip {r.strip} line {r.line:.1f} pixel {r.pixel:.1f}" if r.kind == "image" else "ground.csv"
+        lines.append(f"  {r.point:>8} {where}: w {r.w:.1f}, MDB {r.mdb:.2g}"
+                     + ("" if r.separable else f" ({r.reason})"))
+    if cleaning.dtm_rejected:
+        lines.append(f"  DTM heights rejected (not on open terrain?): {', '.join(cleaning.dtm_rejected)}")
+    lines += [f"  note: {n}" for n in cleaning.notes]
+    return lines
+
+
+__all__ = ["Cleaning", "CleaningOptions", "clean", "cleaning_variant", "restore", "summary_lines", "write_cleaning"]
