@@ -31,6 +31,7 @@ import rasterio
 from rasterio.windows import Window
 
 from scangeo import __version__
+from scangeo.atomic import write_text
 from scangeo.errors import MissingDependencyError, ProjectFileError
 from scangeo.io.project import Project
 from scangeo.orientation.file import Orientation, load_orientation, results_folder
@@ -42,6 +43,7 @@ from scangeo.rectify.geotiff import BandInfo, remove_partials
 from scangeo.rectify.options import RectifyOptions
 from scangeo.rectify.output_grid import OutputGrid, nice_resolution
 from scangeo.rectify.strip import Finaliser, StripResult, rectify_strip
+from scangeo.threading_layer import choose_threading_layer
 
 log = logging.getLogger(__name__)
 
@@ -97,13 +99,11 @@ def _load_cache(root: Path) -> dict[str, list]:
 
 def _save_cache(root: Path, cache: dict[str, list]) -> None:
     target = root / HASH_CACHE
-    tmp = target.with_name(f"{target.name}.{os.getpid()}.tmp")
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
-        tmp.write_text(json.dumps(cache, sort_keys=True), encoding="utf-8")
-        os.replace(tmp, target)
+        write_text(target, json.dumps(cache, sort_keys=True))
     except OSError:  # a read-only project: the cache only saves time
-        tmp.unlink(missing_ok=True)
+        pass
 
 
 def _relative(path: Path, root: Path) -> str | None:
@@ -211,6 +211,7 @@ def start_strip_task(task: StripTask, progress: ProgressCallback = no_progress,
         import numba
 
         cv2.setNumThreads(task.threads)
+        choose_threading_layer()
         numba.set_num_threads(min(task.threads, numba.config.NUMBA_NUM_THREADS))  # type: ignore[attr-defined]
     project = Project.load(task.project)
     source = load_orientation(project, task.variant)
