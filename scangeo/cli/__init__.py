@@ -25,6 +25,7 @@ COMMANDS = [
     "adjust",
     "plan",
     "rectify",
+    "clean",
     "diagnose",
     "compare",
     "report",

@@ -66,6 +66,10 @@ class CleaningOptions:
     per_round : units of distinct points removed per re-solution.
     max_fraction : at most this fraction of the image measurements is removed (a stop for a hopeless
         project: more blunders than that say the model or the sigmas are wrong, not the points).
+    dtm_heights : tie points carry DTM heights (without them a blunder across track in one ray of a tie
+        point seen in two strips moves only the point's height: undetectable).
+    dtm_sigma_factor : the DTM heights' sigma is the project's times this (above 1: the DTM's own errors
+        trip the test less often; measured in docs/adjustment.md).
     dtm_height_points : glob patterns of the tie points on open terrain (DTM heights).
     check_as_control : test the check points too (as control points of the cleaning adjustment).
     """
@@ -77,7 +81,7 @@ class CleaningOptions:
     per_round: int = 4
     max_fraction: float = 0.2
     dtm_heights: bool = True
-    dtm_sigma_factor: float = 3.0
+    dtm_sigma_factor: float = 1.0
     dtm_height_points: tuple[str, ...] = ("*",)
     check_as_control: bool = True
     constant_sigma_m: float = 5.0
@@ -146,7 +150,8 @@ def cleaning_variant(project: Project, options: CleaningOptions) -> Variant:
         strips.append(StripModels(s.id, position_degree=options.position_degree, breaks_lines=breaks))
     return Variant("cleaning", "S", f"every strip split into pieces of about {options.piece_lines:g} lines, "
                    f"position degree {options.position_degree} per piece"
-                   + (f"; DTM heights (sigma x {options.dtm_sigma_factor:g})" if options.dtm_heights else ""),
+                   + ("; DTM heights" if options.dtm_heights else "")
+                   + (f" (sigma x {options.dtm_sigma_factor:g})" if options.dtm_sigma_factor != 1.0 else ""),
                    strips=tuple(strips), dtm_heights=options.dtm_heights,
                    dtm_height_points=tuple(options.dtm_height_points),
                    constant_sigma_m=options.constant_sigma_m, snooping=True, critical_value=options.critical_value,
@@ -218,7 +223,7 @@ def clean(project: Project | Path | str, options: CleaningOptions = CleaningOpti
     progress(0.0, 1.0, "cleaning: setting up the flexible model")
     block = build_block(project, variant, points, cleaning_ground)
     for g in block.groups:
-        if isinstance(g, DtmHeights):  # the DTM's own errors are no blunders of the measurements
+        if isinstance(g, DtmHeights) and options.dtm_sigma_factor != 1.0:
             g.sigma = g.sigma * options.dtm_sigma_factor
     solver = SolverOptions(max_iterations=variant.max_iterations, backend=variant.backend)
     first = adjust(block.parameters, block.groups, solver, SnoopingOptions(enabled=False),
@@ -262,8 +267,11 @@ def restore(project_root) -> bool:
 
 def summary_lines(cleaning: Cleaning) -> list[str]:
     """The cleaning for the terminal: sigma0 before and after, and every measurement set aside."""
-    lines = [f"cleaning ({cleaning.model}): sigma0 {cleaning.sigma0_before:.2f} -> {cleaning.sigma0_after:.2f}, "
-             f"{len(cleaning.rejected)} of {cleaning.n_image} image measurements and ground coordinates set aside"]
+    n_image = sum(r.kind == "image" for r in cleaning.rejected)
+    n_ground = len(cleaning.rejected) - n_image
+    lines = [f"cleaning ({cleaning.model}): sigma0 {cleaning.sigma0_before:.2f} -> {cleaning.sigma0_after:.2f}; "
+             f"set aside: {n_image} of {cleaning.n_image} image measurements, {n_ground} of {cleaning.n_ground} "
+             "points' ground coordinates"]
     for r in cleaning.rejected:
         where = f"strip {r.strip} line {r.line:.1f} pixel {r.pixel:.1f}" if r.kind == "image" else "ground.csv"
         lines.append(f"  {r.point:>8} {where}: w {r.w:.1f}, MDB {r.mdb:.2g}"

@@ -122,3 +122,13 @@ def test_sigma0_warning_names_the_causes(tmp_path):
     rejected_path(tmp_path).parent.mkdir(parents=True)
     rejected_path(tmp_path).write_text("kind,point\n", encoding="utf-8")
     assert "rejected.csv" in (sigma0_warning(5.0, "x", tmp_path) or "")
+
+
+def test_clean_command_restores_and_checks_its_options(cleaned, tmp_path, capsys):
+    from scangeo.cli import main
+
+    root = shutil.copytree(cleaned[0], tmp_path / "p")
+    assert main(["clean", str(root), "--piece-lines", "0", "--no-progress"]) == 1
+    assert "piece_lines" in capsys.readouterr().err and rejected_path(root).exists()
+    assert main(["clean", str(root), "--restore"]) == 0
+    assert "used again" in capsys.readouterr().out and not rejected_path(root).parent.exists()
