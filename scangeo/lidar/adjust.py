@@ -19,29 +19,22 @@ with data snooping. Two modes:
 from __future__ import annotations
 
 import logging
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from scangeo.adjustment.keys import Boresight, LeverArm, RangeOffset, ScanIndex
-from scangeo.errors import LidarError, ProjectFileError
-from scangeo.io.points import column_floats, read_rows
+from scangeo.errors import LidarError
 from scangeo.io.schema import read, setting
+from scangeo.lidar.control import GivenPatches, read_patch_ground
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, georeference, recover
 from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors
 from scangeo.lidar.lasio import StripCloud, read_strip
-from scangeo.lidar.patches import (
-    PatchOptions,
-    StripPatches,
-    TiePatch,
-    find_strip_patches,
-    fit_given_patches,
-    homologous,
-)
-from scangeo.lidar.planes import Planes, anchors
+from scangeo.lidar.patches import PatchOptions, TiePatch, grid_name, homologous
+from scangeo.lidar.planes import anchors
 from scangeo.lidar.project import LaserProject, LaserStrip
+from scangeo.lidar.search import METHODS, StripFound, find_all, seed_name
 from scangeo.lsq.engine import Adjustment, SnoopingOptions, adjust
 from scangeo.lsq.observations import ObservationGroup
 from scangeo.lsq.parameters import Parameters
@@ -61,9 +54,14 @@ class LaserOptions:
 
     mode: str = setting("auto", choices=MODES, doc="trajectory (GPS/IMU corrections), points (trajectory-free) "
                         "or auto (trajectory when every strip has one)")
-    patch_size: float = setting(6.0, gt=0, unit="m", doc="patch (grid cell) size")
+    patch_search: str = setting("rows", choices=METHODS, doc="rows: row buffer of scan lines and seeded second "
+                                "pass (Kager 2004); grid: cells of one fixed grid (issue 16)")
+    patch_size: float = setting(6.0, gt=0, unit="m", doc="patch size (row-buffer window, grid cell)")
     min_patch_points: int = setting(13, ge=4, unit="1", doc="returns a patch keeps after snooping, at least")
     max_patch_sigma: float = setting(0.05, gt=0, unit="m", doc="a posteriori sigma of a patch's plane, at most")
+    max_patch_outliers: float = setting(0.2, ge=0, le=1, unit="1",
+                                        doc="share of a patch's returns data snooping may remove, at most")
+    max_patch_slope_deg: float = setting(60.0, gt=0, le=90, doc="slope of a patch (roofs), at most")
     max_angle_deg: float = setting(5.0, gt=0, doc="homologous patches: angle between the normals, at most")
     max_offset: float = setting(1.0, gt=0, unit="m", doc="homologous patches: distance along the normal, at most")
     thin_cell: float = setting(40.0, gt=0, unit="m", doc="one tie patch per exposition class per square of this size")
@@ -102,9 +100,11 @@ class LaserOptions:
             self.patch_size,
             self.min_patch_points,
             self.max_patch_sigma,
+            max_rejected=self.max_patch_outliers,
             max_angle_deg=self.max_angle_deg,
             max_offset=self.max_offset,
             thin_cell=self.thin_cell,
+            max_slope_deg=self.max_patch_slope_deg,
         )
 
     @classmethod
@@ -113,119 +113,6 @@ class LaserOptions:
         ``overrides`` (None: keep)."""
         options = read(cls, table, where, "adjustment")
         return replace(options, **{k: v for k, v in overrides.items() if v is not None})
-
-
-@dataclass
-class GivenPatches:
-    """Control and check patches of ground.csv; each patch's footprint is the box around its surveyed
-    points (principal axes of their x, y) grown by a margin."""
-
-    ids: list[str]
-    role: list[str]
-    centre: np.ndarray  # (m, 2) map
-    axes: np.ndarray  # (m, 2, 2) unit axes (rows) of the footprint box
-    half: np.ndarray  # (m, 2) half extents along them
-    point_ids: np.ndarray
-    point_patch: np.ndarray
-    xyz: np.ndarray  # (k, 3) map
-    sigma: np.ndarray
-
-
-def read_patch_ground(path: Path, margin: float = 1.0) -> GivenPatches:
-    """ground.csv of a laser project: ``point,patch,x,y,z,sigma_xy,sigma_z,role`` (role control or check)."""
-    header, body, numbers = read_rows(path, ["point", "patch", "x", "y", "z"], ["sigma_xy", "sigma_z", "role"])
-    xyz = np.column_stack([column_floats(path, header, body, numbers, c) for c in "xyz"])
-    sig = column_floats(path, header, body, numbers, "sigma_z", 0.01)
-    for column in ("sigma_xy", "sigma_z"):
-        values = column_floats(path, header, body, numbers, column, 0.01)
-        bad = np.flatnonzero(~(values > 0.0))
-        if bad.size:
-            raise ProjectFileError(
-                f"{path} line {numbers[bad[0]]}: {column} = {values[bad[0]]:g}: expected a positive number of metres"
-            )
-    roles = [r[header.index("role")] if "role" in header else "control" for r in body]
-    for r, line in zip(roles, numbers):
-        if r not in ("control", "check"):
-            raise ProjectFileError(f"{path} line {line}: role {r!r}: expected control or check for a laser project")
-    pid = np.array([r[header.index("patch")] for r in body])
-    ids = list(dict.fromkeys(pid))
-    role, centre, axes, half = [], [], [], []
-    for p in ids:
-        sel = np.flatnonzero(pid == p)
-        if sel.size < 3:
-            raise ProjectFileError(
-                f"{path} line {numbers[sel[0]]}: patch {p} has {sel.size} points (at least 3 needed)"
-            )
-        if len({roles[i] for i in sel}) > 1:
-            raise ProjectFileError(f"{path} line {numbers[sel[0]]}: patch {p} mixes the roles control and check")
-        role.append(roles[sel[0]])
-        c = xyz[sel, :2].mean(axis=0)
-        _, vec = np.linalg.eigh(np.cov((xyz[sel, :2] - c).T))
-        ax = vec.T[::-1]
-        centre.append(c)
-        axes.append(ax)
-        half.append(np.abs((xyz[sel, :2] - c) @ ax.T).max(axis=0) + margin)
-    point_patch = np.array([ids.index(p) for p in pid])
-    return GivenPatches(
-        ids,
-        role,
-        np.array(centre),
-        np.array(axes),
-        np.array(half),
-        np.array([r[header.index("point")] for r in body]),
-        point_patch,
-        xyz,
-        sig,
-    )
-
-
-@dataclass
-class StripFound:
-    """What pass 1 finds in one strip."""
-
-    id: str
-    count: int
-    t_start: float
-    t_end: float
-    patches: StripPatches
-    given: Planes | None
-    given_ok: np.ndarray | None
-
-
-def _pass1(args) -> StripFound:
-    strip, crs, options, prior, given = args
-    cloud = read_strip(strip.id, strip.las, strip.point_source_id, crs)
-    found = find_strip_patches(cloud, options, prior)
-    planes, ok = (
-        fit_given_patches(cloud, given.centre, given.axes, given.half, options, prior)
-        if given is not None
-        else (None, None)
-    )
-    return StripFound(strip.id, cloud.size, float(cloud.time.min()), float(cloud.time.max()), found, planes, ok)
-
-
-def find_all(
-    project: LaserProject,
-    options: PatchOptions,
-    prior: float,
-    given: GivenPatches | None,
-    workers: int = 1,
-    callback: ProgressCallback = no_progress,
-) -> dict[str, StripFound]:
-    """Pass 1 over every strip (in parallel processes with ``workers > 1``)."""
-    tasks = [(s, project.crs, options, prior, given) for s in project.strips]
-    out = {}
-    if workers > 1 and len(tasks) > 1:
-        with ProcessPoolExecutor(min(workers, len(tasks))) as pool:
-            for k, res in enumerate(pool.map(_pass1, tasks)):
-                out[res.id] = res
-                callback(k + 1, len(tasks), f"patches of strip {res.id}")
-    else:
-        for k, task in enumerate(tasks):
-            res = _pass1(task)
-            out[res.id] = res
-            callback(k + 1, len(tasks), f"patches of strip {res.id}")
-    return out
 
 
 @dataclass
@@ -375,11 +262,16 @@ def build(
     prior = project.sensor.range_sigma_m / unit
     given = read_patch_ground(ground) if ground is not None and Path(ground).exists() else None
     if found is None:
-        found = find_all(project, popt, prior, given, options.workers, callback)
-    ties = homologous({s: f.patches for s, f in found.items()}, popt)
+        found = find_all(project, popt, prior, given, options.workers, callback, options.patch_search)
+    seeded = any(f.candidates is not None for f in found.values())
+    ties = homologous({s: f.patches for s, f in found.items()}, popt, name=seed_name(found) if seeded else grid_name)
+    what = "candidates" if seeded else "planar cells"
     notes = [
         f"{len(ties)} tie patches in {len(found)} strips ("
-        + ", ".join(f"{s}: {len(f.patches.cells)} planar cells" for s, f in found.items())
+        + ", ".join(
+            f"{s}: {f.candidates.size if f.candidates is not None else f.patches.cells.size} {what}"
+            for s, f in found.items()
+        )
         + ")"
     ]
     strips = {s.id: s for s in project.strips}
@@ -404,7 +296,7 @@ def build(
             "no tie patch found: the strips do not overlap on planar surfaces (check patch_size and "
             "max_patch_sigma, and that the strips overlap)"
         )
-    all_xyz = np.vstack([f.patches.planes.centroid for f in found.values()])
+    all_xyz = np.vstack([f.cells.planes.centroid for f in found.values()])
     reference = np.round(np.median(all_xyz, axis=0), -1 if unit == 1.0 else 0)
     # anchors of every member, per strip
     per_strip: dict[str, list] = {s: [] for s in found}

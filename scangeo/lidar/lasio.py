@@ -6,20 +6,20 @@ holds several). A file without GPS time, or whose CRS differs from the project's
 the file. The header is checked against the file before laspy reads it (``las_header``: counts,
 offsets and lengths within the file), so a corrupted header is an error naming the field, not a
 long loop or a huge allocation. Corrected copies keep the point format, header, CRS and extra
-dimensions; only the coordinates change; they are written under a temporary name and renamed when complete, so an
-interrupted run leaves no file under a final name.
+dimensions; only the coordinates change; they are written through ``scangeo.atomic`` (a temporary
+name renamed when complete), so an interrupted run leaves no file under a final name.
 """
 
 from __future__ import annotations
 
 import logging
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from scangeo.atomic import atomic_path
 from scangeo.errors import InputFileError
 from scangeo.lidar.las_header import check_las_file
 
@@ -93,23 +93,50 @@ def check_header(path: Path, header, crs) -> None:
             )
 
 
-def read_strip(strip_id: str, files, point_source_id: int | None = None, crs=None) -> StripCloud:
-    """Coordinates and GPS times of a strip's returns from one or more LAS/LAZ files, in chunks."""
-    xyz, t = [], []
+def scan_angle(chunk) -> np.ndarray:
+    """Scan angles (rad) of a chunk of returns: ``scan_angle`` (0.006 deg steps) of point formats 6-10,
+    ``scan_angle_rank`` (whole degrees) of formats 0-5."""
+    names = chunk.point_format.dimension_names
+    if "scan_angle" in names:
+        return np.radians(0.006 * np.asarray(chunk.scan_angle, float))
+    return np.radians(np.asarray(chunk.scan_angle_rank, float))
+
+
+def _records(files, point_source_id: int | None, crs, chunk_size: int):
+    """laspy's chunks of a strip's returns (only ``point_source_id``'s when given), file by file."""
     for path in map(Path, files):
         with _open(path) as f:
             check_header(path, f.header, crs)
             try:
-                for chunk in f.chunk_iterator(CHUNK):
-                    ids = None if point_source_id is None else np.asarray(chunk.point_source_id)
-                    sel = slice(None) if ids is None else ids == point_source_id
-                    xyz.append(
-                        np.column_stack([np.asarray(chunk.x)[sel], np.asarray(chunk.y)[sel], np.asarray(chunk.z)[sel]])
-                    )
-                    t.append(np.asarray(chunk.gps_time, float)[sel])
+                for chunk in f.chunk_iterator(chunk_size):
+                    if point_source_id is not None:
+                        chunk = chunk[np.asarray(chunk.point_source_id) == point_source_id]
+                    if len(chunk):
+                        yield chunk
             except laspy_errors() as exc:
                 raise InputFileError(f"{path}: cannot read the returns; truncated or corrupted? ({exc})") from exc
-    if not t or sum(a.size for a in t) == 0:
+
+
+def _xyz(chunk) -> np.ndarray:
+    return np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
+
+
+def iter_returns(files, point_source_id: int | None = None, crs=None, chunk_size: int = CHUNK):
+    """Chunks ``(xyz (n, 3), GPS time (n,), scan angle (n,) rad)`` of a strip's returns, file by file.
+
+    Holds one chunk of ``chunk_size`` returns at a time (the row buffer and pass 2 stream through them).
+    """
+    for chunk in _records(files, point_source_id, crs, chunk_size):
+        yield _xyz(chunk), np.asarray(chunk.gps_time, float), scan_angle(chunk)
+
+
+def read_strip(strip_id: str, files, point_source_id: int | None = None, crs=None) -> StripCloud:
+    """Coordinates and GPS times of a strip's returns from one or more LAS/LAZ files, in chunks."""
+    xyz, t = [], []
+    for part, time, _ in iter_returns(files, point_source_id, crs):
+        xyz.append(part)
+        t.append(time)
+    if not t:
         which = "" if point_source_id is None else f" with point_source_id {point_source_id}"
         raise InputFileError(f"{', '.join(map(str, files))}: no returns{which} for strip {strip_id}")
     return StripCloud(strip_id, np.concatenate(xyz), np.concatenate(t))
@@ -126,28 +153,16 @@ def write_corrected(
     import laspy
 
     out = Path(out)
-    tmp = out.with_name(out.name + ".part")
     count = 0
     files = list(map(Path, files))
-    try:
-        with _open(files[0]) as first:
-            header = first.header
+    with _open(files[0]) as first:
+        header = first.header
+    with atomic_path(out) as tmp:
         with laspy.open(str(tmp), mode="w", header=header, do_compress=out.suffix.lower() == ".laz") as writer:
-            for path in files:
-                with _open(path) as f:
-                    for chunk in f.chunk_iterator(CHUNK):
-                        if point_source_id is not None:
-                            chunk = chunk[np.asarray(chunk.point_source_id) == point_source_id]
-                        if len(chunk) == 0:
-                            continue
-                        xyz = np.column_stack([np.asarray(chunk.x), np.asarray(chunk.y), np.asarray(chunk.z)])
-                        new = correct(xyz, np.asarray(chunk.gps_time, float))
-                        chunk.x, chunk.y, chunk.z = new[:, 0], new[:, 1], new[:, 2]
-                        writer.write_points(chunk)
-                        count += len(chunk)
-        os.replace(tmp, out)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+            for chunk in _records(files, point_source_id, None, CHUNK):
+                new = correct(_xyz(chunk), np.asarray(chunk.gps_time, float))
+                chunk.x, chunk.y, chunk.z = new[:, 0], new[:, 1], new[:, 2]
+                writer.write_points(chunk)
+                count += len(chunk)
     log.info("wrote %s (%d returns)", out, count)
     return count

@@ -8,13 +8,13 @@ differences. :func:`evaluate` gathers everything the report shows.
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from scangeo.adjustment.keys import Boresight, LeverArm, RangeOffset, ScanIndex
+from scangeo.atomic import write_text
 from scangeo.lidar.adjust import LaserBlock, anchor_points, corrector, map_unit, read_cloud
 from scangeo.lidar.differences import Differences, common_rows, strip_differences
 from scangeo.lidar.lasio import StripCloud, write_corrected
@@ -145,7 +145,7 @@ def evaluate(block: LaserBlock, result: Adjustment, after: dict[str, StripPatche
     popt = _options(block)[0]
     args = (popt.size, popt.flat_deg, popt.max_angle_deg, popt.max_offset)
     before, after_d = common_rows(
-        strip_differences({s: f.patches for s, f in block.found.items()}, *args), strip_differences(after, *args)
+        strip_differences({s: f.cells for s, f in block.found.items()}, *args), strip_differences(after, *args)
     )
     return Evaluation(
         before,
@@ -201,7 +201,8 @@ def results_dict(block: LaserBlock, result: Adjustment, evaluation: Evaluation |
             else "points (provisional solution, no trajectory): XYZ correction polynomials in time per strip"
         ),
         "strips": {
-            s: {"returns": f.count, "t_start": f.t_start, "t_end": f.t_end, "planar_cells": int(f.patches.cells.size)}
+            s: {"returns": f.count, "t_start": f.t_start, "t_end": f.t_end, "planar_cells": int(f.cells.cells.size),
+                "patches": int(f.patches.cells.size)}
             for s, f in block.found.items()
         },
         "patches": {k: int(sum(1 for x in block.kinds if x == k)) for k in ("tie", "control", "check")},
@@ -217,9 +218,7 @@ def results_dict(block: LaserBlock, result: Adjustment, evaluation: Evaluation |
 
 
 def write_results(path: Path, data: dict) -> None:
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(json.dumps(data, indent=1, default=float))
-    os.replace(tmp, path)
+    write_text(path, json.dumps(data, indent=1, default=float))
 
 
 def adjust_project(

@@ -12,6 +12,7 @@ patches of different exposition tie the strips like points do, and the adjustmen
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,6 +34,7 @@ class PatchOptions:
     max_offset: float = 1.0
     thin_cell: float = 40.0
     flat_deg: float = 8.0
+    max_slope_deg: float = 60.0
 
 
 @dataclass
@@ -94,6 +96,11 @@ def find_strip_patches(cloud: StripCloud, options: PatchOptions, prior_sigma: fl
     return StripPatches(cloud.id, uniq[ok], planes.take(ok))
 
 
+def grid_name(cell: int) -> str:
+    ix, iy = cell // (2 * OFFSET) - OFFSET, cell % (2 * OFFSET) - OFFSET
+    return f"t{ix}_{iy}"
+
+
 def exposition(normal: np.ndarray, flat_deg: float) -> np.ndarray:
     """0 for flat patches, 1..8 for the direction (N, NE, E, ...) a sloped patch faces."""
     tilt = np.degrees(np.arccos(np.clip(normal[:, 2], -1, 1)))
@@ -110,8 +117,11 @@ class TiePatch:
     members: list[tuple[str, int]]
 
 
-def homologous(found: dict[str, StripPatches], options: PatchOptions, thin: bool = True) -> list[TiePatch]:
-    """Tie patches: the same cell accepted in 2+ strips with compatible planes, thinned."""
+def homologous(
+    found: dict[str, StripPatches], options: PatchOptions, thin: bool = True, name: Callable[[int], str] | None = None
+) -> list[TiePatch]:
+    """Tie patches: the same cell accepted in 2+ strips with compatible planes, thinned; ``name`` of a
+    cell key (default ``t{ix}_{iy}`` of a grid cell)."""
     strips = list(found)
     cells = np.concatenate([found[s].cells for s in strips]) if strips else np.zeros(0, np.int64)
     owner = (
@@ -154,8 +164,7 @@ def homologous(found: dict[str, StripPatches], options: PatchOptions, thin: bool
         chosen = np.arange(len(candidates))
     for k in chosen:
         cell, members, *_ = candidates[k]
-        ix, iy = cell // (2 * OFFSET) - OFFSET, cell % (2 * OFFSET) - OFFSET
-        out.append(TiePatch(f"t{ix}_{iy}", int(classes[k]), members))
+        out.append(TiePatch((name or grid_name)(cell), int(classes[k]), members))
     return out
 
 

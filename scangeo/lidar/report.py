@@ -10,11 +10,11 @@ figures before/after.
 from __future__ import annotations
 
 import html
-import os
 from pathlib import Path
 
 import numpy as np
 
+from scangeo.atomic import atomic_path, write_text
 from scangeo.lidar.differences import Differences, mosaic
 
 
@@ -24,7 +24,6 @@ def write_difference_grid(path: Path, before: Differences, after: Differences, c
 
     gb, (x0, y1), rows, cols = mosaic(before)
     ga, *_ = mosaic(after)
-    tmp = path.with_name(path.name + ".part.tif")
     profile = dict(
         driver="GTiff",
         width=cols,
@@ -36,12 +35,11 @@ def write_difference_grid(path: Path, before: Differences, after: Differences, c
         transform=Affine(before.size, 0.0, x0, 0.0, -before.size, y1),
         compress="deflate",
     )
-    with rasterio.open(tmp, "w", **profile) as dst:
+    with atomic_path(path) as tmp, rasterio.open(tmp, "w", **profile) as dst:
         dst.write(gb, 1)
         dst.write(ga, 2)
         dst.set_band_description(1, "before")
         dst.set_band_description(2, "after")
-    os.replace(tmp, path)
 
 
 def write_difference_figure(path: Path, before: Differences, after: Differences, unit_name: str = "m") -> None:
@@ -59,10 +57,9 @@ def write_difference_figure(path: Path, before: Differences, after: Differences,
         ax.set_title(f"strip differences {title}: rms {d.rms():.3f} {unit_name}")
         ax.set_xticks([]), ax.set_yticks([])
     fig.colorbar(im, ax=axes, shrink=0.8, label=f"dz ({unit_name})")
-    tmp = path.with_name(path.name + ".part.png")
-    fig.savefig(tmp, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
-    os.replace(tmp, path)
 
 
 def _table(rows: list[dict], columns: list[str]) -> str:
@@ -125,9 +122,8 @@ def write_html(path: Path, results: dict, figure: str | None) -> None:
         "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}table{border-collapse:collapse}"
         "td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px}</style>"
     )
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(
+    write_text(
+        path,
         f"<!doctype html><html><head><meta charset='utf-8'><title>lidar adjust</title>{style}</head>"
-        f"<body>{''.join(parts)}</body></html>"
+        f"<body>{''.join(parts)}</body></html>",
     )
-    os.replace(tmp, path)

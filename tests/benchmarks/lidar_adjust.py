@@ -1,12 +1,16 @@
 """Benchmark: scangeo lidar adjust on a simulated block of laser strips (issue 16 targets).
 
 Default: 9 parallel strips + 1 cross strip of ~2 million returns each (100 kHz, 1200 m at 60 m/s).
-Measures patch finding over all strips with ``--workers`` processes, and one strip alone in this
-process (the serial baseline: ratio = strips x one-strip time / parallel time), the adjustment
+First the patch search of one strip in this process, its returns read once into memory and fed in
+chunks of 1 M (LAS reading apart): the row buffer (pass 1) and the seeded pass 2, in returns per
+CPU second, beside the grid cells of issue 16 (the named baseline) on the same returns (issue 24:
+>= 2 M returns/s/core). Then patch finding over all strips with ``--workers`` processes, and one
+strip alone in this process (the serial baseline: ratio = strips x one-strip time / parallel time), the adjustment
 (set-up of groups and priors, Gauss-Newton, data snooping, statistics), and the peak memory
 (max RSS of this process and of the worker processes).
 
 Run:  python tests/benchmarks/lidar_adjust.py [--strips 9] [--pulse-rate 100000] [--workers 2] [--dir DIR]
+      [--search-only]
 The simulated block is kept in DIR (default /tmp/scangeo-lidar-bench-...) and reused.
 """
 
@@ -18,8 +22,16 @@ import resource
 import time
 from pathlib import Path
 
-from scangeo.lidar.adjust import LaserOptions, _pass1, build, find_all, run
+import numpy as np
+
+from scangeo.lidar.adjust import LaserOptions, build, run
+from scangeo.lidar.control import read_patch_ground
+from scangeo.lidar.lasio import StripCloud, iter_returns
+from scangeo.lidar.patches import find_strip_patches
 from scangeo.lidar.project import LaserProject
+from scangeo.lidar.rowbuffer import search_strip
+from scangeo.lidar.search import _pass1, find_all
+from scangeo.lidar.seeded import Seeds, fit_seeds
 from scangeo.simulate.laser import LaserBlockConfig, simulate_laser
 
 
@@ -33,6 +45,7 @@ def main() -> None:
     ap.add_argument("--length", type=float, default=1200.0)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--dir", type=Path, default=None)
+    ap.add_argument("--search-only", action="store_true", help="only the patch search of one strip")
     a = ap.parse_args()
     cfg = LaserBlockConfig(
         strips=a.strips,
@@ -56,14 +69,15 @@ def main() -> None:
     project = LaserProject.load(root)
     options = LaserOptions(workers=a.workers)
     popt, prior = options.patches, project.sensor.range_sigma_m
-    from scangeo.lidar.adjust import read_patch_ground
-
+    search_throughput(project, popt, prior)
+    if a.search_only:
+        return
     given = read_patch_ground(root / "ground.csv")
     t, c = time.perf_counter(), time.process_time()
-    _pass1((project.strips[0], project.crs, popt, prior, given))
+    _pass1((project.strips[0], project.crs, popt, prior, given, options.patch_search))
     one, one_cpu = time.perf_counter() - t, time.process_time() - c
     t, kids = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
-    found = find_all(project, popt, prior, given, a.workers)
+    found = find_all(project, popt, prior, given, a.workers, method=options.patch_search)
     par = time.perf_counter() - t
     k2 = resource.getrusage(resource.RUSAGE_CHILDREN)
     par_cpu = (k2.ru_utime + k2.ru_stime) - (kids.ru_utime + kids.ru_stime)
@@ -91,6 +105,34 @@ def main() -> None:
     own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
     kids = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024**2
     print(f"peak memory: this process {own:.2f} GB, largest worker {kids:.2f} GB; target < 4 GB")
+
+
+def search_throughput(project, popt, prior, chunk: int = 1_000_000) -> None:
+    """Row buffer, seeded pass and grid cells on one strip's returns in memory: returns per CPU second."""
+    strip = project.strips[0]
+    t = time.process_time()
+    parts = list(iter_returns(strip.las, strip.point_source_id, project.crs, chunk))
+    read = time.process_time() - t
+    n = sum(p[1].size for p in parts)
+    print(f"one strip: {n / 1e6:.2f} M returns; LAS reading {n / read / 1e6:.2f} M returns/s (CPU)")
+    search_strip(strip.id, iter(parts[:1]), popt, prior)  # numba's kernels loaded before timing
+    t = time.process_time()
+    found = search_strip(strip.id, iter(parts), popt, prior)
+    pass1 = time.process_time() - t
+    seeds = Seeds.of({strip.id: found})
+    t = time.process_time()
+    fits = fit_seeds(strip.id, iter(parts), seeds, seeds.inside(found.bounds), popt, prior, found.speed)
+    pass2 = time.process_time() - t
+    cloud = StripCloud(strip.id, np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))
+    t = time.process_time()
+    cells = find_strip_patches(cloud, popt, prior)
+    grid = time.process_time() - t
+    print(f"row buffer (pass 1): {n / pass1 / 1e6:.2f} M returns/s/core, {found.size} candidates "
+          f"in {found.lines} lines")
+    print(f"seeded pass 2 (own candidates as seeds): {n / pass2 / 1e6:.2f} M returns/s/core, {fits.seed.size} fitted")
+    print(f"both passes: {n / (pass1 + pass2) / 1e6:.2f} M returns/s/core (target >= 2)")
+    print(f"baseline, grid cells (issue 16): {n / grid / 1e6:.2f} M returns/s/core, {cells.cells.size} planar cells; "
+          f"ratio rows (both passes) / grid {grid / (pass1 + pass2):.2f}")
 
 
 if __name__ == "__main__":

@@ -79,7 +79,7 @@ def test_interrupted_run_leaves_no_las_under_a_final_name(tiny, tmp_path, monkey
     with pytest.raises(KeyboardInterrupt):
         adjust_project(tiny, out)
     assert calls["n"] == 1
-    assert not list((out / "strips").glob("*.las")) and not list(out.rglob("*.part*"))
+    assert not list((out / "strips").glob("*.las")) and not list(out.rglob("*.tmp*"))
     assert not (out / "results.json").exists()
 
 

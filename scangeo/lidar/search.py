@@ -1,0 +1,142 @@
+"""The patch search over all strips of a laser project, strip by strip (in worker processes on request).
+
+Two methods (``[adjustment] patch_search``):
+
+- ``rows`` (the default, Kager 2004): pass 1 reads every strip in time order through the row
+  buffer (:mod:`scangeo.lidar.rowbuffer`) and keeps its candidate patches; pass 2 reads every strip
+  again and fits it on the boxes of all strips' candidates (:mod:`scangeo.lidar.seeded`); a patch
+  is a seed accepted in two or more strips.
+- ``grid``: cells of one fixed grid common to all strips (:mod:`scangeo.lidar.patches`), the method
+  of issue 16; a patch is a cell planar in two or more strips.
+
+Both then go through :func:`scangeo.lidar.patches.homologous` (compatible planes, thinning by
+exposition). Pass 1 also fits the grid cells of every strip (the strip differences are measured on
+them, whichever method found the tie patches) and the control and check patches of ground.csv.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from scangeo.errors import InputFileError
+from scangeo.lidar.control import GivenPatches
+from scangeo.lidar.lasio import StripCloud, iter_returns
+from scangeo.lidar.patches import PatchOptions, StripPatches, find_strip_patches, fit_given_patches
+from scangeo.lidar.planes import Planes
+from scangeo.lidar.project import LaserProject, LaserStrip
+from scangeo.lidar.rowbuffer import Candidates, RowBuffer
+from scangeo.lidar.seeded import Seeds, fit_seeds, members
+from scangeo.progress import ProgressCallback, no_progress
+
+METHODS = ("rows", "grid")
+
+
+@dataclass
+class StripFound:
+    """What the search finds in one strip: its members of tie patches (``patches``; ``cells`` are
+    grid cell keys or seed indices), its planar grid cells (strip differences), the given patches."""
+
+    id: str
+    count: int
+    t_start: float
+    t_end: float
+    patches: StripPatches
+    cells: StripPatches
+    given: Planes | None
+    given_ok: np.ndarray | None
+    candidates: Candidates | None = None
+
+
+def _pass1(args) -> StripFound:
+    strip, crs, options, prior, given, method = args
+    buffer = RowBuffer(strip.id, options, prior) if method == "rows" else None
+    xyz, t = [], []
+    for part, time, angle in iter_returns(strip.las, strip.point_source_id, crs):
+        xyz.append(part)
+        t.append(time)
+        if buffer is not None:
+            buffer.feed(part, time, angle)
+    if not t:
+        which = "" if strip.point_source_id is None else f" with point_source_id {strip.point_source_id}"
+        raise InputFileError(f"{', '.join(map(str, strip.las))}: no returns{which} for strip {strip.id}")
+    cloud = StripCloud(strip.id, np.concatenate(xyz), np.concatenate(t))
+    cells = find_strip_patches(cloud, options, prior)
+    planes, ok = (
+        fit_given_patches(cloud, given.centre, given.axes, given.half, options, prior)
+        if given is not None
+        else (None, None)
+    )
+    candidates = buffer.finish() if buffer is not None else None
+    t0, t1 = float(cloud.time.min()), float(cloud.time.max())
+    return StripFound(strip.id, cloud.size, t0, t1, cells, cells, planes, ok, candidates)
+
+
+def _pass2(args):
+    strip, crs, seeds, rows, options, prior, speed = args
+    chunks = iter_returns(strip.las, strip.point_source_id, crs)
+    return fit_seeds(strip.id, chunks, seeds, rows, options, prior, speed)
+
+
+def map_strips(
+    fn: Callable[[Any], Any], tasks: Sequence, workers: int, on_done: Callable[[int, Any], None]
+) -> list:
+    """``fn`` over ``tasks`` (in ``workers`` processes when more than one), in order; ``on_done(k, result)``."""
+    out = []
+    if workers > 1 and len(tasks) > 1:
+        with ProcessPoolExecutor(min(workers, len(tasks))) as pool:
+            for k, res in enumerate(pool.map(fn, tasks)):
+                out.append(res)
+                on_done(k, res)
+    else:
+        for k, task in enumerate(tasks):
+            out.append(fn(task))
+            on_done(k, out[-1])
+    return out
+
+
+def find_all(
+    project: LaserProject,
+    options: PatchOptions,
+    prior: float,
+    given: GivenPatches | None,
+    workers: int = 1,
+    callback: ProgressCallback = no_progress,
+    method: str = "rows",
+) -> dict[str, StripFound]:
+    """Both passes over every strip (in parallel processes with ``workers > 1``)."""
+    strips: list[LaserStrip] = list(project.strips)
+    steps = len(strips) * (2 if method == "rows" else 1)
+    tasks = [(s, project.crs, options, prior, given, method) for s in strips]
+    found_list = map_strips(_pass1, tasks, workers,
+                            lambda k, r: callback(k + 1, steps, f"patches of strip {r.id} (pass 1)"))
+    found = {f.id: f for f in found_list}
+    if method != "rows":
+        return found
+    candidates = {f.id: f.candidates for f in found_list if f.candidates is not None}
+    seeds = Seeds.of(candidates)
+    tasks2 = [
+        (s, project.crs, seeds, seeds.inside(candidates[s.id].bounds), options, prior, candidates[s.id].speed)
+        for s in strips
+    ]
+    fits = map_strips(_pass2, tasks2, workers,
+                      lambda k, r: callback(len(strips) + k + 1, steps, f"patches of strip {r.strip} (pass 2)"))
+    for sid, patches in members({f.strip: f for f in fits}, seeds).items():
+        found[sid].patches = patches
+    return found
+
+
+def seed_name(found: dict[str, StripFound]) -> Callable[[int], str]:
+    """Names of row-buffer patches: ``p{strip}_{k}``, the k-th candidate of the strip that seeded it."""
+    owners = [(sid, f.candidates.size) for sid, f in found.items() if f.candidates is not None]
+    starts = np.cumsum([0] + [n for _, n in owners])
+
+    def name(seed: int) -> str:
+        i = int(np.searchsorted(starts, seed, "right")) - 1
+        return f"p{owners[i][0]}_{seed - int(starts[i])}"
+
+    return name
