@@ -17,8 +17,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
-import shutil
 from pathlib import Path
 
 from scangeo.adjustment.image import ImageObservations
@@ -26,6 +24,7 @@ from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex, ScanScale, T
 from scangeo.adjustment.reliability_summary import COLUMNS as RELIABILITY_COLUMNS
 from scangeo.adjustment.reliability_summary import check_columns, row_columns, variant_reliability, write_reliability
 from scangeo.adjustment.results import VariantResult
+from scangeo.atomic import atomic_directory
 from scangeo.lsq.factor import available_backends
 from scangeo.orientation.file import FILE_NAME as ORIENTATION_FILE
 from scangeo.orientation.file import write_orientation
@@ -186,22 +185,8 @@ def write_results(result: VariantResult, out_dir=None) -> Path:
     """Write the outputs of a variant to ``out_dir`` (default PROJECT/results/NAME); returns the folder."""
     project = result.block.project
     out = Path(out_dir) if out_dir else project.root / "results" / result.variant.name
-    tmp = out.with_name(f".{out.name}.tmp")
-    shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir(parents=True)
-    try:
+    with atomic_directory(out) as tmp:  # a full disk, an interrupt: no partial folder left behind
         _write_folder(result, tmp)
-    except BaseException:  # a full disk, an interrupt: no partial folder left behind
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    if out.exists():
-        old = out.with_name(f".{out.name}.old")
-        shutil.rmtree(old, ignore_errors=True)
-        os.replace(out, old)
-        os.replace(tmp, out)
-        shutil.rmtree(old, ignore_errors=True)
-    else:
-        os.replace(tmp, out)
     return out
 
 
@@ -217,7 +202,7 @@ def _write_folder(result: VariantResult, tmp: Path) -> None:
         write_trajectory_csv(tmp / f"trajectory_{sid}.csv", GpsImuStream.from_project(traj, frame))
     write_orientation(result.orientation(), tmp / ORIENTATION_FILE)
     write_reliability(result, tmp)
-    with open(tmp / "residuals.csv", "w", newline="") as f:
+    with open(tmp / "residuals.csv", "w", newline="") as f:  # inside write_results' atomic folder
         csv.writer(f).writerows(residual_rows(result))
     (tmp / "report.json").write_text(json.dumps(report_dict(result), indent=1))
 

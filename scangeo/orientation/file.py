@@ -25,6 +25,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from scangeo.atomic import write_text
 from scangeo.errors import OrientationFileError, ScangeoError
 from scangeo.frames import ProjectFrame
 from scangeo.io.project import Project
@@ -271,9 +272,7 @@ def orientation_dict(doc: Orientation) -> dict[str, Any]:
 def write_orientation(doc: Orientation, path: str | Path) -> Path:
     """Write ``doc`` to ``path`` (a temporary name, then renamed); returns the path."""
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(orientation_dict(doc), indent=1))
-    os.replace(tmp, path)
+    write_text(path, json.dumps(orientation_dict(doc), indent=1))
     return path
 
 
