@@ -40,7 +40,7 @@ from scangeo.rectify.geometry import MapStripGeometry
 from scangeo.rectify.geotiff import BandInfo, bands_of, describe, finalise, remove_partials, working_profile
 from scangeo.rectify.options import RectifyOptions
 from scangeo.rectify.output_grid import OutputGrid
-from scangeo.rectify.strip_run import StripResult, StripRun, gdal_cache, start_run, strip_grid
+from scangeo.rectify.strip_run import StripResult, StripRun, gdal_cache, start_run, strip_grid, tile_slices
 
 log = logging.getLogger(__name__)
 
@@ -231,3 +231,59 @@ def rectify_strip(
     else:
         run.result.pending = finaliser.submit(finish)
     return run.result
+
+
+@dataclass
+class StripArray:
+    """A strip rectified in memory (:func:`rectify_strip_array`).
+
+    ``values`` : (bands, rows, cols) array of the image's dtype on ``grid`` (row 0 north), ``nodata``
+    where no pixel is seen (outside the swath, no DTM, hidden ground).
+    """
+
+    values: np.ndarray
+    grid: OutputGrid
+    nodata: float
+    valid_cells: int
+    hidden_cells: int
+
+
+class _ArrayTiles:
+    """Pass 2's destination when the orthoimage stays in memory: tiles written into ``values``."""
+
+    def __init__(self, values: np.ndarray) -> None:
+        self.values = values
+
+    def write(self, data: np.ndarray, window: Window) -> None:
+        rs, cs = tile_slices(window)
+        self.values[:, rs, cs] = data
+
+
+def rectify_strip_array(
+    geometry: MapStripGeometry,
+    image: str | Path,
+    options: RectifyOptions | None = None,
+    grid: OutputGrid | None = None,
+    progress: ProgressCallback = no_progress,
+) -> StripArray:
+    """Rectify the strip image ``image`` onto ``grid`` into an array: the passes of
+    :func:`rectify_strip` (same values cell by cell), no file written; layers, GLT and IGM are
+    not made. The whole orthoimage is held in memory (bands x rows x cols of the image's dtype);
+    pass 1's working arrays go to a temporary folder only when they exceed a quarter of
+    ``options.memory_budget_mb``.
+    """
+    options = options or RectifyOptions()
+    image = Path(image)
+    grid = grid or strip_grid(geometry, options)
+    with tempfile.TemporaryDirectory(prefix="scangeo-rectify-") as work, \
+            rasterio.Env(GDAL_CACHEMAX=gdal_cache(options)), open_strip_image(image, geometry) as src:
+        run = start_run(geometry, grid, options, src, image, Path(work))
+        map_cells(run, progress)
+        values = np.empty((src.count, grid.height, grid.width), dtype=np.dtype(src.dtypes[0]))
+        tiles = _ArrayTiles(values)
+        windows = run.windows
+        for i, w in enumerate(windows):
+            resample_tile(run, w, tiles, None, None)
+            progress(len(windows) + i + 1, 2 * len(windows), f"resample {image.stem}")
+        run.work.close()
+    return StripArray(values, grid, run.nodata, run.result.valid_cells, run.result.hidden_cells)

@@ -102,3 +102,20 @@ def test_the_background_step_runs_no_parallel_kernel(tmp_path):
 
     proc = subprocess.run([sys.executable, "-c", CONCURRENT, str(tmp_path)], capture_output=True, text=True)
     assert proc.returncode == 0 and "ok" in proc.stdout, proc.stderr[-2000:]
+
+
+def test_a_strip_rectified_in_memory_equals_the_file(tmp_path):
+    import numpy as np
+    import rasterio
+
+    from scangeo.rectify.strip import rectify_strip_array
+
+    (geom,) = strips(tmp_path, 1)
+    opts = RectifyOptions(resolution=2.0)
+    on_disk = rectify_strip(geom, tmp_path / "img0.tif", tmp_path / "o.tif", opts)
+    mem = rectify_strip_array(geom, tmp_path / "img0.tif", opts)
+    with rasterio.open(tmp_path / "o.tif") as src:
+        np.testing.assert_array_equal(mem.values, src.read())
+        assert mem.nodata == src.nodata and mem.grid == on_disk.grid
+    assert mem.valid_cells == on_disk.valid_cells > 10_000 and mem.hidden_cells == on_disk.hidden_cells
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["img0.tif", "o.tif"]  # nothing else written
