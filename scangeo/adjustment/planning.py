@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -138,19 +137,4 @@ def plan_block(project_root, variant: str | Variant = "SE", variants_file=None, 
     return Plan(result, rel, len(used), n_ctrl)
 
 
-def write_plan(plan: Plan, out_dir=None) -> Path:
-    """``reliability.csv``, ``reliability.json``, ``points.csv`` (the planned measurements) and
-    ``plan.html`` into ``out_dir`` (default PROJECT/results/plan_NAME); returns the folder."""
-    from scangeo.adjustment.reliability_summary import write_reliability
-    from scangeo.reports.reliability import write_plan_report
-
-    result = plan.result
-    out = Path(out_dir) if out_dir else result.block.project.root / "results" / f"plan_{result.variant.name}"
-    out.mkdir(parents=True, exist_ok=True)
-    write_reliability(result, out, plan.reliability)
-    result.block.points.write(out / "points.csv")
-    write_plan_report(plan, out / "plan.html")
-    return out
-
-
-__all__ = ["PLAN_GRID", "Plan", "block_extent", "plan_block", "planned_measurements", "write_plan"]
+__all__ = ["PLAN_GRID", "Plan", "block_extent", "plan_block", "planned_measurements"]

@@ -1,7 +1,7 @@
 """``scangeo plan PROJECT --variant NAME``: the reliability of a planned block, before the flight.
 
 A thin shell over :func:`scangeo.adjustment.planning.plan_block` and
-:func:`scangeo.adjustment.planning.write_plan` (docs/adjustment.md, "Reliability").
+:func:`scangeo.reports.reliability.write_plan` (docs/adjustment.md, "Reliability").
 """
 from __future__ import annotations
 
@@ -26,9 +26,10 @@ def add_parser(subparsers, common) -> None:
 
 
 def run(args) -> int:
-    from scangeo.adjustment.planning import plan_block, write_plan
+    from scangeo.adjustment.planning import plan_block
     from scangeo.adjustment.reliability_summary import reliability_lines
     from scangeo.cli import progress_of
+    from scangeo.reports.reliability import write_plan
 
     plan = plan_block(args.project, args.variant, args.variants, args.tie_spacing, args.sigma_px, progress_of(args))
     out = write_plan(plan, args.out)

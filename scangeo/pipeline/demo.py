@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 from scangeo.progress import ProgressCallback, no_progress, scaled
 
 if TYPE_CHECKING:
-    from scangeo.strategy.comparison import Comparison
+    from scangeo.adjustment.summary import Comparison
 
 log = logging.getLogger(__name__)
 
@@ -83,7 +83,7 @@ def run_demo(out="demo", preset: str = "vienna2000", *, seed: int | None = None,
     if matched:
         t = time.perf_counter()
         from scangeo.match import match_project
-        from scangeo.match.truth import matched_points_project
+        from scangeo.truth.matches import matched_points_project
 
         match_project(root, references=[root / "truth" / "ortho.tif"], workers=2)
         copy = matched_points_project(root, root / "matched")

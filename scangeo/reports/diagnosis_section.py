@@ -11,10 +11,10 @@ from pathlib import Path
 from matplotlib.figure import Figure
 
 from scangeo.adjustment.diagnosis.output import read_diagnosis
+from scangeo.adjustment.summary import Comparison
 from scangeo.reports import html
 from scangeo.reports.figures import png
 from scangeo.reports.tables import markdown_tables
-from scangeo.strategy.comparison import Comparison
 
 
 def misclosure_plot(diagnosis: dict) -> bytes:

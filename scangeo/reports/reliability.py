@@ -6,7 +6,8 @@
   reliability (the largest shift of the strip's ground positions any single undetected MDB-sized
   blunder causes, on a grid of image positions, with each point's own shift), the non-separable
   points, and a sentence of interpretation;
-- :func:`write_plan_report`: ``plan.html`` of ``scangeo plan``, the weak-area map of a planned block.
+- :func:`write_plan_report`: ``plan.html`` of ``scangeo plan``, the weak-area map of a planned block;
+  :func:`write_plan` writes it with the plan's reliability tables and planned measurements.
 """
 from __future__ import annotations
 
@@ -20,6 +21,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from scangeo import __version__
+from scangeo.adjustment.planning import Plan
+from scangeo.adjustment.reliability_summary import UNIT_COLUMNS, reliability_dict, unit_table, write_reliability
 from scangeo.atomic import write_text
 from scangeo.reports import html
 from scangeo.reports.figures import png
@@ -160,10 +163,8 @@ def plan_map(positions: dict, rows: list[dict]) -> bytes:
     return png(fig)
 
 
-def write_plan_report(plan, path: Path) -> Path:
+def write_plan_report(plan: Plan, path: Path) -> Path:
     """``plan.html``: the planned block's weak-area map, per-strip maps and the summary table."""
-    from scangeo.adjustment.reliability_summary import UNIT_COLUMNS, reliability_dict, unit_table
-
     vr = plan.reliability
     summary = reliability_dict(vr)
     rows = [dict(zip(UNIT_COLUMNS, (str(x) for x in r))) for r in unit_table(vr)]
@@ -185,5 +186,17 @@ def write_plan_report(plan, path: Path) -> Path:
     return write_text(path, text)
 
 
+def write_plan(plan: Plan, out_dir=None) -> Path:
+    """``reliability.csv``, ``reliability.json``, ``points.csv`` (the planned measurements) and
+    ``plan.html`` into ``out_dir`` (default PROJECT/results/plan_NAME); returns the folder."""
+    result = plan.result
+    out = Path(out_dir) if out_dir else result.block.project.root / "results" / f"plan_{result.variant.name}"
+    out.mkdir(parents=True, exist_ok=True)
+    write_reliability(result, out, plan.reliability)
+    result.block.points.write(out / "points.csv")
+    write_plan_report(plan, out / "plan.html")
+    return out
+
+
 __all__ = ["interpretation", "plan_map", "read_variant_reliability", "reliability_section", "strip_map",
-           "write_plan_report"]
+           "write_plan", "write_plan_report"]

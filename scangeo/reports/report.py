@@ -14,7 +14,7 @@ variant's ``results/NAME/``), and writes one self-contained HTML file (figures e
 6. the regularisation and blunder notes of every variant.
 7. the reliability of the reference and the best variant: MDB and external reliability maps per
    strip, the non-separable points and a sentence of interpretation (:mod:`scangeo.reports.reliability`).
-8. when ``scangeo match`` measured points: their map and counts (:mod:`scangeo.match.figure`).
+8. when ``scangeo match`` measured points: their map and counts (:mod:`scangeo.reports.matching`).
 
 The residual vectors of every variant also go to a GeoPackage (:mod:`scangeo.reports.geopackage`).
 """
@@ -29,8 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from scangeo import __version__
+from scangeo.adjustment.summary import Comparison
 from scangeo.io.project import Project
-from scangeo.match.figure import match_section
 from scangeo.orientation.file import FILE_NAME as ORIENTATION_FILE
 from scangeo.orientation.file import read_orientation
 from scangeo.progress import ProgressCallback, no_progress
@@ -38,10 +38,10 @@ from scangeo.reports import figures, html
 from scangeo.reports.corrections import breaks_of, correction_series, gpsimu_series, problem_strips, true_gps_error
 from scangeo.reports.diagnosis_section import diagnosis_section
 from scangeo.reports.geopackage import write_geopackage
+from scangeo.reports.matching import match_section
 from scangeo.reports.reliability import reliability_section
 from scangeo.reports.residual_vectors import ResidualVectors, check_vectors
 from scangeo.reports.tables import markdown_tables, read_comparison
-from scangeo.strategy.comparison import Comparison
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ import json
 import os
 from pathlib import Path
 
-from scangeo.strategy.comparison import Comparison, VariantSummary
+from scangeo.adjustment.summary import Comparison, VariantSummary
 
 FILES = ("comparison.md", "comparison.csv", "comparison.json")
 

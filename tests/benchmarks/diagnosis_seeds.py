@@ -32,10 +32,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "reports"))
 from test_physics import CORRECTED, pooled_true, reduced_overrides  # noqa: E402
 
 from scangeo.adjustment.diagnosis.diagnose import diagnose  # noqa: E402
+from scangeo.adjustment.summary import Comparison  # noqa: E402
 from scangeo.reports.tables import write_comparison  # noqa: E402
 from scangeo.simulate.block import simulate  # noqa: E402
 from scangeo.simulate.config import load_preset  # noqa: E402
-from scangeo.strategy.comparison import Comparison, compare_project  # noqa: E402
+from scangeo.strategy.comparison import compare_project  # noqa: E402
 
 
 def simulate_vienna(root: Path, seed: int, factor: float, ties: int | None) -> None:

@@ -3,7 +3,7 @@
 Simulates vienna2000 (3 strips x 7,000 lines x 716 pixels, with images and the truth orthoimage)
 into FOLDER unless it is there, then measures ties and control (the truth orthoimage as the
 reference) with 1 and 2 worker processes, and prints the time, the peak resident memory of this
-process and of the workers, the point counts and the true tie error (scangeo.match.truth).
+process and of the workers, the point counts and the true tie error (scangeo.truth.matches).
 
 Run: ``python tests/benchmarks/match.py FOLDER [--workers 2]``
 """
@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 from scangeo.match import match_project
-from scangeo.match.truth import match_errors
+from scangeo.truth.matches import match_errors
 
 
 def main() -> None:

@@ -3,7 +3,7 @@
 Both run on the same rectified overlap chips of simulated blocks (the ``small`` preset cut to 300
 lines: the procedural scene, and the real orthophoto ../shared/data/ortho/autzen.jpg as texture),
 and both carry their matches back into the raw images the same way. Their tie measurements are
-compared with the truth (scangeo.match.truth): the true ground point of the master measurement
+compared with the truth (scangeo.truth.matches): the true ground point of the master measurement
 seen through the true orientation of the other strip.
 
 * NCC + LSM: ``scangeo.match`` as it is (Shi-Tomasi corners, correlation peak, least-squares).
@@ -28,9 +28,9 @@ from scangeo.match.consistency import local_affine_inliers
 from scangeo.match.overlaps import find_overlaps
 from scangeo.match.strips import ChipGrid, MatchStrip
 from scangeo.match.tasks import margin_cells
-from scangeo.match.truth import match_errors
-from scangeo.reports.true_error import Truth
 from scangeo.sensors.kernels import MULTIPLE
+from scangeo.truth.matches import match_errors
+from scangeo.truth.true_error import Truth
 
 TEXTURE = Path(__file__).resolve().parents[3] / "shared" / "data" / "ortho" / "autzen.jpg"
 

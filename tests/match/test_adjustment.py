@@ -14,8 +14,8 @@ import os
 import pytest
 
 from scangeo.match import match_project
-from scangeo.match.truth import matched_points_project
 from scangeo.strategy.comparison import compare_project
+from scangeo.truth.matches import matched_points_project
 
 FULL = os.environ.get("SCANGEO_SCALE", "").lower() == "full"
 SMALL_VARIANTS = """

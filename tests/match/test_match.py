@@ -1,7 +1,7 @@
 """``scangeo match`` on simulated blocks with known truth (tests/match/conftest.py).
 
 Tie measurements are checked against the truth: the true ground point of the master measurement,
-seen through the true orientation of the other strip (scangeo.match.truth).
+seen through the true orientation of the other strip (scangeo.truth.matches).
 """
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pytest
 from scangeo.cli import main
 from scangeo.errors import OptionsError
 from scangeo.match import MatchOptions, match_project
-from scangeo.match.truth import match_errors
+from scangeo.truth.matches import match_errors
 from tests.session_projects import copy_project
 
 
@@ -62,7 +62,7 @@ def test_rerun_replaces_only_matched_rows(landcover_block, tmp_path):
     roles = [r[6] for r in ground if r[0].startswith("MC_")]
     assert roles.count("check") == pytest.approx(0.3 * len(roles), abs=2)
     # the report's section: a map of the points and a row per overlap and strip
-    from scangeo.match.figure import match_section
+    from scangeo.reports.matching import match_section
 
     section = match_section(root)
     assert section is not None and section.title == "Matched points"

@@ -12,8 +12,8 @@ from scangeo.cli import main
 from scangeo.errors import ProjectFileError
 from scangeo.io.project import Project
 from scangeo.reports.tables import CSV_FIELDS, read_comparison
-from scangeo.reports.true_error import Truth
 from scangeo.strategy.comparison import compare_project
+from scangeo.truth.true_error import Truth
 
 
 def test_table_holds_each_variants_own_figures(compared_small):

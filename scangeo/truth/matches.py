@@ -15,8 +15,8 @@ import numpy as np
 from scangeo.errors import ProjectFileError
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
-from scangeo.reports.true_error import Truth
 from scangeo.sensors.kernels import MULTIPLE
+from scangeo.truth.true_error import Truth
 
 
 @dataclass(frozen=True)
