@@ -33,6 +33,7 @@ import scipy.sparse as sp
 
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Ground
+from scangeo.adjustment.neighbourhoods import MARGIN, RADIUS, strip_neighbourhoods
 from scangeo.adjustment.results import VariantResult
 from scangeo.lsq.parameters import Layout
 from scangeo.lsq.reliability import OrientationProbe, Reliability, compute_reliability, delta0
@@ -56,10 +57,16 @@ class VariantReliability:
     grid: tuple[int, int] = PROBE_GRID
 
 
-def strip_probes(result: VariantResult, grid: tuple[int, int] = PROBE_GRID) -> list[OrientationProbe]:
+def strip_probes(result: VariantResult, grid: tuple[int, int] = PROBE_GRID,
+                 radius: int | None = RADIUS, margin: int = MARGIN) -> list[OrientationProbe]:
     """Per strip, how the unknowns move its ground positions at a grid of image positions (adjusted
-    geometry, on the DTM): ``dG_xy = -(dimage/dG_xy)^-1 dimage/dx`` (see ``OrientationProbe``)."""
+    geometry, on the DTM): ``dG_xy = -(dimage/dG_xy)^-1 dimage/dx`` (see ``OrientationProbe``).
+
+    ``radius``, ``margin``: the probe's neighbourhood (strip steps, :mod:`scangeo.adjustment.neighbourhoods`)
+    for the local external reliability where it is smaller than the block; None: every probe exact.
+    """
     sol = result.adjustment.solution
+    hoods = strip_neighbourhoods(sol, radius, margin) if radius is not None else {}
     values = sol.parameters.values()
     project = result.block.project
     out = []
@@ -91,7 +98,9 @@ def strip_probes(result: VariantResult, grid: tuple[int, int] = PROBE_GRID) -> l
         blocks = [np.linalg.inv(J_g[2 * i:2 * i + 2, 2 * i:2 * i + 2]) for i in range(n)]
         M = -(sp.block_diag(blocks, format="csr") @ J_x)
         x, y, _ = project.map_frame.project_to_map(p_P[ok])
-        out.append(OrientationProbe(sid, M.tocsr(), np.column_stack([x, y])))
+        hood = hoods.get(sid)
+        local = hood if hood is not None and hood.domain.size < sol.layout.n else None
+        out.append(OrientationProbe(sid, M.tocsr(), np.column_stack([x, y]), local))
     return out
 
 

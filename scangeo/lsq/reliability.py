@@ -23,7 +23,9 @@ With whitened rows (residual / sigma, Jacobian / sigma), ``N = J^T J`` and the r
 Everything comes from the factor of the last solution and its selected inverse: the effects on the
 ground points from the selected inverse (the unknowns of one observation share its pattern), the
 effects on the strips' ground positions by one solve per probe position and axis, never a dense
-inverse. Rejected rows and pseudo-observations get NaN.
+inverse: with the whole factor over every row, or (a probe with a neighbourhood) with the factor of
+its neighbourhood over the rows near it, linear in the size of a block (:mod:`scangeo.lsq.probe_effects`).
+Rejected rows and pseudo-observations get NaN.
 """
 from __future__ import annotations
 
@@ -35,6 +37,7 @@ import scipy.sparse as sp
 import scipy.stats
 
 from scangeo.lsq.keys import PointKey
+from scangeo.lsq.probe_effects import Neighbourhood, probe_effects
 from scangeo.lsq.separability import scaled_jacobian
 from scangeo.lsq.solver import Solution
 from scangeo.lsq.statistics import MIN_REDUNDANCY, Statistics
@@ -62,6 +65,9 @@ class OrientationProbe:
     matrix: sp.csr_matrix
     #: (k, 2) map x, y of the k positions (for maps), or None
     xy: np.ndarray | None = None
+    #: the unknowns whose observations count and the unknowns solved for (see
+    #: :mod:`scangeo.lsq.probe_effects`); None: every row, with the whole factor (exact)
+    neighbourhood: Neighbourhood | None = None
 
 
 @dataclass
@@ -112,7 +118,7 @@ def _point_columns(solution: Solution, groups, rows_of_group: list[np.ndarray],
 
 def compute_reliability(solution: Solution, statistics: Statistics, probes: Sequence[OrientationProbe] = (),
                         alpha0: float = ALPHA0, beta: float = BETA, external: bool = True,
-                        chunk: int = 2048, point_key: PointKey | None = None) -> Reliability:
+                        point_key: PointKey | None = None, workers: int = 1) -> Reliability:
     """Redundancy numbers, MDBs and external reliability of every active observation row.
 
     Parameters
@@ -121,7 +127,7 @@ def compute_reliability(solution: Solution, statistics: Statistics, probes: Sequ
     probes : per strip, the map of the unknowns to its ground positions (``ext_orientation_m``); none:
         NaN.
     external : False skips the external reliability (no solves; MDBs only).
-    chunk : rows per block of the effects on the ground positions (memory: chunk x 2 positions).
+    workers : threads over the probes.
     point_key : maps an observation id to the key of its point (3 coordinates; ``Ground`` of the
         line-scanner block) for ``ext_point_m``; None: NaN.
     """
@@ -164,21 +170,25 @@ def compute_reliability(solution: Solution, statistics: Statistics, probes: Sequ
         ext_p[gi][local[sel]] = point[sel]
         ext_o[gi][local[sel]] = np.nan if not probes else 0.0
     tested = np.array([groups[gi].snooped for gi in owner_group], dtype=bool)
-    for probe in probes:   # the strip's ground positions: N^-1 P^T by one solve per position and axis
-        Ps = (probe.matrix @ sp.diags(1.0 / scale)).tocsr()
-        W = np.asarray(solution.factor.solve(Ps.T.toarray())).reshape(Ps.shape[1], Ps.shape[0])
-        length = np.zeros((glob.size, Ps.shape[0] // 2))
-        for a in range(0, glob.size, chunk):
-            shift = (Js[a:a + chunk] @ W) * size[a:a + chunk, None]          # (rows, 2 K) metres
-            length[a:a + chunk] = np.hypot(shift[:, 0::2], shift[:, 1::2])
+    # the strips' ground positions: N^-1 P^T per probe, over the probe's neighbourhood when it has one
+    scaled = [(probe.matrix @ sp.diags(1.0 / scale)).tocsr() for probe in probes]
+    effects = probe_effects(solution.factor, solution.system.normal, Js, size, scaled,
+                            [probe.neighbourhood for probe in probes], workers)
+    per_row_all = np.zeros(glob.size)
+    for probe, effect in zip(probes, effects):
+        length = effect.length                                      # (evaluated rows, K) metres
         per_row = length.max(axis=1, initial=0.0)
+        np.maximum.at(per_row_all, effect.rows, per_row)
+        t = tested[effect.rows]
+        if t.any():
+            out.ext_positions[probe.strip] = length[t].max(axis=0)
+            j = int(np.argmax(np.where(t, per_row, -1.0)))
+            r = effect.rows[j]
+            out.ext_strip[probe.strip] = (float(per_row[j]), int(owner_group[r]), int(local[r]))
+    if probes:
         for gi in range(len(groups)):
             sel = owner_group == gi
-            ext_o[gi][local[sel]] = np.maximum(ext_o[gi][local[sel]], per_row[sel])
-        if tested.any():
-            out.ext_positions[probe.strip] = length[tested].max(axis=0)
-            j = int(np.argmax(np.where(tested, per_row, -1.0)))
-            out.ext_strip[probe.strip] = (float(per_row[j]), int(owner_group[j]), int(local[j]))
+            ext_o[gi][local[sel]] = per_row_all[sel]
     return out
 
 

@@ -1,0 +1,92 @@
+"""Strip neighbourhoods of a block's unknowns, for the local external reliability.
+
+A strip's unknowns are the columns its own observation groups (its GPS/IMU samples and image
+measurements) touch: its spline knots, the corrections of its GPS/IMU models, the ground points it
+measures. Two strips are neighbours when they share such a column that is not **global**: a column
+that more than ``GLOBAL_STRIPS`` strips touch (a boresight, a block-wide GPS/IMU model) belongs to
+every neighbourhood's domain but links no two strips. The neighbourhood of strip ``s`` at radius
+``r`` (:class:`~scangeo.lsq.probe_effects.Neighbourhood`): ``near`` the columns of the strips at most
+``r`` steps away (their observations are evaluated), ``domain`` those of the strips at most ``r + 1``
+steps away and the global columns (solved for; the others held fixed).
+"""
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from scangeo.lsq.probe_effects import Neighbourhood
+from scangeo.lsq.solver import Solution
+
+#: A column touched by the groups of more strips than this is global (links no two strips).
+GLOBAL_STRIPS = 4
+#: Default radius (strip steps around a window) of the rows evaluated for its strips' probes.
+RADIUS = 2
+#: Default margin (strip steps beyond the evaluated rows) of the unknowns solved for.
+MARGIN = 3
+#: Default half width (strip steps) of a window of strips that share one factorisation.
+CORE = 2
+
+
+def strip_columns(solution: Solution) -> dict[str, np.ndarray]:
+    """Per strip, the columns its own observation groups (those with a ``strip`` attribute) touch."""
+    J = solution.system.jacobian
+    out: dict[str, list[np.ndarray]] = {}
+    for g, sl in zip(solution.groups, solution.system.row_slices):
+        sid = getattr(g, "strip", None)
+        if sid is None:
+            continue
+        rows = J[sl]
+        out.setdefault(str(sid), []).append(np.unique(rows.indices))
+    return {sid: np.unique(np.concatenate(parts)) for sid, parts in out.items()}
+
+
+def _distances(adjacent: dict[str, set[str]], start: set[str], limit: int) -> dict[str, int]:
+    """Strip steps from the nearest of ``start``, up to ``limit``."""
+    dist = {s: 0 for s in start}
+    queue = deque(start)
+    while queue:
+        a = queue.popleft()
+        if dist[a] >= limit:
+            continue
+        for b in sorted(adjacent[a]):
+            if b not in dist:
+                dist[b] = dist[a] + 1
+                queue.append(b)
+    return dist
+
+
+def strip_neighbourhoods(solution: Solution, radius: int = RADIUS, margin: int = MARGIN,
+                         core: int = CORE) -> dict[str, Neighbourhood]:
+    """Per strip, its :class:`Neighbourhood` (see the module docstring); strips of one window share
+    the same object (one factorisation)."""
+    cols = strip_columns(solution)
+    count = np.zeros(solution.layout.n, dtype=np.int64)
+    for c in cols.values():
+        count[c] += 1
+    is_global = count > GLOBAL_STRIPS
+    glob = np.flatnonzero(is_global)
+    owners: dict[int, list[str]] = {}
+    for sid, c in cols.items():
+        for col in c[~is_global[c] & (count[c] > 1)]:
+            owners.setdefault(int(col), []).append(sid)
+    adjacent: dict[str, set[str]] = {sid: set() for sid in cols}
+    for sids in owners.values():
+        for a in sids:
+            adjacent[a].update(b for b in sids if b != a)
+    out: dict[str, Neighbourhood] = {}
+    order = list(cols)
+    for sid in order:   # windows: a strip not yet served and the unserved strips within `core` steps
+        if sid in out:
+            continue
+        window = {t for t in _distances(adjacent, {sid}, core) if t not in out}
+        dist = _distances(adjacent, window, radius + margin)
+        near = np.unique(np.concatenate([cols[t] for t, d in dist.items() if d <= radius]))
+        domain = np.unique(np.concatenate([cols[t] for t in dist] + [glob]))
+        hood = Neighbourhood(near[~is_global[near]], domain)
+        for t in window:
+            out[t] = hood
+    return out
+
+
+__all__ = ["CORE", "GLOBAL_STRIPS", "MARGIN", "RADIUS", "strip_columns", "strip_neighbourhoods"]
