@@ -144,9 +144,11 @@ def make_terrain(config: TerrainConfig, extent: Extent, crs, rng: np.random.Gene
     true = RasterGrid(heights, transform, crs_text)
     inner = extent.grown(max(config.margin_m - 2 * max(config.resolution_m, config.dtm_resolution_m), 0.0))
     dtm_transform, dtm_shape = inner.grid(config.dtm_resolution_m)
-    rows, cols = np.mgrid[0:dtm_shape[0], 0:dtm_shape[1]]
-    x, y = RasterGrid(np.zeros(dtm_shape), dtm_transform).index_to_map(cols.ravel(), rows.ravel())
-    true_on_dtm = true.sample(x, y).reshape(dtm_shape)
+    # the DTM's cells form a lattice (north-up grid): sampled row by row, without the (cells,)
+    # coordinate and index arrays of a point-wise sample (those made 96-strip blocks peak at 4 GB)
+    xs = dtm_transform.c + dtm_transform.a * (np.arange(dtm_shape[1]) + 0.5)
+    ys = dtm_transform.f + dtm_transform.e * (np.arange(dtm_shape[0]) + 0.5)
+    true_on_dtm = true.sample_lattice(xs, ys)
     error = np.zeros(dtm_shape)
     if config.dtm_error_sigma_m > 0:
         wavelength = config.dtm_error_wavelength_m
