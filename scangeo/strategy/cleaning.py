@@ -106,7 +106,8 @@ class Cleaning:
     n_image: int
     n_ground: int
     options: CleaningOptions = field(default_factory=CleaningOptions)
-    #: DTM heights the snooping rejected (tie points not on open terrain): not set aside, named here
+    #: DTM heights the snooping rejected alone (tie points off open terrain, or the DTM's own error): not set
+    #: aside (later variants choose their DTM heights themselves), named here
     dtm_rejected: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
     #: MDB (pixels) of every image measurement of the cleaning adjustment, ``(point, strip) -> MDB``, kept
@@ -206,7 +207,8 @@ def _rejected(block: Block, adj: Adjustment, ground: GroundPoints
                                                separable=separable, reason=note))
             else:
                 dtm.append(pid)
-    return out, sorted(set(dtm)), mdb
+    removed = {r.point for r in out}   # a point removed whole loses its DTM height with it: not named again
+    return out, sorted(set(dtm) - removed), mdb
 
 
 def clean(project: Project | Path | str, options: CleaningOptions = CleaningOptions(),  # noqa: B008 (frozen)
