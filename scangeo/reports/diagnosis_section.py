@@ -64,6 +64,8 @@ def diagnosis_section(project_root, comparison: Comparison) -> html.Section:
         if rows:
             sec.parts.append(html.table(["strip", "break line", "95 % interval", "BIC's line",
                                          "F test in the split model"], rows, table_id="breaks-table"))
+        if d.get("notes"):  # a sigma0 far above 1 (with its likely causes), breaks the split model dropped
+            sec.parts.append(html.bullet_list([f"note: {n}" for n in d["notes"]]))
         if d.get("series"):
             sec.parts.append(html.figure(misclosure_plot(d), "DTM misclosures of the tie points after SE; red: "
                                          "proposed breaks with their 95 % intervals", "fig-diagnosis"))
