@@ -24,7 +24,7 @@ from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
 from scangeo.lsq.observations import ObservationGroup
 from scangeo.lsq.parameters import Parameters
-from scangeo.orientation.models import GpsImuModel, ModelSet
+from scangeo.orientation.models import GpsImuModel, ModelSet, coefficient_priors, group_model, strip_models
 from scangeo.sensors.models import Whiskbroom
 from scangeo.sensors.strip import StripGeometry
 from scangeo.trajectory.spline import COMPONENTS, OrientationSpline
@@ -95,8 +95,8 @@ def build_models(project: Project, variant: Variant, strips: dict[str, StripData
         t0 = min(s.epochs[0] for s in strips.values())
         t1 = max(s.epochs[-1] for s in strips.values())
         centre = np.mean(np.vstack([s.gpsimu[:, :3] for s in strips.values()]), axis=0)
-        return ModelSet([GpsImuModel("block", tuple(strips), t0, t1, variant.position_degree, variant.attitude_degree,
-                                     variant.rotation, centre, None, {s: (-np.inf, np.inf) for s in strips})])
+        return ModelSet([group_model("block", strips, t0, t1, variant.position_degree, variant.attitude_degree,
+                                     variant.rotation, centre)])
     models = []
     for sid, s in strips.items():
         cfg = variant.strip_models(sid)
@@ -105,29 +105,18 @@ def build_models(project: Project, variant: Variant, strips: dict[str, StripData
         rot = variant.rotation if cfg.rotation is None else cfg.rotation
         breaks = list(cfg.breaks_times) + list(project.timing(sid).time_of_line(np.array(cfg.breaks_lines, float)))
         edges = [float(s.epochs[0])] + sorted(breaks) + [float(s.epochs[-1])]
-        if any(b <= a for a, b in zip(edges[:-1], edges[1:])):
-            raise AdjustmentError(f"variant {variant.name}, strip {sid}: breaks must lie inside the strip's GPS/IMU "
-                                  f"time span {edges[0]:.2f}..{edges[-1]:.2f} s and increase")
-        n = len(edges) - 1
-        for k in range(n):
-            mid = f"{sid}" if n == 1 else f"{sid}.{k + 1}"
-            lo = -np.inf if k == 0 else edges[k]
-            hi = np.inf if k == n - 1 else edges[k + 1]
-            inside = (s.epochs >= edges[k]) & (s.epochs <= edges[k + 1])
-            centre = s.gpsimu[inside, :3].mean(axis=0)
-            models.append(GpsImuModel(mid, (sid,), edges[k], edges[k + 1], pdeg, adeg, rot and n == 1, centre,
-                                      None if k == 0 else f"{sid}.{k}", {sid: (lo, hi)}))
+        spans = list(zip(edges, edges[1:]))
+        centres = ([s.gpsimu[(s.epochs >= lo) & (s.epochs <= hi), :3].mean(axis=0) for lo, hi in spans]
+                   if all(hi > lo for lo, hi in spans) else None)  # else strip_models names the bad break
+        models += strip_models(sid, edges, pdeg, adeg, rot, centres, where=f"variant {variant.name}, ")
     return ModelSet(models)
 
 
 def _correction_block(params: Parameters, m: GpsImuModel, v: Variant) -> None:
-    names = m.names()
-    deg = np.array([int(n[-1]) if n[-1].isdigit() else -1 for n in names])
-    angular = np.array([any(n.startswith(a) for a in ("roll", "pitch", "heading")) for n in names])
+    names, deg, angular = m.names(), m.degrees(), m.angular()
     sig_coef = np.where(angular, np.radians(v.coefficient_sigma_deg), v.coefficient_sigma_m)
-    const = np.where(angular, np.radians(v.constant_sigma_deg) if v.constant_sigma_deg else np.inf,
-                     v.constant_sigma_m if v.constant_sigma_m else np.inf)
-    prior = np.where(deg >= 1, sig_coef, np.where(deg == 0, const, np.inf))
+    prior = coefficient_priors(m, v.coefficient_sigma_m, v.coefficient_sigma_deg, v.constant_sigma_m,
+                               v.constant_sigma_deg)
     params.add(m.key, np.zeros(len(names)), True, prior_sigma=prior, prior_values=np.zeros(len(names)),
                regularisation_sigma=np.where(deg < 0, 1e-3, np.minimum(sig_coef, np.where(angular, 0.01, 10.0))),
                names=names, conditions=m.conditions)

@@ -48,15 +48,3 @@ class ScanIndex(Key):
 @dataclass(frozen=True, slots=True)
 class ScanScale(Key):
     """Whiskbroom scan-angle scale error (dimensionless, relative)."""
-
-
-@dataclass(frozen=True, slots=True)
-class Plane(Key):
-    """A planar patch of laser strips (tilts u, v of its normal and offset d; see ``scangeo.lidar.groups``)."""
-
-    patch: str
-
-
-@dataclass(frozen=True, slots=True)
-class RangeOffset(Key):
-    """Laser range offset (metres): true range = measured + offset."""

@@ -1,6 +1,6 @@
 """``scangeo lidar adjust PROJECT``: simultaneous georeferencing of laser strips with tie patches.
 
-A thin shell over :func:`scangeo.lidar.outputs.adjust_project`.
+A thin shell over :func:`scangeo.lidar.workflow.adjust_laser`.
 """
 
 from __future__ import annotations
@@ -27,7 +27,11 @@ def add_adjust(sub, common) -> None:
         default=None,
         help="trajectory (GPS/IMU corrections) or points (trajectory-free); default auto",
     )
-    p.add_argument("--patch-size", type=float, default=None, help="patch (grid cell) size, m")
+    p.add_argument("--patch-search", choices=("rows", "grid"), default=None,
+                   help="rows: row buffer and seeded second pass (default); grid: fixed grid cells")
+    p.add_argument("--patch-size", type=float, default=None, help="patch size, m")
+    p.add_argument("--models", choices=("strip", "mission", "block"), default=None,
+                   help="GPS/IMU models: per strip (default), per mission, or one for the block")
     p.add_argument("--position-degree", type=int, default=None, help="degree of the position correction polynomials")
     p.add_argument("--attitude-degree", type=int, default=None, help="degree of the attitude correction polynomials")
     p.add_argument("--workers", type=int, default=None, help="strips searched for patches at once (processes)")
@@ -36,29 +40,32 @@ def add_adjust(sub, common) -> None:
 
 
 def run_adjust(args: argparse.Namespace) -> int:
+    # imported here: the command line starts without loading the adjustment (start-up cost)
     from scangeo.cli import progress_of
-    from scangeo.lidar.outputs import adjust_project
+    from scangeo.lidar.workflow import adjust_laser
 
     out = args.out or args.project / "lidar-adjust"
-    results = adjust_project(
+    result = adjust_laser(
         args.project,
         out,
         args.ground,
         progress_of(args),
         not args.no_strips,
         mode=args.mode,
+        patch_search=args.patch_search,
         patch_size=args.patch_size,
+        models=args.models,
         position_degree=args.position_degree,
         attitude_degree=args.attitude_degree,
         workers=args.workers,
     )
-    ev = results["evaluation"] or {}
-    acc = results["accounting"]
-    print(f"mode: {results['mode_description']}")
+    ev = result.evaluation or {}
+    acc = result.accounting
+    print(f"mode: {result.mode_description}")
     print(
-        f"patches: {results['patches']['tie']} tie, {results['patches']['control']} control, "
-        f"{results['patches']['check']} check; {acc['observations']} observations, {acc['unknowns']} unknowns, "
-        f"redundancy {acc['redundancy']}, sigma0 {results['sigma0']:.3f}"
+        f"patches: {result.patches['tie']} tie, {result.patches['control']} control, "
+        f"{result.patches['check']} check; {acc['observations']} observations, {acc['unknowns']} unknowns, "
+        f"redundancy {acc['redundancy']}, sigma0 {result.sigma0:.3f}"
     )
     for key, label in (
         ("strip_differences_rms_m", "strip differences rms"),
@@ -68,20 +75,23 @@ def run_adjust(args: argparse.Namespace) -> int:
     ):
         if key in ev and ev[key]["before"] == ev[key]["before"]:  # NaN: no such patches
             print(f"{label:28s} {100 * ev[key]['before']:8.2f} cm -> {100 * ev[key]['after']:8.2f} cm")
-    for p in results["parameters"]:
-        if p["key"] in ("Boresight()", "LeverArm()", "RangeOffset()", "ScanIndex()"):
-            print(f"{p['key']:14s} {p['component']:8s} {p['value']:+.5f} +- {p['sigma']:.5f} {p['unit']}")
-    reg = results["regularisation"]
-    names = sorted({f"{r['key']}[{r['component']}]" for r in reg if not r["key"].startswith("Plane(")})
-    planes = {r["key"] for r in reg if r["key"].startswith("Plane(")}
+    for e in result.calibration:
+        print(f"{e.key.label:14s} {e.component:8s} {e.value:+.5f} +- {e.sigma:.5f} {e.unit}"
+              f"{'' if e.significant else '  (not significant)'}")
+    weak = [e for e in result.corrections if not e.significant]
+    print(f"correction coefficients: {len(result.corrections)}, {len(weak)} not significant at 5 %")
+    t = result.tilts
+    print(f"patch tilts: {t.significant} of {t.patches} planes tilted significantly (largest t {t.max_t:.1f})")
+    names = sorted({f"{r.key.label}[{r.component}]" for r in result.regularised if not r.is_plane})
+    planes = {r.key for r in result.regularised if r.is_plane}
     if names:
         print(f"regularised ({len(names)}): {', '.join(names[:12])}{' ...' if len(names) > 12 else ''}")
     if planes:
         print(f"regularised {len(planes)} plane(s) of patches that data snooping left with one strip")
-    if results["rejections"]:
+    if result.rejections:
         print(
-            f"data snooping rejected {len(results['rejections'])} patch observation(s): "
-            + ", ".join(f"{r['patch']} ({r['group']}, w {r['w']:.1f})" for r in results["rejections"][:8])
+            f"data snooping rejected {len(result.rejections)} patch observation(s): "
+            + ", ".join(f"{r.patch} ({r.group}, w {r.w:.1f})" for r in result.rejections[:8])
         )
     print(f"report: {out / 'report.html'}")
     return 0

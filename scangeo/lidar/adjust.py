@@ -24,12 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
-from scangeo.adjustment.keys import Boresight, LeverArm, RangeOffset, ScanIndex
+from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex
 from scangeo.errors import LidarError
 from scangeo.io.schema import read, setting
 from scangeo.lidar.control import GivenPatches, read_patch_ground
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, georeference, recover
 from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors
+from scangeo.lidar.keys import RangeOffset
 from scangeo.lidar.lasio import StripCloud, read_strip
 from scangeo.lidar.patches import PatchOptions, TiePatch, grid_name, homologous
 from scangeo.lidar.planes import anchors
@@ -39,12 +40,13 @@ from scangeo.lsq.engine import Adjustment, SnoopingOptions, adjust
 from scangeo.lsq.observations import ObservationGroup
 from scangeo.lsq.parameters import Parameters
 from scangeo.lsq.solver import SolverOptions
-from scangeo.orientation.models import GpsImuModel, ModelSet
+from scangeo.orientation.models import ModelSet, coefficient_priors, group_model, strip_models
 from scangeo.progress import ProgressCallback, no_progress
 
 log = logging.getLogger(__name__)
 
 MODES = ("auto", "trajectory", "points")
+MODELS = ("strip", "mission", "block")
 CALIBRATE = ("boresight", "lever_arm", "range_offset", "scan_index")
 
 
@@ -65,7 +67,8 @@ class LaserOptions:
     max_angle_deg: float = setting(5.0, gt=0, doc="homologous patches: angle between the normals, at most")
     max_offset: float = setting(1.0, gt=0, unit="m", doc="homologous patches: distance along the normal, at most")
     thin_cell: float = setting(40.0, gt=0, unit="m", doc="one tie patch per exposition class per square of this size")
-    models: str = setting("strip", choices=("strip", "block"), doc="GPS/IMU models: one per strip or one for the block")
+    models: str = setting("strip", choices=MODELS, doc="GPS/IMU models: one per strip (split at its breaks), "
+                          "one per mission ([[strips]] mission), or one for the block")
     breaks: dict[str, tuple[float, ...]] | None = setting(
         None, unit="s", default_doc="none",
         doc="per strip id, GPS times at which its model is split (C0-continuous sub-models)",
@@ -88,8 +91,8 @@ class LaserOptions:
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise LidarError(f"mode must be one of {', '.join(MODES)}, not {self.mode!r}")
-        if self.models not in ("strip", "block"):
-            raise LidarError(f"models must be 'strip' or 'block', not {self.models!r}")
+        if self.models not in MODELS:
+            raise LidarError(f"models must be one of {', '.join(MODELS)}, not {self.models!r}")
         bad = sorted(set(self.calibrate) - set(CALIBRATE))
         if bad:
             raise LidarError(f"calibrate: unknown {', '.join(bad)} (known: {', '.join(CALIBRATE)})")
@@ -147,50 +150,24 @@ class LaserBlock:
         return p + self.reference
 
 
-def _models(found: dict[str, StripFound], options: LaserOptions, mode: str) -> ModelSet:
+def _models(found: dict[str, StripFound], options: LaserOptions, mode: str, missions: dict[str, str]) -> ModelSet:
+    """GPS/IMU models (the shared builder of :mod:`scangeo.orientation.models`): one per strip (split
+    at its breaks), one per mission, or one for the block."""
     adeg = options.attitude_degree if mode == "trajectory" else -1
     pdeg = options.position_degree
-    if options.models == "block":
-        t0, t1 = min(f.t_start for f in found.values()), max(f.t_end for f in found.values())
-        return ModelSet(
-            [
-                GpsImuModel(
-                    "block",
-                    tuple(found),
-                    t0,
-                    t1 + 1e-6,
-                    pdeg,
-                    adeg,
-                    False,
-                    np.zeros(3),
-                    None,
-                    {s: (-np.inf, np.inf) for s in found},
-                )
-            ]
-        )
+    if options.models in ("block", "mission"):
+        groups: dict[str, list[str]] = {}
+        for sid in found:
+            groups.setdefault("block" if options.models == "block" else f"mission {missions[sid]}", []).append(sid)
+        return ModelSet([
+            group_model(gid, sids, min(found[s].t_start for s in sids), max(found[s].t_end for s in sids) + 1e-6,
+                        pdeg, adeg)
+            for gid, sids in groups.items()
+        ])
     models = []
     for sid, f in found.items():
         edges = [f.t_start] + sorted(float(b) for b in (options.breaks or {}).get(sid, [])) + [f.t_end + 1e-6]
-        if any(b <= a for a, b in zip(edges[:-1], edges[1:])):
-            raise LidarError(f"strip {sid}: breaks must lie inside its GPS time span {f.t_start:.3f}..{f.t_end:.3f} s")
-        n = len(edges) - 1
-        for k in range(n):
-            mid = sid if n == 1 else f"{sid}.{k + 1}"
-            lo, hi = (-np.inf if k == 0 else edges[k]), (np.inf if k == n - 1 else edges[k + 1])
-            models.append(
-                GpsImuModel(
-                    mid,
-                    (sid,),
-                    edges[k],
-                    edges[k + 1],
-                    pdeg,
-                    adeg,
-                    False,
-                    np.zeros(3),
-                    None if k == 0 else f"{sid}.{k}",
-                    {sid: (lo, hi)},
-                )
-            )
+        models += strip_models(sid, edges, pdeg, adeg)
     return ModelSet(models)
 
 
@@ -198,21 +175,15 @@ def _priors(params: Parameters, models: ModelSet, o: LaserOptions, unit: float, 
     const_m = o.constant_sigma_m if o.constant_sigma_m is not None else (0.0 if mode == "trajectory" else 0.3)
     for m in models:
         names = m.names()
-        deg = np.array([int(n[-1]) for n in names])
-        angular = np.array([n[:-1] in ("roll", "pitch", "heading") for n in names])
-        coef = np.where(angular, np.radians(o.coefficient_sigma_deg), o.coefficient_sigma_m / unit)
-        const = np.where(
-            angular,
-            np.radians(o.constant_sigma_deg) if o.constant_sigma_deg > 0 else np.inf,
-            const_m / unit if const_m > 0 else np.inf,
-        )
+        prior = coefficient_priors(m, o.coefficient_sigma_m / unit, o.coefficient_sigma_deg, const_m / unit,
+                                   o.constant_sigma_deg)
         params.add(
             m.key,
             np.zeros(len(names)),
             True,
-            prior_sigma=np.where(deg >= 1, coef, const),
+            prior_sigma=prior,
             prior_values=np.zeros(len(names)),
-            regularisation_sigma=np.where(angular, np.radians(0.01), 0.1 / unit),
+            regularisation_sigma=np.where(m.angular(), np.radians(0.01), 0.1 / unit),
             names=names,
             conditions=m.conditions,
         )
@@ -360,7 +331,7 @@ def build(
             if s[k] < best[p]:
                 best[p], centre[p], normal[p] = s[k], w[k].mean(axis=0), n[k]
     block.frames = PatchFrames.from_points(ids, centre, normal)
-    block.models = _models(found, options, mode)
+    block.models = _models(found, options, mode, {st.id: st.mission for st in project.strips})
     params = Parameters()
     _priors(params, block.models, options, unit, mode)
     cal = set(options.calibrate) if mode == "trajectory" else set()

@@ -20,8 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scangeo.adjustment.keys import Boresight, LeverArm, Plane, RangeOffset, ScanIndex
+from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, derivatives, georeference
+from scangeo.lidar.keys import Plane, RangeOffset
 from scangeo.lsq.keys import Key
 from scangeo.lsq.observations import Linearisation, ObservationGroup
 from scangeo.lsq.parameters import JacobianPart

@@ -16,6 +16,7 @@
     las = "strips/1.laz"               # or a list of files
     point_source_id = 7326             # optional: only the returns of this flight line
     trajectory = "nav/1.csv"           # optional (CSV or SBET): without it, the trajectory-free mode
+    mission = "A"                      # optional (default "1"): the flight; [adjustment] models = "mission"
 
 Options of the adjustment itself (``[adjustment]``) are documented in :mod:`scangeo.lidar.adjust`.
 """
@@ -73,6 +74,8 @@ class LaserStripKeys:
     las: str | tuple[str, ...] = setting(doc="LAS/LAZ file or a list of them")
     point_source_id: int | None = setting(None, unit="1", doc="only the returns of this flight line")
     trajectory: str | None = setting(None, doc="CSV or SBET; without it the trajectory-free mode")
+    mission: str = setting("1", file_type=str | int, parse=lambda v, where: str(v),
+                           doc="the mission (flight) the strip belongs to: GPS/IMU models per mission")
 
 
 @dataclass(frozen=True)
@@ -108,6 +111,7 @@ class LaserStrip:
     las: tuple[Path, ...]
     point_source_id: int | None
     trajectory: Path | None
+    mission: str = "1"
 
 
 @dataclass(frozen=True)
@@ -141,7 +145,7 @@ class LaserProject:
             if not names:
                 raise ProjectFileError(f"{file} [strips[{i}].las]: expected a file name or a list of them, found []")
             strips.append(LaserStrip(t.id, tuple(root / n for n in names), t.point_source_id,
-                                     root / t.trajectory if t.trajectory else None))
+                                     root / t.trajectory if t.trajectory else None, t.mission))
         ids = [st.id for st in strips]
         dup = sorted({i for i in ids if ids.count(i) > 1})
         if dup:

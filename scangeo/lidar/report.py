@@ -83,7 +83,7 @@ def write_html(path: Path, results: dict, figure: str | None) -> None:
         "<h2>Strips</h2>",
         _table(
             [{"strip": s, **v} for s, v in results["strips"].items()],
-            ["strip", "returns", "t_start", "t_end", "planar_cells"],
+            ["strip", "returns", "t_start", "t_end", "planar_cells", "patches"],
         ),
         "<h2>Patches</h2>",
         _table([results["patches"]], ["tie", "control", "check"]),
@@ -106,8 +106,16 @@ def write_html(path: Path, results: dict, figure: str | None) -> None:
         )
     parts += [
         "<h2>Estimated parameters</h2>",
+        "<p>t = |value| / sigma, tested against zero at 5 % (two-sided, the redundancy's degrees of freedom): "
+        "a coefficient that is not significant is a candidate to leave out of the model.</p>",
         _table(results["parameters"], ["key", "component", "value", "sigma", "unit", "t", "significant"]),
     ]
+    tilts = results.get("patch_tilts")
+    if tilts:
+        parts.append(
+            f"<h2>Patch tilts</h2><p>{tilts['significant']} of {tilts['patches']} patch planes are tilted "
+            f"significantly (5 %) from their initial normals by the adjustment; largest t {tilts['max_t']:.1f}.</p>"
+        )
     reg = results["regularisation"]
     parts.append(
         "<h2>Regularisation</h2>"

@@ -97,6 +97,14 @@ class GpsImuModel:
             out += ["omega_x", "omega_y", "omega_z"]
         return out
 
+    def degrees(self) -> np.ndarray:
+        """The polynomial degree of each coefficient (in :meth:`names` order); -1 for the rotation's."""
+        return np.array([int(n[-1]) if n[-1].isdigit() else -1 for n in self.names()], dtype=np.int64)
+
+    def angular(self) -> np.ndarray:
+        """Whether each coefficient corrects the attitude (radians) rather than the position (metres)."""
+        return np.array([n.rstrip("0123456789") in ATTITUDE for n in self.names()], dtype=bool)
+
     @property
     def size(self) -> int:
         return len(self.names())
@@ -193,3 +201,52 @@ class ModelSet:
         for key, rows, D in self.design(strip, t, p_gps):
             c[rows] += D @ np.asarray(coefficients[key], float)
         return c
+
+
+def strip_models(strip: str, edges, position_degree: int, attitude_degree: int, rotation: bool = False,
+                 centres=None, where: str = "") -> list[GpsImuModel]:
+    """The models of one strip over ``edges[0] .. edges[-1]`` (s): one model (id ``strip``), or, with
+    inner edges (breaks), sub-models ``strip.1``, ``strip.2``, ... each C0-continuous with the one before.
+
+    The first sub-model serves the strip from the start of time, the last to its end. ``rotation``
+    applies to an unsplit model only; ``centres`` (one (3,) per sub-model) are the rotation's centres;
+    ``where`` prefixes the error message (e.g. the variant).
+    """
+    edges = [float(e) for e in edges]
+    if any(b <= a for a, b in zip(edges[:-1], edges[1:])):
+        raise AdjustmentError(f"{where}strip {strip}: breaks must lie inside the strip's GPS/IMU time span "
+                              f"{edges[0]:.2f}..{edges[-1]:.2f} s and increase")
+    n = len(edges) - 1
+    out = []
+    for k in range(n):
+        lo = -np.inf if k == 0 else edges[k]
+        hi = np.inf if k == n - 1 else edges[k + 1]
+        centre = np.zeros(3) if centres is None else np.asarray(centres[k], float)
+        out.append(GpsImuModel(strip if n == 1 else f"{strip}.{k + 1}", (strip,), edges[k], edges[k + 1],
+                               position_degree, attitude_degree, rotation and n == 1, centre,
+                               None if k == 0 else f"{strip}.{k}", {strip: (lo, hi)}))
+    return out
+
+
+def group_model(id: str, strips, t_start: float, t_end: float, position_degree: int, attitude_degree: int,
+                rotation: bool = False, centre=None) -> GpsImuModel:
+    """One model serving several strips over all their times (the block, a mission)."""
+    return GpsImuModel(id, tuple(strips), t_start, t_end, position_degree, attitude_degree, rotation,
+                       np.zeros(3) if centre is None else np.asarray(centre, float), None,
+                       {s: (-np.inf, np.inf) for s in strips})
+
+
+def coefficient_priors(model: GpsImuModel, coefficient_sigma_m: float, coefficient_sigma_deg: float,
+                       constant_sigma_m: float | None, constant_sigma_deg: float | None) -> np.ndarray:
+    """Prior sigma of the pseudo-observation "= 0" of each coefficient (preventive regularisation).
+
+    Degree >= 1: ``coefficient_sigma_m`` (position, metres) or ``coefficient_sigma_deg`` (attitude);
+    constants: ``constant_sigma_m`` / ``constant_sigma_deg`` (None or 0: no prior, sigma inf); the
+    rotation's coefficients: none. Radians inside.
+    """
+    deg, angular = model.degrees(), model.angular()
+    coef = np.where(angular, np.radians(coefficient_sigma_deg), coefficient_sigma_m)
+    const = np.where(angular, np.radians(constant_sigma_deg) if constant_sigma_deg else np.inf,
+                     constant_sigma_m if constant_sigma_m else np.inf)
+    return np.where(deg >= 1, coef, np.where(deg == 0, const, np.inf))
+

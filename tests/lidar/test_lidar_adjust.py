@@ -9,12 +9,13 @@ import laspy
 import numpy as np
 import pytest
 
-from scangeo.adjustment.keys import Boresight, LeverArm, Plane, RangeOffset, ScanIndex
+from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex
 from scangeo.cli import main
 from scangeo.lidar.adjust import LaserOptions, build, run
+from scangeo.lidar.evaluation import apply, evaluate
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, georeference, recover
 from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors
-from scangeo.lidar.outputs import apply, evaluate
+from scangeo.lidar.keys import Plane, RangeOffset
 from scangeo.lidar.project import LaserProject
 from scangeo.lsq.checks import check_jacobian
 from scangeo.lsq.engine import SnoopingOptions, adjust

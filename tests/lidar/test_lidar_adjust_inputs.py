@@ -11,7 +11,7 @@ import pytest
 from scangeo.cli import main
 from scangeo.errors import InputFileError, LidarError
 from scangeo.lidar import lasio
-from scangeo.lidar.outputs import adjust_project
+from scangeo.lidar.workflow import adjust_laser
 from scangeo.simulate.laser import LaserBlockConfig, simulate_laser
 from tests.conftest import shared_file
 
@@ -42,7 +42,7 @@ def test_las_without_gps_time_is_an_error_naming_the_file(tiny, tmp_path):
     old.x, old.y, old.z = las.x, las.y, las.z
     old.write(project / "strips" / "1.las")
     with pytest.raises(InputFileError, match=r"1\.las: point format 0 has no GPS time"):
-        adjust_project(project, tmp_path / "out")
+        adjust_laser(project, tmp_path / "out")
     assert main(["lidar", "adjust", str(project), "--out", str(tmp_path / "out")]) == 1
 
 
@@ -52,7 +52,7 @@ def test_trajectory_not_covering_a_strip_is_an_error(tiny, tmp_path):
     lines = nav.read_text().splitlines()
     nav.write_text("\n".join(lines[: len(lines) // 2]) + "\n")
     with pytest.raises(LidarError, match=r"strip 2: the returns' GPS times .* not covered by its trajectory .*2\.csv"):
-        adjust_project(project, tmp_path / "out")
+        adjust_laser(project, tmp_path / "out")
 
 
 def test_crs_differing_from_the_project_is_an_error(tiny, tmp_path):
@@ -60,7 +60,7 @@ def test_crs_differing_from_the_project_is_an_error(tiny, tmp_path):
     text = (project / "project.toml").read_text().replace('crs = "EPSG:32633"', 'crs = "EPSG:32632"')
     (project / "project.toml").write_text(text)
     with pytest.raises(InputFileError, match=r"1\.las: CRS .*33N differs from the project's .*32N"):
-        adjust_project(project, tmp_path / "out")
+        adjust_laser(project, tmp_path / "out")
 
 
 def test_interrupted_run_leaves_no_las_under_a_final_name(tiny, tmp_path, monkeypatch):
@@ -74,19 +74,19 @@ def test_interrupted_run_leaves_no_las_under_a_final_name(tiny, tmp_path, monkey
 
         return original(files, psid, out, boom)
 
-    monkeypatch.setattr("scangeo.lidar.outputs.write_corrected", failing)
+    monkeypatch.setattr("scangeo.lidar.evaluation.write_corrected", failing)
     out = tmp_path / "out"
     with pytest.raises(KeyboardInterrupt):
-        adjust_project(tiny, out)
+        adjust_laser(tiny, out)
     assert calls["n"] == 1
     assert not list((out / "strips").glob("*.las")) and not list(out.rglob("*.tmp*"))
     assert not (out / "results.json").exists()
 
 
 def test_trajectory_free_mode_on_the_tiny_block(tiny, tmp_path):
-    results = adjust_project(tiny, tmp_path / "out", write_strips=False, mode="points", patch_size=8.0)
-    assert results["mode"] == "points"
-    ev = results["evaluation"]["strip_differences_flat_rms_m"]
+    results = adjust_laser(tiny, tmp_path / "out", write_strips=False, mode="points", patch_size=8.0)
+    assert results.mode == "points"
+    ev = results.evaluation["strip_differences_flat_rms_m"]
     assert ev["after"] < ev["before"]
 
 
@@ -102,12 +102,12 @@ def test_autzen_trajectory_free_mode_reports_strip_differences(tmp_path):
         '[project]\ncrs = "EPSG:2994"\n[sensor]\nkind = "laser"\nrange_sigma_m = 0.05\n'
         "[adjustment]\npatch_size = 60.0\nmax_patch_sigma = 0.15\nmin_patch_points = 8\n" + strips
     )
-    results = adjust_project(tmp_path, tmp_path / "out", write_strips=False)
-    assert results["mode"] == "points" and results["patches"]["tie"] >= 20
-    ev = results["evaluation"]["strip_differences_rms_m"]
+    results = adjust_laser(tmp_path, tmp_path / "out", write_strips=False)
+    assert results.mode == "points" and results.patches["tie"] >= 20
+    ev = results.evaluation["strip_differences_rms_m"]
     assert ev["cells"] >= 20 and 0.02 < ev["before"] < 0.2
     # no horizontal shift beyond the prior: flat patches do not determine them
-    shifts = [abs(p["value"]) for p in results["parameters"] if p["component"] in ("x0", "y0")]
+    shifts = [abs(e.value) for e in results.corrections if e.component in ("x0", "y0")]
     assert max(shifts) < 1.0
     saved = json.loads((tmp_path / "out" / "results.json").read_text())
     assert saved["evaluation"]["strip_differences_rms_m"]["after"] == pytest.approx(ev["after"])

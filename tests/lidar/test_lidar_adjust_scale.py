@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from scangeo.lidar.adjust import LaserOptions, build, run
-from scangeo.lidar.outputs import apply, evaluate
+from scangeo.lidar.evaluation import apply, evaluate
 from scangeo.lidar.project import LaserProject
 from scangeo.resources import preset_file
 from scangeo.simulate.laser import load_laser_config, simulate_laser

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from scangeo.lidar.adjust import LaserOptions, build, run
-from scangeo.lidar.outputs import apply, evaluate
+from scangeo.lidar.evaluation import apply, evaluate
 from scangeo.lidar.patches import PatchOptions
 from scangeo.lidar.plane_kernel import fit_planes_fast
 from scangeo.lidar.planes import fit_planes

@@ -1,0 +1,152 @@
+"""Apply an adjusted laser block: corrected strips, strip differences, check patches, tie discrepancies.
+
+:func:`apply` corrects every strip's returns (streamed; written as LAS/LAZ through ``scangeo.atomic``
+when ``out`` is given) and finds the planar cells of the corrected strips for the strip differences.
+:func:`evaluate` gathers everything the report shows.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from scangeo.lidar.adjust import LaserBlock, anchor_points, corrector, map_unit, read_cloud
+from scangeo.lidar.differences import Differences, common_rows, strip_differences
+from scangeo.lidar.lasio import StripCloud, write_corrected
+from scangeo.lidar.patches import StripPatches, find_strip_patches
+from scangeo.lsq.engine import Adjustment
+from scangeo.progress import ProgressCallback, no_progress
+
+
+def _options(block: LaserBlock):
+    unit = block_unit(block)
+    o = block.options
+    popt = replace(
+        o.patches, size=o.patch_size / unit, max_sigma=o.max_patch_sigma / unit, max_offset=o.max_offset / unit
+    )
+    return popt, block.project.sensor.range_sigma_m / unit
+
+
+def block_unit(block: LaserBlock) -> float:
+    return 1.0 if block.mode == "trajectory" else map_unit(block.project.crs)
+
+
+def apply(
+    block: LaserBlock, values, out: Path | None = None, callback: ProgressCallback = no_progress
+) -> dict[str, StripPatches]:
+    """Correct every strip under ``values``; write them to ``out/strips`` when given; planar cells after."""
+    popt, prior = _options(block)
+    found = {}
+    for k, strip in enumerate(block.project.strips):
+        correct = corrector(block, strip.id, values)
+        if out is not None:
+            (out / "strips").mkdir(parents=True, exist_ok=True)
+            parts: list[tuple[np.ndarray, np.ndarray]] = []
+
+            def keep(xyz, t, correct=correct, parts=parts):
+                new = correct(xyz, t)
+                parts.append((new, t))
+                return new
+
+            write_corrected(
+                strip.las, strip.point_source_id, out / "strips" / f"{strip.id}{strip.las[0].suffix.lower()}", keep
+            )
+            cloud = StripCloud(strip.id, np.concatenate([p for p, _ in parts]), np.concatenate([t for _, t in parts]))
+        else:
+            cloud = read_cloud(block, strip.id)
+            cloud = StripCloud(strip.id, correct(cloud.xyz, cloud.time), cloud.time)
+        found[strip.id] = find_strip_patches(cloud, popt, prior)
+        callback(k + 1, len(block.project.strips), f"corrected strip {strip.id}")
+    return found
+
+
+def check_patches(block: LaserBlock, values) -> dict[str, float]:
+    """Mean normal distance of the surveyed points of each check patch to each strip's plane there."""
+    g = block.given
+    out: dict[str, float] = {}
+    if g is None:
+        return out
+    for sid, a in block.anchors.items():
+        pts = anchor_points(block, sid, values).reshape(-1, 3, 3)
+        for k, p in enumerate(a["patch"][::3]):
+            if block.kinds[p] != "check":
+                continue
+            n = np.cross(pts[k, 1] - pts[k, 0], pts[k, 2] - pts[k, 0])
+            n /= np.linalg.norm(n)
+            pid = block.frames.ids[p]
+            surveyed = block.to_work(g.xyz[g.point_patch == g.ids.index(pid)])
+            out[f"{pid}:{sid}"] = float(np.mean((surveyed - pts[k, 0]) @ n))
+    return out
+
+
+def tie_discrepancies(block: LaserBlock, values) -> np.ndarray:
+    """Per (tie patch, strip): the strip's anchor centroid along the patch normal minus the patch's mean."""
+    parts, patches = [], []
+    for sid, a in block.anchors.items():
+        pts = anchor_points(block, sid, values).reshape(-1, 3, 3).mean(axis=1)
+        p = a["patch"][::3]
+        parts.append(np.einsum("ij,ij->i", pts - block.frames.c0[p], block.frames.n0[p]))
+        patches.append(p)
+    d, patch = np.concatenate(parts), np.concatenate(patches)
+    tie = np.array([block.kinds[p] == "tie" for p in patch])
+    d, patch = d[tie], patch[tie]
+    mean = np.bincount(patch, d, len(block.kinds)) / np.maximum(np.bincount(patch, minlength=len(block.kinds)), 1)
+    return d - mean[patch]
+
+
+def _rms(v) -> float:
+    v = np.asarray(list(v), float)
+    return float(np.sqrt(np.mean(v**2))) if v.size else float("nan")
+
+
+@dataclass
+class Evaluation:
+    before: Differences
+    after: Differences
+    checks_before: dict
+    checks_after: dict
+    ties_before: np.ndarray
+    ties_after: np.ndarray
+    unit: float
+
+    def summary(self) -> dict:
+        u = self.unit
+        return {
+            "strip_differences_rms_m": {
+                "before": self.before.rms() * u,
+                "after": self.after.rms() * u,
+                "cells": int(self.before.dz.size),
+            },
+            "strip_differences_flat_rms_m": {"before": self.before.rms(True) * u, "after": self.after.rms(True) * u},
+            "check_patches_rms_m": {
+                "before": _rms(self.checks_before.values()) * u,
+                "after": _rms(self.checks_after.values()) * u,
+                "count": len(self.checks_after),
+            },
+            "tie_patch_discrepancies_rms_m": {"before": _rms(self.ties_before) * u, "after": _rms(self.ties_after) * u},
+            "pairs_after": {
+                k: {kk: (vv * u if kk != "cells" else vv) for kk, vv in v.items()}
+                for k, v in self.after.per_pair().items()
+            },
+        }
+
+
+def evaluate(block: LaserBlock, result: Adjustment, after: dict[str, StripPatches]) -> Evaluation:
+    initial = block.parameters.values()
+    final = result.parameters.values()
+    popt = _options(block)[0]
+    args = (popt.size, popt.flat_deg, popt.max_angle_deg, popt.max_offset)
+    before, after_d = common_rows(
+        strip_differences({s: f.cells for s, f in block.found.items()}, *args), strip_differences(after, *args)
+    )
+    return Evaluation(
+        before,
+        after_d,
+        check_patches(block, initial),
+        check_patches(block, final),
+        tie_discrepancies(block, initial),
+        tie_discrepancies(block, final),
+        block_unit(block),
+    )

@@ -1,0 +1,75 @@
+"""Missions in a laser project.toml and the GPS/IMU model variants built by the shared builder
+(scangeo.orientation.models): per strip, per mission, for the block (issue 24)."""
+
+from __future__ import annotations
+
+import logging
+import shutil
+
+import numpy as np
+import pytest
+
+from scangeo.errors import ProjectFileError
+from scangeo.lidar.adjust import LaserOptions, build, run
+from scangeo.lidar.project import LaserProject
+from scangeo.orientation.models import Correction
+from tests.session_projects import laser_block  # noqa: F401  (session fixture)
+
+
+def with_missions(src, dst, missions: dict[str, str]):
+    """A copy of a laser project whose [[strips]] carry ``mission = ...``."""
+    shutil.copytree(src, dst)
+    text = (dst / "project.toml").read_text()
+    for sid, mission in missions.items():
+        text = text.replace(f'[[strips]]\nid = "{sid}"\n', f'[[strips]]\nid = "{sid}"\nmission = "{mission}"\n')
+    (dst / "project.toml").write_text(text)
+    return dst
+
+
+@pytest.fixture(scope="module")
+def found(laser_block):  # noqa: F811
+    """The patches of the session's laser block, found once for every variant below."""
+    logging.getLogger("scangeo.lsq.solver").setLevel(logging.ERROR)
+    return build(LaserProject.load(laser_block), LaserOptions(), laser_block / "ground.csv").found
+
+
+def estimate(root, found, **options):
+    project = LaserProject.load(root)
+    block = build(project, LaserOptions(position_degree=0, attitude_degree=0, **options), root / "ground.csv",
+                  found=found)
+    return block, run(block)
+
+
+def test_one_strip_per_mission_is_the_strip_model(laser_block, found, tmp_path):  # noqa: F811
+    root = with_missions(laser_block, tmp_path / "p", {"1": "A", "2": "B"})
+    assert [s.mission for s in LaserProject.load(root).strips] == ["A", "B"]
+    by_strip, r_strip = estimate(root, found, models="strip")
+    by_mission, r_mission = estimate(root, found, models="mission")
+    assert [m.id for m in by_mission.models] == ["mission A", "mission B"]
+    v_s, v_m = r_strip.parameters.values(), r_mission.parameters.values()
+    for sid, mission in (("1", "A"), ("2", "B")):
+        assert np.allclose(v_s[Correction(sid)], v_m[Correction(f"mission {mission}")], atol=1e-9)
+    assert r_strip.statistics.sigma0 == pytest.approx(r_mission.statistics.sigma0, rel=1e-9)
+
+
+def test_one_mission_for_all_strips_is_the_block_model(laser_block, found):  # noqa: F811
+    project = LaserProject.load(laser_block)  # no mission keys: every strip in mission "1"
+    assert {s.mission for s in project.strips} == {"1"}
+    block_b, r_block = estimate(laser_block, found, models="block")
+    block_m, r_mission = estimate(laser_block, found, models="mission")
+    assert len(block_m.models) == 1 and block_m.models.models["mission 1"].strips == ("1", "2")
+    assert np.allclose(r_block.parameters.values()[Correction("block")],
+                       r_mission.parameters.values()[Correction("mission 1")], atol=1e-9)
+    # one shift and misalignment for both strips fits worse than one per strip
+    _, r_strip = estimate(laser_block, found, models="strip")
+    assert r_mission.statistics.sigma0 > 1.05 * r_strip.statistics.sigma0
+
+
+def test_a_mission_that_is_not_a_name_is_an_error(laser_block, tmp_path):  # noqa: F811
+    root = tmp_path / "p"
+    shutil.copytree(laser_block, root)
+    text = (root / "project.toml").read_text()
+    text = text.replace('[[strips]]\nid = "1"\n', '[[strips]]\nid = "1"\nmission = [1]\n')
+    (root / "project.toml").write_text(text)
+    with pytest.raises(ProjectFileError, match=r"mission"):
+        LaserProject.load(root)
