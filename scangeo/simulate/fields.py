@@ -32,15 +32,27 @@ def spectral_field(shape: tuple[int, int], resolution_m: float, rng: np.random.G
     """
     rows, cols = shape
     pad_r, pad_c = rows + rows // 2 + 8, cols + cols // 2 + 8  # padding against wrap-around
-    white = rng.standard_normal((pad_r, pad_c))
-    fy = np.fft.fftfreq(pad_r, d=resolution_m)[:, None]
+    # memory: a 96-strip block's terrain grid is 24 M cells, padded 54 M. The transforms run one
+    # axis at a time, in bands of rows where the axis allows (the white noise drawn band by band:
+    # the same stream), the filter is applied in place, and only the rows kept are transformed back.
+    band = 256
+    spectrum = np.empty((pad_r, pad_c // 2 + 1), dtype=complex)
+    for a in range(0, pad_r, band):
+        spectrum[a:a + band] = np.fft.rfft(rng.standard_normal((min(band, pad_r - a), pad_c)), axis=1)
+    np.fft.fft(spectrum, axis=0, out=spectrum)
+    fy_all = np.fft.fftfreq(pad_r, d=resolution_m)[:, None]
     fx = np.fft.rfftfreq(pad_c, d=resolution_m)[None, :]
-    f = np.hypot(fx, fy)
     f_lo, f_hi = 1.0 / max_wavelength_m, 1.0 / min_wavelength_m
-    with np.errstate(divide="ignore"):
-        amplitude = np.where(f > 0, f, np.inf) ** -exponent if exponent else np.ones_like(f)
-    amplitude = amplitude * np.exp(-((f / f_hi) ** 4)) * (1.0 - np.exp(-((f / f_lo) ** 4)))
-    field = np.fft.irfft2(np.fft.rfft2(white) * amplitude, s=(pad_r, pad_c))[:rows, :cols]
+    for a in range(0, pad_r, band):
+        f = np.hypot(fx, fy_all[a:a + band])
+        with np.errstate(divide="ignore"):
+            amplitude = np.where(f > 0, f, np.inf) ** -exponent if exponent else np.ones_like(f)
+        spectrum[a:a + band] *= amplitude * np.exp(-((f / f_hi) ** 4)) * (1.0 - np.exp(-((f / f_lo) ** 4)))
+    np.fft.ifft(spectrum, axis=0, out=spectrum)
+    field = np.empty((rows, cols))
+    for a in range(0, rows, band):
+        field[a:a + band] = np.fft.irfft(spectrum[a:min(a + band, rows)], n=pad_c, axis=1)[:, :cols]
+    del spectrum
     field -= field.mean()
     std = field.std()
     return field / std if std > 0 else field
