@@ -125,7 +125,10 @@ def main() -> None:
     totals = dict.fromkeys(("finite", "removed", "false", "breaks", "covered", "seeds", "alone", "within15"), 0)
     for seed in a.seeds:
         root = a.out / f"vienna_{a.factor:g}_b{a.blunders}_s{seed}"
-        print(seed_row(root, seed, a.factor, a.blunders, a.clean, a.compare, totals), flush=True)
+        try:
+            print(seed_row(root, seed, a.factor, a.blunders, a.clean, a.compare, totals), flush=True)
+        except Exception as exc:  # noqa: BLE001 (a benchmark row, not a library: say so and go on)
+            print(f"| {seed} | failed: {type(exc).__name__}: {exc} |", flush=True)
     t = totals
     print(f"\nblunders with a finite MDB removed: {t['removed']} of {t['finite']}; false alarms {t['false']}; "
           f"breaks inside their 95 % interval: {t['covered']} of {t['breaks']}; problem strip found alone: "

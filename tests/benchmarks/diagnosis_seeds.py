@@ -17,6 +17,9 @@ diagnosis alone (no compare, no recommendation) and prints every break found wit
 
 and the figures of the paper's Table 2 over the seeds (``--table``: only those, from the comparisons in OUT).
 
+With blunders among the measurements and the cleaning stage first (issue 25), and the 95 % intervals'
+coverage summed over the seeds: tests/benchmarks/cleaning_seeds.py.
+
 Projects already simulated in OUT are reused (delete OUT to start again). Truth is read here only to
 score what ``compare`` found.
 """
@@ -28,7 +31,7 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "reports"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "strategy"))
 from test_physics import CORRECTED, pooled_true, reduced_overrides  # noqa: E402
 
 from scangeo.adjustment.diagnosis.diagnose import diagnose  # noqa: E402
