@@ -78,6 +78,28 @@ def compared_block(tmp_path_factory, small_block) -> Path:
     return root
 
 
+#: Preset overrides of ``textured_block``: the ``quick`` preset (rendered landcover images, strip 02 a
+#: problem strip) cut to 2 strips x 300 lines x 240 pixels, with 4 blunders among the image measurements
+#: and no tie points (``scangeo run`` matches them): the messy project of ``scangeo run``'s tests.
+TEXTURED_BLOCK = {
+    "sensor": {"pixels": 240},
+    "flight": {"lines": 300},
+    "gpsimu_errors": {"breaks_lines": [100.0, 200.0]},
+    "points": {"blunders": 4, "tie_per_overlap": 0},
+}
+
+
+@pytest.fixture(scope="session")
+def textured_block(tmp_path_factory) -> Path:
+    """A small simulated project with images, blunders and no tie points (read-only: ``copy_project``)."""
+    from scangeo.simulate.block import simulate
+    from scangeo.simulate.config import load_preset
+
+    root = tmp_path_factory.mktemp("session") / "textured"
+    simulate(root, load_preset("quick", TEXTURED_BLOCK))
+    return root
+
+
 #: Overrides of the ``laser`` preset for ``laser_block``: two overlapping strips, 300 m, 80 k returns.
 LASER_BLOCK = {"strips": 2, "strip_length": 300.0, "pulse_rate_hz": 8000.0, "cross_strip": False}
 

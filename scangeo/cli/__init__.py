@@ -29,6 +29,7 @@ COMMANDS = [
     "diagnose",
     "compare",
     "report",
+    "run",
     "demo",
 ]
 

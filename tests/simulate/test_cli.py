@@ -6,7 +6,7 @@ import importlib
 from scangeo.cli import COMMANDS, main
 
 #: Commands the docs and the README promise: removing one fails here (it does not skip).
-DOCUMENTED = ("simulate", "match", "adjust", "compare", "report", "rectify", "info", "locate", "lidar", "demo")
+DOCUMENTED = ("simulate", "match", "adjust", "compare", "report", "rectify", "info", "locate", "lidar", "run", "demo")
 
 
 def test_every_command_is_registered_and_imports():

@@ -1,0 +1,101 @@
+"""``scangeo run PROJECT``: from a project's raw files to the orthoimages and report of the recommended variant.
+
+A thin shell over :func:`scangeo.pipeline.run.run`: one progress bar across the stages, one summary at
+the end. Exit codes (docs/run.md): 0 done, 1 a stage failed or an input is wrong (the message names
+the stage, the file and what was expected), 2 a wrong command line, 3 another run is writing the
+project, 130 interrupted (the next run resumes).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+#: Exit codes of ``scangeo run`` (docs/run.md).
+EXIT_DONE, EXIT_FAILED, EXIT_USAGE, EXIT_LOCKED, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+#: The stages, for --from and --until (scangeo.pipeline.stages.NAMES; listed here so that --help
+#: does not import the pipeline).
+STAGE_NAMES = ("check", "match", "clean", "diagnose", "compare", "rectify", "report")
+
+
+def add_parser(subparsers, common) -> None:
+    p = subparsers.add_parser(
+        "run", parents=[common], help="all stages: check, match, clean, diagnose, compare, rectify, report",
+        description="Run the stages on a project in order: check the inputs (as scangeo info), match tie points "
+                    "(when points.csv has none, or with --match), clean blunders, diagnose problem strips and breaks, "
+                    "compare the strategies, rectify the recommended one (with the mosaic) and write the report. "
+                    "A rerun does only what changed since the last run; a killed run resumes where it stopped "
+                    "(PROJECT/results/run.json, docs/run.md). Settings: PROJECT/run.toml or --config with "
+                    "[match], [rectify] and [compare] tables. Exit codes: 0 done, 1 a stage failed, 2 usage, "
+                    "3 the project is locked by another run, 130 interrupted.",
+    )
+    p.add_argument("project", help="the project folder")
+    p.add_argument("--reference", nargs="+", default=[], metavar="ORTHO",
+                   help="reference orthoimage(s) for control points (the match stage)")
+    p.add_argument("--reference-dtm", default=None, metavar="DTM",
+                   help="heights of the matched control points (default: the project's DTM)")
+    p.add_argument("--from", dest="from_stage", choices=STAGE_NAMES, default=None, metavar="STAGE",
+                   help="rerun this stage and every later one (OpenDroneMap's --rerun-from)")
+    p.add_argument("--until", choices=STAGE_NAMES, default=None, metavar="STAGE",
+                   help="stop after this stage (OpenDroneMap's --end-with)")
+    p.add_argument("--match", action="store_true", help="match tie points even though points.csv has some")
+    p.add_argument("--config", default=None, help="TOML settings file (default PROJECT/run.toml when it exists)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from scangeo.atomic import OutputLock
+    from scangeo.cli import progress_of
+    from scangeo.errors import OutputLockedError
+    from scangeo.pipeline.run import run as run_pipeline
+
+    try:
+        with OutputLock(args.project, "scangeo run"):
+            result = run_pipeline(args.project, references=args.reference, reference_dtm=args.reference_dtm,
+                                  from_stage=args.from_stage, until=args.until, match=args.match,
+                                  settings_file=args.config, progress=progress_of(args))
+    except OutputLockedError as exc:
+        print(f"scangeo run: {exc}", file=sys.stderr)
+        return EXIT_LOCKED
+    print("\n".join(summary_lines(result)))
+    return EXIT_DONE
+
+
+def summary_lines(result) -> list[str]:
+    """The end-of-run summary: stages, recommended variant and why, figures, outputs."""
+    lines = []
+    for o in result.stages:
+        detail = f" ({o.seconds:.0f} s; {o.reason})" if o.status == "ran" else (f" ({o.reason})" if o.reason else "")
+        lines.append(f"{o.name:9s} {o.status}{detail}")
+    clean = result.summary_of("clean")
+    if clean:
+        r = clean["rejected"]
+        lines.append(f"blunders removed: {r['image']} image measurements, {r['ground']} ground coordinates"
+                     + (f" ({len(r['not_separable_points'])} points not separable, removed whole)"
+                        if r["not_separable_points"] else "")
+                     + f"; sigma0 {clean['sigma0_before']} -> {clean['sigma0_after']} (results/cleaning/)")
+    diagnose = result.summary_of("diagnose")
+    if diagnose:
+        problems = diagnose.get("problem_strips", {})
+        lines.append("problem strips: " + ("; ".join(
+            f"{s} (breaks at lines {', '.join(f'{b:g}' for b in breaks) or 'none'})" for s, breaks in problems.items())
+            or "none"))
+    compare = result.summary_of("compare")
+    if compare:
+        name = compare["recommended"]
+        v = compare["variants"].get(name, {})
+        rms = v.get("check_rms_px")
+        lines.append(f"recommended variant: {name} ({compare['why']})")
+        lines.append(f"  sigma0 {v.get('sigma0') or float('nan'):.3f}; check-point rms "
+                     + (f"{rms:.3f} px" if rms is not None else "- (no check points)")
+                     + "".join(f"; strip {sid} along {c.get('rms_along_px') or float('nan'):.2f} / across "
+                               f"{c.get('rms_across_px') or float('nan'):.2f} px"
+                               for sid, c in v.get("strips", {}).items() if c.get("n")))
+    rectify = result.summary_of("rectify")
+    if rectify:
+        lines.append(f"orthoimages: {result.root / rectify['folder']} ({len(rectify['orthoimages'])} GeoTIFFs, "
+                     "STAC items beside them)")
+    report = result.summary_of("report")
+    if report:
+        lines.append(f"report: {result.root / report['html']}")
+    lines.append(f"manifest: {result.manifest} ({result.seconds:.0f} s)")
+    return lines

@@ -1,0 +1,283 @@
+"""The stages of ``scangeo run``, in order: check, match, clean, diagnose, compare, rectify, report.
+
+A :class:`Stage` names the files it reads and the options it depends on (its fingerprint,
+:mod:`scangeo.pipeline.fingerprints`), the stages whose results it reads (``after``), and a function
+that does the work through the library and returns a summary (JSON-able figures) and its outputs.
+What each stage does and what makes it run again: docs/run.md.
+"""
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from scangeo.adjustment.diagnosis.diagnose import diagnose
+from scangeo.adjustment.diagnosis.output import write_diagnosis
+from scangeo.errors import InputFileError
+from scangeo.io.points import GroundPoints, ImagePoints
+from scangeo.io.project import Project
+from scangeo.io.rejected import CLEANING_DIR
+from scangeo.io.summary import summarise_project
+from scangeo.match import match_project
+from scangeo.match.options import MatchOptions
+from scangeo.pipeline.fingerprints import file_stamps, relative_name
+from scangeo.progress import ProgressCallback
+from scangeo.rectify.batch import rectify_project
+from scangeo.rectify.options import RectifyOptions
+from scangeo.reports.report import write_report
+from scangeo.reports.stac import write_stac_items
+from scangeo.reports.tables import write_comparison
+from scangeo.strategy.cleaning import CleaningOptions, clean
+from scangeo.strategy.comparison import compare_project
+from scangeo.strategy.default_variants import ProblemStrip, write_variants_file
+
+log = logging.getLogger(__name__)
+
+#: The first line of a ``variants.toml`` the diagnose stage writes: such a file is the run's to
+#: rewrite (while nobody edited it); any other variants.toml is the user's and is kept.
+VARIANTS_MARKER = "# Written by scangeo run from its diagnosis (results/diagnosis.md); edited, it is kept\n"
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """The settings of a run: ``--reference``, ``--reference-dtm``, ``--match`` and the settings file's tables.
+
+    match : matching settings (``[match]`` table, docs/match.md).
+    rectify : rectification settings (``[rectify]`` table, docs/rectify.md); ``mosaic`` is on unless the
+        table turns it off.
+    folds : folds of the comparison's cross-validation (``[compare] folds``).
+    """
+
+    references: tuple[Path, ...] = ()
+    reference_dtm: Path | None = None
+    force_match: bool = False
+    match: MatchOptions = field(default_factory=MatchOptions)
+    rectify: RectifyOptions = field(default_factory=lambda: RectifyOptions(mosaic=True))
+    folds: int = 4
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"references": [str(p) for p in self.references],
+                "reference_dtm": str(self.reference_dtm) if self.reference_dtm else None,
+                "match": self.force_match, "match_options": asdict(self.match),
+                "rectify_options": asdict(self.rectify), "folds": self.folds}
+
+
+@dataclass
+class Context:
+    """What the stages of one run share: the project, the settings, the records so far."""
+
+    root: Path
+    project: Project
+    settings: RunSettings
+    records: dict[str, dict[str, Any]]  # the record of every stage done (this run or earlier)
+    previous: dict[str, dict[str, Any]] = field(default_factory=dict)  # records found at the start
+
+    def base_files(self) -> list[Path]:
+        """What every adjustment reads: project.toml, the DTM (and geoid grid), trajectories, line times."""
+        p = self.project
+        files = [self.root / "project.toml", p.dtm_path]
+        files += [Path(p.geoid.path)] if p.geoid.path else []
+        for s in p.strips:
+            files += [s.trajectory] + ([s.line_times] if s.line_times else [])
+        return [Path(f) for f in files]
+
+    def images(self) -> list[Path]:
+        return [Path(s.image) for s in self.project.strips if s.image is not None]
+
+    def points_files(self) -> list[Path]:
+        return [self.root / "points.csv", self.root / "ground.csv"]
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One stage: its inputs (files, options), the stages it reads, and the work."""
+
+    name: str
+    weight: float  # its share of the progress bar (measured on vienna2000)
+    after: tuple[str, ...]
+    files: Callable[[Context], list[Path]]
+    options: Callable[[Context], dict[str, Any]]
+    work: Callable[[Context, ProgressCallback], tuple[dict[str, Any], list[Path]]]
+    doc: str = ""
+
+
+# -- check -------------------------------------------------------------------------------------------------
+
+def _check(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
+    """Every input file read as ``scangeo info`` reads it; any that cannot be read stops the run."""
+    progress(0, 1, "check: reading the inputs")
+    summary = summarise_project(ctx.root)
+    problems = [f"DTM: {summary['dtm']['error']}"] if "error" in summary.get("dtm", {}) else []
+    problems += [f"strip {s['id']}: {s['error']}" for s in summary["strips"] if "error" in s]
+    problems += [f"strip {s['id']}: the trajectory does not cover the strip's lines"
+                 for s in summary["strips"] if s.get("covered") is False]
+    problems += [summary[k]["error"] for k in ("points", "ground") if "error" in summary.get(k, {})]
+    if problems:
+        raise InputFileError(f"{ctx.root}: the inputs do not check out: " + "; ".join(problems))
+    progress(1, 1, "check: done")
+    keep: dict[str, Any] = {k: summary[k] for k in ("crs", "points", "ground") if k in summary}
+    keep["strips"] = {s["id"]: s.get("lines") for s in summary["strips"]}
+    keep["tie_points"] = tie_points(ctx.root)
+    return keep, []
+
+
+def tie_points(root: Path) -> int:
+    """Points of points.csv measured in 2+ strips and absent from ground.csv (0 without points.csv)."""
+
+    if not (root / "points.csv").exists():
+        return 0
+    pts = ImagePoints.read(root / "points.csv")
+    ground = set(GroundPoints.read(root / "ground.csv").point) if (root / "ground.csv").exists() else set()
+    strips: dict[str, set] = {}
+    for p, s in zip(pts.point, pts.strip):
+        strips.setdefault(str(p), set()).add(str(s))
+    return sum(1 for p, s in strips.items() if len(s) >= 2 and p not in ground)
+
+
+# -- match -------------------------------------------------------------------------------------------------
+
+def _match_files(ctx: Context) -> list[Path]:
+    s = ctx.settings
+    return ctx.base_files() + ctx.images() + list(s.references) + ([s.reference_dtm] if s.reference_dtm else [])
+
+
+def _match(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
+    s = ctx.settings
+    result = match_project(ctx.root, "DG", references=list(s.references), reference_dtm=s.reference_dtm,
+                           options=s.match, workers=1, progress=progress)
+    summary = dict(result.report.get("summary", {}))
+    return summary, [result.points_file] + ([result.ground_file] if result.ground_rows else [])
+
+
+# -- clean -------------------------------------------------------------------------------------------------
+
+def _clean(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
+    cleaning = clean(ctx.root, CleaningOptions(), progress=progress)
+    summary = {k: v for k, v in cleaning.as_dict().items() if k not in ("project", "options")}
+    return summary, [ctx.root / CLEANING_DIR / "rejected.csv", ctx.root / CLEANING_DIR / "cleaning.json"]
+
+
+# -- diagnose ----------------------------------------------------------------------------------------------
+
+def _variants_are_ours(path: Path, previous: dict[str, Any] | None) -> bool:
+    """variants.toml may be (re)written: absent, or written by an earlier run and not edited since."""
+    if not path.exists():
+        return True
+    text = path.read_text(encoding="utf-8")
+    if not text.startswith(VARIANTS_MARKER):
+        return False
+    before = (previous or {}).get("summary", {}).get("variants_sha256")
+    return before is None or before == file_stamps([path], path.parent)[path.name]["sha256"]
+
+
+def _diagnose(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
+    d = diagnose(ctx.root, callback=progress)
+    outputs = write_diagnosis(d)
+    target = ctx.root / "variants.toml"
+    problems = {s: list(d.breaks_of(s)) for s in d.problem_strips}
+    if _variants_are_ours(target, ctx.previous.get("diagnose")):
+        write_variants_file(ctx.root, [ProblemStrip(s, tuple(b), "scangeo run: diagnose") for s, b in problems.items()],
+                            header=VARIANTS_MARKER)
+        variants = "written from the diagnosis"
+    else:
+        variants = "kept (not written by scangeo run, or edited since)"
+        log.info("%s: kept as it is (yours); the diagnosis is in results/diagnosis.md", target)
+    summary = {"problem_strips": problems, "se_sigma0": d.sigma0,
+               "notes": list(d.notes), "variants": variants,
+               "variants_sha256": file_stamps([target], ctx.root)["variants.toml"]["sha256"]}
+    return summary, [*outputs, target]
+
+
+# -- compare -----------------------------------------------------------------------------------------------
+
+def _compare(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
+    c = compare_project(ctx.root, ctx.root / "variants.toml", folds=ctx.settings.folds, callback=progress)
+    outputs = write_comparison(c)
+    if c.recommended:
+        chosen, why = c.recommended, f"recommended by the cross-validation: {(c.crossvalidation or {}).get('reason')}"
+    elif c.best:
+        chosen, why = c.best, "the lowest check-point rms (the cross-validation recommended none)"
+    elif c.reference_summary() is not None:
+        chosen, why = c.reference, "the reference (no other variant succeeded)"
+    else:
+        raise InputFileError(f"{ctx.root}: no variant of {c.variants_file} could be adjusted: "
+                             + "; ".join(f"{v.name}: {v.error}" for v in c.variants if v.error))
+    variants = {}
+    for v in c.variants:
+        variants[v.name] = {"error": v.error, "sigma0": v.sigma0, "check_rms_px": v.check_pooled_rms(),
+                            "rejected": v.rejected,
+                            "strips": {sid: e.get("check", {}) for sid, e in v.strips.items()}}
+    summary = {"recommended": chosen, "why": why, "best": c.best, "reference": c.reference, "variants": variants}
+    return summary, [*outputs, *(ctx.root / "results" / v.name for v in c.variants if v.error is None)]
+
+
+# -- rectify -----------------------------------------------------------------------------------------------
+
+def _rectify(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
+    variant = ctx.records["compare"]["summary"]["recommended"]
+    result = rectify_project(ctx.root, variant, options=ctx.settings.rectify, workers=1, progress=progress)
+    rasters = [Path(s["path"]) for s in result.strips.values()] + ([result.mosaic] if result.mosaic else [])
+    spans = {}
+    for sid in result.strips:
+        first_last = ctx.project.timing(sid).time_of_line(np.array([0.0, ctx.project.n_lines(sid) - 1.0]))
+        spans[sid] = [round(float(t), 6) for t in first_last]
+    items = write_stac_items(ctx.root, variant, rasters, spans)
+    summary = {"variant": variant, "folder": relative_name(result.folder, ctx.root),
+               "orthoimages": [relative_name(p, ctx.root) for p in rasters],
+               "stac_items": [relative_name(p, ctx.root) for p in items],
+               "strips": {sid: s["status"] for sid, s in result.strips.items()}}
+    return summary, [*rasters, *items]
+
+
+# -- report ------------------------------------------------------------------------------------------------
+
+def _report(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
+    files = write_report(ctx.root, callback=progress)
+    outputs = [files.html] + ([files.geopackage] if files.geopackage else [])
+    return {"html": relative_name(files.html, ctx.root), "figures": files.figures}, outputs
+
+
+def _no_options(ctx: Context) -> dict[str, Any]:
+    return {}
+
+
+STAGES: tuple[Stage, ...] = (
+    # points.csv and ground.csv are checked but not fingerprinted here: match writes points.csv, and clean,
+    # which reads both, reruns when they change
+    Stage("check", 0.02, (), lambda c: c.base_files() + c.images(), _no_options, _check,
+          "every input file read and checked, as scangeo info"),
+    Stage("match", 0.20, (), _match_files,
+          lambda c: {"options": asdict(c.settings.match),
+                     "references": [relative_name(p, c.root) for p in c.settings.references]},
+          _match, "tie points (and control against --reference) from the images"),
+    Stage("clean", 0.15, (), lambda c: c.base_files() + c.points_files(), lambda c: asdict(CleaningOptions()), _clean,
+          "blunders found by a robust adjustment and set aside for every later adjustment"),
+    Stage("diagnose", 0.13, ("clean",), lambda c: c.base_files() + c.points_files(), _no_options, _diagnose,
+          "problem strips and breaks from an SE adjustment of the cleaned measurements; variants.toml"),
+    Stage("compare", 0.35, ("clean", "diagnose"),
+          lambda c: c.base_files() + c.points_files() + [c.root / "variants.toml"],
+          lambda c: {"folds": c.settings.folds}, _compare,
+          "every variant adjusted, compared, cross-validated; the recommended variant"),
+    Stage("rectify", 0.12, ("compare",), lambda c: c.base_files() + c.images(),
+          lambda c: asdict(c.settings.rectify), _rectify,
+          "orthoimages and mosaic of the recommended variant, with STAC items"),
+    Stage("report", 0.03, ("clean", "diagnose", "compare"),
+          lambda c: c.base_files() + c.points_files() + [c.root / "match_report.json"],
+          _no_options, _report, "the HTML report and the residual vectors (GeoPackage)"),
+)
+
+NAMES = tuple(s.name for s in STAGES)
+
+
+def stage(name: str) -> Stage:
+    for s in STAGES:
+        if s.name == name:
+            return s
+    raise KeyError(name)
+
+
+__all__ = ["Context", "NAMES", "RunSettings", "STAGES", "Stage", "VARIANTS_MARKER", "stage", "tie_points"]

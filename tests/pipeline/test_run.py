@@ -1,0 +1,192 @@
+"""``scangeo run`` on a messy project: a textured block with blunders and no tie points (docs/run.md).
+
+One uninterrupted run (``ran``) is made once per module; the other tests copy it. The project carries a
+``run.toml`` with ``[compare] folds = 2`` (a cross-validation of 2 folds instead of 4: the same stages at
+60 % of the comparison's cost).
+"""
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rasterio
+
+from scangeo import __version__
+from scangeo.pipeline.run import run
+from tests.session_projects import copy_project
+
+SETTINGS = "[compare]\nfolds = 2\n"
+
+
+def _edit_control(root: Path, dx: float = 0.4) -> str:
+    """Move the first control point of ground.csv by ``dx`` metres east; returns its id."""
+    path = root / "ground.csv"
+    rows = list(csv.reader(path.open(encoding="utf-8")))
+    for r in rows[1:]:
+        if r[6] == "control":
+            r[1] = f"{float(r[1]) + dx:.4f}"
+            with path.open("w", newline="", encoding="utf-8") as f:
+                csv.writer(f).writerows(rows)
+            return r[0]
+    raise AssertionError("no control point")
+
+
+@pytest.fixture(scope="module")
+def ran(textured_block, tmp_path_factory):
+    """The textured block copied and run once: (root, result, progress calls)."""
+    root = copy_project(textured_block, tmp_path_factory.mktemp("run") / "block")
+    (root / "run.toml").write_text(SETTINGS, encoding="utf-8")
+    calls: list[tuple[float, float, str]] = []
+    result = run(root, progress=lambda d, t, m="": calls.append((d, t, m)))
+    return root, result, calls
+
+
+def test_one_run_makes_the_orthoimages_and_the_report(ran):
+    root, result, calls = ran
+    assert result.ran == ["check", "match", "clean", "diagnose", "compare", "rectify", "report"]
+    assert result.outcome("match").reason and "no earlier run" in result.outcome("match").reason
+    # match measured the tie points the project lacked
+    assert result.summary_of("match")["tie_points"] > 0
+    assert result.summary_of("check")["tie_points"] == 0
+    name = result.recommended
+    assert name is not None
+    ortho = root / "results" / name / "ortho"
+    for sid in ("01", "02"):
+        with rasterio.open(ortho / f"{sid}.tif") as src:
+            assert src.tags()["variant"] == name and src.crs is not None
+            assert np.count_nonzero(src.read(1)) > 0.3 * src.width * src.height
+    assert (ortho / "mosaic.tif").exists()
+    assert (root / "results" / "report.html").stat().st_size > 10_000
+    # one progress display: fractions of one total, never backwards, ending at 1
+    fractions = [d / t for d, t, _ in calls if t]
+    assert fractions[-1] == 1.0 and min(fractions) >= 0.0
+    assert all(b >= a - 1e-9 for a, b in zip(fractions, fractions[1:]))
+    assert {m.split(":")[0] for _, _, m in calls} >= {"check", "match", "clean", "diagnose", "compare", "report"}
+
+
+def test_the_manifest_records_inputs_stages_and_the_recommended_variant(ran):
+    root, result, _ = ran
+    m = json.loads((root / "results" / "run.json").read_text(encoding="utf-8"))
+    assert m["scangeo"] == __version__ and m["finished"] >= m["started"]
+    for name in ("project.toml", "dtm.tif", "ground.csv", "points.csv", "images/02.tif", "nav/01.csv"):
+        assert m["inputs"][name]["sha256"] == hashlib.sha256((root / name).read_bytes()).hexdigest(), name
+    assert m["options"]["folds"] == 2 and m["options"]["rectify_options"]["mosaic"] is True
+    for name, record in m["stages"].items():
+        assert record["status"] == "ran" and record["seconds"] >= 0, name
+        assert len(record["fingerprint"]) == 24
+    rec = m["recommended"]
+    assert rec["variant"] == result.recommended and rec["why"]
+    assert rec["sigma0"] > 0 and rec["check_rms_px"] > 0
+    folder = f"results/{rec['variant']}/ortho"
+    assert sorted(rec["orthoimages"]) == [f"{folder}/{n}.tif" for n in ("01", "02", "mosaic")]
+
+
+def test_a_second_run_does_nothing_and_a_rectify_setting_reruns_rectify_alone(ran, tmp_path):
+    root = copy_project(ran[0], tmp_path / "block")  # new mtimes and inodes: the files are hashed again
+    again = run(root)
+    assert again.ran == []
+    assert [o.status for o in again.stages] == ["up to date"] * 7
+    assert again.recommended == ran[1].recommended
+    (root / "run.toml").write_text(SETTINGS + '[rectify]\nresampling = "nearest"\n', encoding="utf-8")
+    changed = run(root)
+    assert changed.ran == ["rectify"]
+    assert "options changed: resampling" in changed.outcome("rectify").reason
+
+
+def test_an_edited_control_point_reruns_from_clean_not_match(ran, tmp_path):
+    root = copy_project(ran[0], tmp_path / "block")
+    _edit_control(root)
+    # up to diagnose only: compare, rectify and report follow clean by rule (they read its results), and
+    # running them here would double the test's time
+    result = run(root, until="diagnose")
+    assert result.ran == ["clean", "diagnose"]
+    assert result.outcome("match").status == "up to date"
+    assert result.outcome("check").status == "up to date"
+    assert "ground.csv changed" in result.outcome("clean").reason
+    assert result.outcome("diagnose").reason == "stage clean ran"
+    assert [result.outcome(n).status for n in ("compare", "rectify", "report")] == ["not run"] * 3
+
+
+KILLER = textwrap.dedent("""
+    import os, signal, sys
+    from scangeo.pipeline.run import run
+
+    seen = 0
+
+    def progress(done, total, message=""):
+        global seen
+        seen += message.startswith(sys.argv[2])
+        if seen == int(sys.argv[3]):
+            os.kill(os.getpid(), signal.SIGKILL)
+
+    run(sys.argv[1], progress=progress)
+""")
+
+
+def _outputs(root: Path, name: str, roots: list[Path]) -> dict:
+    """What must not differ between an interrupted and an uninterrupted run (timings, dates, the folders
+    ``roots`` the files name aside)."""
+
+    def text(path: Path) -> str:
+        t = path.read_text(encoding="utf-8")
+        for r in roots:
+            t = t.replace(str(r), "ROOT")
+        return t
+
+    out: dict = {}
+    ortho = root / "results" / name / "ortho"
+    for tif in sorted(ortho.glob("*.tif")):
+        with rasterio.open(tif) as src:
+            out[tif.name] = (src.read(), src.transform, src.tags())
+    for item in sorted(ortho.glob("*.stac.json")):
+        d = json.loads(item.read_text(encoding="utf-8"))
+        for k in ("datetime", "created"):
+            d["properties"].pop(k)
+        d["id"] = d["id"].split("-", 1)[1]  # the project folder's name differs
+        out[item.name] = d
+    comparison = json.loads(text(root / "results" / "comparison.json"))
+    for v in comparison["variants"]:
+        v.pop("seconds")
+    out["comparison"] = comparison
+    for file in ("points.csv", "variants.toml", "results/diagnosis.json"):
+        out[file] = text(root / file)
+    for f in sorted((root / "results" / "cleaning").iterdir()):
+        out[str(f.relative_to(root))] = text(f)
+    return out
+
+
+def test_a_run_killed_in_a_stage_resumes_to_the_same_outputs(ran, tmp_path):
+    name = ran[1].recommended
+    root = copy_project(ran[0], tmp_path / "block")
+    (root / "results" / name / "ortho" / "02.tif").unlink()  # the rectify stage runs again: an output is gone
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    # killed at strip 02's second progress report (resampling); strip 01 is complete from the first run, skipped
+    killed = subprocess.run([sys.executable, "-c", KILLER, str(root), "rectify: strip 02: ", "2"], env=env,
+                            capture_output=True, text=True, timeout=600)
+    assert killed.returncode == -signal.SIGKILL, killed.stderr
+    record = json.loads((root / "results" / "run.json").read_text(encoding="utf-8"))["stages"]
+    assert record["rectify"]["status"] == "running" and record["compare"]["status"] == "up to date"
+    assert not (root / "results" / name / "ortho" / "02.tif").exists()
+    resumed = run(root)
+    assert resumed.ran == ["rectify"]
+    assert "stopped in it (running)" in resumed.outcome("rectify").reason
+    assert resumed.summary_of("rectify")["strips"] == {"01": "skipped", "02": "done"}
+    mine, theirs = _outputs(root, name, [root, ran[0]]), _outputs(ran[0], name, [root, ran[0]])
+    assert mine.keys() == theirs.keys()
+    for key in mine:
+        if key.endswith(".tif"):
+            np.testing.assert_array_equal(mine[key][0], theirs[key][0], err_msg=key)
+            assert mine[key][1:] == theirs[key][1:], key
+        else:
+            assert mine[key] == theirs[key], key
+    assert sorted(p.name for p in (root / "results" / name / "ortho").iterdir()) == \
+        sorted(p.name for p in (ran[0] / "results" / name / "ortho").iterdir())  # no partial file left
