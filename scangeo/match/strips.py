@@ -48,9 +48,6 @@ class ChipGrid:
     def to_map(self, col, row) -> tuple[np.ndarray, np.ndarray]:
         return self.x0 + self.res * np.asarray(col, float), self.y0 - self.res * np.asarray(row, float)
 
-    def to_cell(self, x, y) -> tuple[np.ndarray, np.ndarray]:
-        return (np.asarray(x, float) - self.x0) / self.res, (self.y0 - np.asarray(y, float)) / self.res
-
     @classmethod
     def around(cls, xmin: float, ymin: float, xmax: float, ymax: float, res: float, margin: int) -> ChipGrid:
         """The grid covering a box plus ``margin`` cells on every side."""

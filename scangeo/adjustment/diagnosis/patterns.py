@@ -64,10 +64,6 @@ class PatternData:
     def n(self) -> int:
         return int(self.value.size)
 
-    def rows_of_strip(self, s: int) -> np.ndarray:
-        """Rows with a term of strip index ``s``."""
-        return np.unique(self.term_row[self.term_strip == s])
-
     def first_term(self) -> tuple[np.ndarray, np.ndarray]:
         """(strip, line) of every row's first term."""
         rows, first = np.unique(self.term_row, return_index=True)
