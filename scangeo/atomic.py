@@ -60,9 +60,11 @@ def atomic_directory(path) -> Iterator[Path]:
 
     An existing ``path`` is replaced: moved aside under a hidden name, the new folder renamed into
     place, the old one removed. On any error the new folder is removed and ``path`` stays as it was.
+    The hidden names carry no process id, so the next run removes what a killed one left (one writer
+    per folder: :class:`OutputLock`).
     """
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp = path.with_name(f".{path.name}.tmp")
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
     try:
@@ -71,7 +73,7 @@ def atomic_directory(path) -> Iterator[Path]:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     if path.exists():
-        old = path.with_name(f".{path.name}.{os.getpid()}.old")
+        old = path.with_name(f".{path.name}.old")
         shutil.rmtree(old, ignore_errors=True)
         commit(path, old)
         commit(tmp, path)
@@ -86,10 +88,11 @@ def atomic_files(path) -> Iterator[Path]:
 
     ``STAGING`` is a hidden folder beside ``path``. When the block ends without error every file
     written there is renamed into ``path``'s folder, the sidecars first and ``path`` itself last (so
-    the named file appears only complete, with its sidecars); on any error the folder is removed.
+    the named file appears only complete, with its sidecars); on any error the folder is removed, and
+    one a killed run left is removed by the next.
     """
     path = Path(path)
-    staging = path.with_name(f".{path.name}.{os.getpid()}.staging")
+    staging = path.with_name(f".{path.name}.staging")
     shutil.rmtree(staging, ignore_errors=True)
     staging.mkdir(parents=True)
     try:

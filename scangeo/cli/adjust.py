@@ -1,7 +1,6 @@
 """``scangeo adjust PROJECT --variant NAME``: one adjustment strategy, results in PROJECT/results/NAME.
 
-A thin shell over :func:`scangeo.adjustment.results.run_variant` and
-:func:`scangeo.adjustment.outputs.write_results`.
+A thin shell over :func:`scangeo.adjust` (``scangeo.workflow``).
 """
 from __future__ import annotations
 
@@ -24,13 +23,12 @@ def add_parser(subparsers, common) -> None:
 
 
 def run(args) -> int:
-    from scangeo.adjustment.outputs import write_results
     from scangeo.adjustment.reliability_summary import reliability_lines, variant_reliability
-    from scangeo.adjustment.results import run_variant
     from scangeo.cli import progress_of
+    from scangeo.workflow import adjust
 
-    result = run_variant(args.project, args.variant, args.variants, progress_of(args))
-    out = write_results(result, args.out)
+    adjusted = adjust(args.project, args.variant, variants=args.variants, out=args.out, progress=progress_of(args))
+    result, out = adjusted.result, adjusted.folder
     stats = result.adjustment.statistics
     acc = stats.accounting
     print(

@@ -1,7 +1,6 @@
 """``scangeo compare PROJECT``: every strategy of a variants file, the comparison table and the report.
 
-A thin shell over :func:`scangeo.strategy.comparison.compare_project`,
-:func:`scangeo.reports.tables.write_comparison` and :func:`scangeo.reports.report.write_report`.
+A thin shell over :func:`scangeo.compare` (``scangeo.workflow``).
 """
 from __future__ import annotations
 
@@ -34,16 +33,13 @@ def add_parser(subparsers, common) -> None:
 
 def run(args) -> int:
     from scangeo.cli import progress_of
-    from scangeo.reports.report import write_report
-    from scangeo.reports.tables import markdown_tables, text_table, write_comparison
-    from scangeo.strategy.comparison import compare_project
+    from scangeo.reports.tables import markdown_tables, text_table
+    from scangeo.workflow import compare
 
-    progress = progress_of(args)
-    comparison = compare_project(args.project, args.variants, reference=args.reference, names=args.only,
-                                 problem_strip=args.problem_strip,
-                                 breaks_lines=tuple(args.breaks_lines) if args.breaks_lines else None,
-                                 folds=args.folds, callback=progress)
-    paths = write_comparison(comparison)
+    run = compare(args.project, args.variants, reference=args.reference, names=args.only,
+                  problem_strip=args.problem_strip, breaks_lines=args.breaks_lines, folds=args.folds,
+                  report=args.report, progress=progress_of(args))
+    comparison = run.comparison
     print(text_table(*markdown_tables(comparison)["check points"]))
     if comparison.best:
         print(f"reference {comparison.reference}; best (lowest check-point rms): {comparison.best}")
@@ -53,8 +49,8 @@ def run(args) -> int:
     for v in comparison.variants:
         if v.error:
             print(f"variant {v.name} failed: {v.error}")
-    print("tables: " + ", ".join(str(p) for p in paths), file=sys.stderr)
-    if args.report:
-        files = write_report(args.project, callback=progress)
+    print("tables: " + ", ".join(str(p) for p in run.files), file=sys.stderr)
+    if run.report:
+        files = run.report
         print(f"report: {files.html}" + (f", {files.geopackage}" if files.geopackage else ""), file=sys.stderr)
     return 0

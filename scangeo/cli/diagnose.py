@@ -1,8 +1,6 @@
 """``scangeo diagnose PROJECT``: problem strips and their breaks from an SE adjustment, and variants for them.
 
-A thin shell over :func:`scangeo.adjustment.diagnosis.diagnose.diagnose`,
-:func:`scangeo.adjustment.diagnosis.output.write_diagnosis` and
-:func:`scangeo.strategy.default_variants.write_variants_file`.
+A thin shell over :func:`scangeo.diagnose` (``scangeo.workflow``).
 """
 from __future__ import annotations
 
@@ -32,28 +30,12 @@ def add_parser(subparsers, common) -> None:
 
 
 def run(args) -> int:
-    from pathlib import Path
-
-    from scangeo.adjustment.diagnosis.diagnose import diagnose
-    from scangeo.adjustment.diagnosis.output import summary_lines, write_diagnosis
-    from scangeo.adjustment.diagnosis.patterns import SelectionOptions
-    from scangeo.adjustment.diagnosis.refine import DEFAULT_REFINE
+    from scangeo.adjustment.diagnosis.output import summary_lines
     from scangeo.cli import progress_of
-    from scangeo.errors import ProjectFileError
-    from scangeo.strategy.default_variants import ProblemStrip, write_variants_file
+    from scangeo.workflow import diagnose
 
-    if args.max_breaks < 0:
-        raise ProjectFileError(f"--max-breaks: expected 0 or more, found {args.max_breaks}")
-    target = Path(args.project) / "variants.toml"
-    if args.variants and target.exists() and not args.overwrite:
-        raise ProjectFileError(f"{target} exists: pass --overwrite to replace it, or --no-variants")
-    d = diagnose(args.project, dtm_height_points=tuple(args.dtm_height_points),
-                 options=SelectionOptions(max_breaks=args.max_breaks),
-                 refine=DEFAULT_REFINE if args.refine else None, callback=progress_of(args))
-    print("\n".join(summary_lines(d)))
-    files = write_diagnosis(d)
-    if args.variants:
-        problems = [ProblemStrip(s, d.breaks_of(s), "scangeo diagnose") for s in d.problem_strips]
-        files.append(write_variants_file(args.project, problems))
-    print("written: " + ", ".join(str(f) for f in files), file=sys.stderr)
+    run = diagnose(args.project, dtm_height_points=args.dtm_height_points, max_breaks=args.max_breaks,
+                   refine=args.refine, variants=args.variants, overwrite=args.overwrite, progress=progress_of(args))
+    print("\n".join(summary_lines(run.diagnosis)))
+    print("written: " + ", ".join(str(f) for f in run.files), file=sys.stderr)
     return 0

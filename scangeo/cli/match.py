@@ -1,14 +1,12 @@
 """``scangeo match PROJECT``: measure tie points (and control against reference orthoimages).
 
-A thin shell over :func:`scangeo.match.match_project`: settings from ``--config`` (a TOML file
+A thin shell over :func:`scangeo.match_points` (``scangeo.workflow``): settings from ``--config`` (a TOML file
 with a ``[match]`` table, docs/match.md) overridden by the flags, a progress bar, a summary per
 overlap and per strip.
 """
 from __future__ import annotations
 
 import argparse
-
-from scangeo.errors import ProjectFileError
 
 
 def add_parser(subparsers, common) -> None:
@@ -54,11 +52,9 @@ def options_of(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     from scangeo.cli import progress_of
-    from scangeo.match import match_project
+    from scangeo.workflow import match_points
 
-    if args.workers < 1:
-        raise ProjectFileError(f"--workers must be at least 1, got {args.workers}")
-    result = match_project(
+    result = match_points(
         args.project, args.variant, references=args.reference, reference_dtm=args.reference_dtm,
         reference_dtm_sigma=args.reference_dtm_sigma, options=options_of(args), workers=args.workers,
         scheduler=args.scheduler, progress=progress_of(args),

@@ -1,14 +1,12 @@
 """``scangeo rectify PROJECT --variant NAME``: orthoimages of the strips onto the DTM.
 
-A thin shell over :func:`scangeo.rectify.batch.rectify_project`: settings from ``--config``
+A thin shell over :func:`scangeo.rectify_strips` (``scangeo.workflow``): settings from ``--config``
 (a TOML file with a ``[rectify]`` table, docs/rectify.md) overridden by the flags, a progress bar,
 a one-line summary per strip.
 """
 from __future__ import annotations
 
 import argparse
-
-from scangeo.errors import ProjectFileError
 
 
 def add_parser(subparsers, common) -> None:
@@ -62,15 +60,10 @@ def options_of(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     from scangeo.cli import progress_of
-    from scangeo.rectify.batch import rectify_project
+    from scangeo.workflow import rectify_strips
 
-    if args.workers < 1:
-        raise ProjectFileError(f"--workers must be at least 1, got {args.workers}")
-    options = options_of(args)
-    result = rectify_project(
-        args.project, args.variant, strips=args.strips, options=options, workers=args.workers,
-        scheduler=args.scheduler, progress=progress_of(args),
-    )
+    result = rectify_strips(args.project, args.variant, strips=args.strips, options=options_of(args),
+                            workers=args.workers, scheduler=args.scheduler, progress=progress_of(args))
     for sid, s in result.strips.items():
         if s["status"] == "skipped":
             print(f"strip {sid}: complete from an earlier run, skipped ({s['path']})")

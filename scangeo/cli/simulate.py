@@ -1,7 +1,7 @@
 """``scangeo simulate OUT --preset NAME``: a simulated block with known truth.
 
-A thin shell over :func:`scangeo.simulate.block.simulate`: read the preset (a name of the
-presets shipped in scangeo/data/presets or a TOML file), apply ``--set`` overrides, simulate, print a summary.
+A thin shell over :func:`scangeo.simulate_project` (``scangeo.workflow``): the preset (a name of the
+presets shipped in scangeo/data/presets or a TOML file) with ``--set`` overrides; prints a summary.
 """
 from __future__ import annotations
 
@@ -51,8 +51,8 @@ def add_parser(subparsers, common) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from scangeo.cli import progress_of
-    from scangeo.simulate.block import simulate
-    from scangeo.simulate.config import available_presets, load_preset, merge, preset_path
+    from scangeo.simulate.config import available_presets, merge, preset_path
+    from scangeo.workflow import LaserSimulation, simulate_project
 
     if args.list_presets:
         for name in available_presets():
@@ -66,15 +66,16 @@ def run(args: argparse.Namespace) -> int:
     overrides: dict = {}
     for o in args.overrides:
         overrides = merge(overrides, o)
-    if args.no_images:
-        overrides = merge(overrides, {"output": {"images": False, "truth_ortho": False}})
-    from scangeo.simulate.laser import is_laser_preset
-
-    if is_laser_preset(preset_path(args.preset)):
-        return _run_laser(args, overrides)
-    config = load_preset(args.preset, overrides)
-    block = simulate(args.out, config, seed=args.seed, dtm_file=args.dtm, texture=args.texture,
-                     overwrite=args.overwrite, progress=progress_of(args))
+    block = simulate_project(args.out, args.preset, seed=args.seed, overrides=overrides, images=not args.no_images,
+                             dtm=args.dtm, texture=args.texture, overwrite=args.overwrite, progress=progress_of(args))
+    if isinstance(block, LaserSimulation):
+        strips = block.summary["truth"]["strips"]
+        cfg = block.summary["config"]
+        print(f"simulated laser block (seed {block.seed}) into {block.root}: {len(strips)} strips, "
+              f"{sum(s['returns'] for s in strips.values())} returns, {block.summary['buildings']} buildings, "
+              f"{cfg['control_patches']} control and {cfg['check_patches']} check patches; truth in truth.json")
+        return 0
+    config = block.config
     pts = block.points
     counts = {k: int((pts.kind == k).sum()) for k in "EBKHT"}
     print(f"simulated {config.block.name!r} (seed {block.seed}) into {block.root}")
@@ -84,23 +85,4 @@ def run(args: argparse.Namespace) -> int:
           f"{config.sensor.pixels} pixels")
     print(f"  points: {counts['E']} control, {counts['B']} break-band, {counts['K']} check, {counts['H']} height, "
           f"{counts['T']} tie; {len(pts.m_point)} measurements ({int(pts.blunder.sum())} blunders)")
-    return 0
-
-
-def _run_laser(args: argparse.Namespace, overrides: dict) -> int:
-    """A laser block (preset with a [laser] table) for ``scangeo lidar adjust``."""
-    from scangeo.simulate.config import preset_path
-    from scangeo.simulate.laser import load_laser_config, simulate_laser
-
-    laser = dict(overrides.pop("laser", {}))
-    if overrides:
-        raise ProjectFileError(f"a laser preset has only [laser] keys; cannot set {', '.join(overrides)}")
-    if args.seed is not None:
-        laser["seed"] = args.seed
-    config = load_laser_config(preset_path(args.preset), laser)
-    summary = simulate_laser(args.out, config)
-    strips = summary["truth"]["strips"]
-    print(f"simulated laser block (seed {config.seed}) into {args.out}: {len(strips)} strips, "
-          f"{sum(s['returns'] for s in strips.values())} returns, {summary['buildings']} buildings, "
-          f"{config.control_patches} control and {config.check_patches} check patches; truth in truth.json")
     return 0
