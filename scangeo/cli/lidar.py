@@ -345,9 +345,10 @@ def add_parser(subparsers, common) -> None:
     _add_network(sub, common)
     _add_forward_reverse(sub, common)
     _add_check(sub, common)
-    from scangeo.cli.lidar_adjust import add_adjust
+    from scangeo.cli.lidar_adjust import add_adjust, add_compare
 
     add_adjust(sub, common)
+    add_compare(sub, common)
     parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
 
 

@@ -39,6 +39,41 @@ def add_adjust(sub, common) -> None:
     p.set_defaults(func=run_adjust, writes_project=True)
 
 
+def add_compare(sub, common) -> None:
+    p = sub.add_parser(
+        "compare",
+        parents=[common],
+        help="laser adjustment variants side by side (GPS/IMU models per mission, per strip, ...)",
+        description="Find the patches once, adjust every variant on them, and write comparison.json and "
+        "comparison.html; variants from a TOML file of [NAME] tables of [adjustment] keys (default: the "
+        "paper's per mission and per strip).",
+    )
+    p.add_argument("project", type=Path, help="laser project folder")
+    p.add_argument("--variants", type=Path, default=None, help="TOML file of variant tables")
+    p.add_argument("--out", type=Path, default=None, help="output folder (default PROJECT/lidar-compare)")
+    p.add_argument("--ground", type=Path, default=None, help="control/check patches CSV (default PROJECT/ground.csv)")
+    p.set_defaults(func=run_compare, writes_project=True)
+
+
+def run_compare(args: argparse.Namespace) -> int:
+    # imported here: the command line starts without loading the adjustment (start-up cost)
+    from scangeo.cli import progress_of
+    from scangeo.lidar.variants import compare_laser, read_variants, write_comparison
+
+    variants = read_variants(args.variants) if args.variants is not None else None
+    comparison = compare_laser(args.project, variants, args.ground, progress_of(args))
+    out = args.out or args.project / "lidar-compare"
+    write_comparison(out, comparison)
+    rows = comparison.table()
+    heads = list(rows[0])
+    print("  ".join(heads))
+    for r in rows:
+        print("  ".join("-" if r[h] is None else (f"{r[h]:.3f}" if isinstance(r[h], float) else str(r[h]))
+                        for h in heads))
+    print(f"comparison: {out / 'comparison.html'}")
+    return 0
+
+
 def run_adjust(args: argparse.Namespace) -> int:
     # imported here: the command line starts without loading the adjustment (start-up cost)
     from scangeo.cli import progress_of
@@ -64,13 +99,15 @@ def run_adjust(args: argparse.Namespace) -> int:
     print(f"mode: {result.mode_description}")
     print(
         f"patches: {result.patches['tie']} tie, {result.patches['control']} control, "
-        f"{result.patches['check']} check; {acc['observations']} observations, {acc['unknowns']} unknowns, "
+        f"{result.patches['height']} height control, {result.patches['check']} check; "
+        f"{acc['observations']} observations, {acc['unknowns']} unknowns, "
         f"redundancy {acc['redundancy']}, sigma0 {result.sigma0:.3f}"
     )
     for key, label in (
         ("strip_differences_rms_m", "strip differences rms"),
         ("strip_differences_flat_rms_m", "  on flat cells"),
         ("check_patches_rms_m", "check patches rms"),
+        ("control_check_points_rms_m", "check points on control rms"),
         ("tie_patch_discrepancies_rms_m", "tie patch discrepancies rms"),
     ):
         if key in ev and ev[key]["before"] == ev[key]["before"]:  # NaN: no such patches

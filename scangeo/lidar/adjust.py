@@ -33,7 +33,7 @@ from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors
 from scangeo.lidar.keys import RangeOffset
 from scangeo.lidar.lasio import StripCloud, read_strip
 from scangeo.lidar.patches import PatchOptions, TiePatch, grid_name, homologous
-from scangeo.lidar.planes import anchors
+from scangeo.lidar.planes import ANCHORS, anchors
 from scangeo.lidar.project import LaserProject, LaserStrip
 from scangeo.lidar.search import METHODS, StripFound, find_all, seed_name
 from scangeo.lsq.engine import Adjustment, SnoopingOptions, adjust
@@ -307,25 +307,25 @@ def build(
                 a, t, s = anchors(planes.take(rows))
                 pts.append(a)
                 times.append(t)
-                sig.append(np.maximum(s, 0.25 * prior * np.sqrt(3.0 / planes.count[rows])))
+                sig.append(np.maximum(s, 0.25 * prior * 2.0 / np.sqrt(planes.count[rows])))
         patch = np.array([p for p, src, _ in items if src == "cells"] + [p for p, src, _ in items if src == "given"])
         a_map = np.concatenate(pts).reshape(-1, 3)
         anchor_data[sid] = {
-            "patch": np.repeat(patch, 3),
+            "patch": np.repeat(patch, ANCHORS),
             "map": a_map,
             "work": block.to_work(a_map),
             "time": np.concatenate(times).ravel(),
-            "sigma": np.repeat(np.concatenate(sig), 3),
+            "sigma": np.repeat(np.concatenate(sig), ANCHORS),
         }
     # patch frames from the best member's anchors
     centre = np.zeros((len(ids), 3))
     normal = np.zeros((len(ids), 3))
     best = np.full(len(ids), np.inf)
     for adata in anchor_data.values():
-        w = adata["work"].reshape(-1, 3, 3)
-        pat = adata["patch"][::3]
-        s = adata["sigma"][::3]
-        n = np.cross(w[:, 1] - w[:, 0], w[:, 2] - w[:, 0])
+        w = adata["work"].reshape(-1, ANCHORS, 3)
+        pat = adata["patch"][::ANCHORS]
+        s = adata["sigma"][::ANCHORS]
+        n = np.cross(w[:, 0] - w[:, 1], w[:, 2] - w[:, 3])
         n *= np.where(n[:, 2] < 0, -1.0, 1.0)[:, None]
         for k, p in enumerate(pat):
             if s[k] < best[p]:
@@ -363,16 +363,14 @@ def build(
             StripAnchors(sid, patch, patch, sig, block.frames, block.models, work, t, polar, samplers.get(sid))
         )
     if given is not None:
-        ctrl = [k for k, pid in enumerate(given.ids) if given.role[k] == "control" and pid in ids]
-        sel = np.flatnonzero(np.isin(given.point_patch, ctrl))
-        if sel.size:
-            patch = np.array([ids.index(given.ids[given.point_patch[i]]) for i in sel])
-            groups.append(
-                ControlPatchPoints(
-                    given.point_ids[sel], patch, block.to_work(given.xyz[sel]), given.sigma[sel] / unit, block.frames
-                )
-            )
-        else:
+        used = [k for k, pid in enumerate(given.ids) if given.role[k] != "check" and pid in ids]
+        for role, vertical in (("control", False), ("height", True)):
+            sel = np.flatnonzero(np.isin(given.point_patch, used) & (given.point_role == role))
+            if sel.size:
+                patch = np.array([ids.index(given.ids[given.point_patch[i]]) for i in sel])
+                groups.append(ControlPatchPoints(given.point_ids[sel], patch, block.to_work(given.xyz[sel]),
+                                                 given.sigma[sel] / unit, block.frames, vertical))
+        if not used:
             notes.append("no control patch in the adjustment: the datum comes from the GPS/IMU and the priors alone")
     else:
         notes.append("no ground.csv: no control patches; the datum comes from the GPS/IMU and the priors alone")

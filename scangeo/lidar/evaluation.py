@@ -7,15 +7,17 @@ when ``out`` is given) and finds the planar cells of the corrected strips for th
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from scangeo.lidar.adjust import LaserBlock, anchor_points, corrector, map_unit, read_cloud
 from scangeo.lidar.differences import Differences, common_rows, strip_differences
+from scangeo.lidar.keys import Plane
 from scangeo.lidar.lasio import StripCloud, write_corrected
 from scangeo.lidar.patches import StripPatches, find_strip_patches
+from scangeo.lidar.planes import ANCHORS
 from scangeo.lsq.engine import Adjustment
 from scangeo.progress import ProgressCallback, no_progress
 
@@ -69,11 +71,11 @@ def check_patches(block: LaserBlock, values) -> dict[str, float]:
     if g is None:
         return out
     for sid, a in block.anchors.items():
-        pts = anchor_points(block, sid, values).reshape(-1, 3, 3)
-        for k, p in enumerate(a["patch"][::3]):
+        pts = anchor_points(block, sid, values).reshape(-1, ANCHORS, 3)
+        for k, p in enumerate(a["patch"][::ANCHORS]):
             if block.kinds[p] != "check":
                 continue
-            n = np.cross(pts[k, 1] - pts[k, 0], pts[k, 2] - pts[k, 0])
+            n = np.cross(pts[k, 0] - pts[k, 1], pts[k, 2] - pts[k, 3])
             n /= np.linalg.norm(n)
             pid = block.frames.ids[p]
             surveyed = block.to_work(g.xyz[g.point_patch == g.ids.index(pid)])
@@ -85,8 +87,8 @@ def tie_discrepancies(block: LaserBlock, values) -> np.ndarray:
     """Per (tie patch, strip): the strip's anchor centroid along the patch normal minus the patch's mean."""
     parts, patches = [], []
     for sid, a in block.anchors.items():
-        pts = anchor_points(block, sid, values).reshape(-1, 3, 3).mean(axis=1)
-        p = a["patch"][::3]
+        pts = anchor_points(block, sid, values).reshape(-1, ANCHORS, 3).mean(axis=1)
+        p = a["patch"][::ANCHORS]
         parts.append(np.einsum("ij,ij->i", pts - block.frames.c0[p], block.frames.n0[p]))
         patches.append(p)
     d, patch = np.concatenate(parts), np.concatenate(patches)
@@ -110,6 +112,8 @@ class Evaluation:
     ties_before: np.ndarray
     ties_after: np.ndarray
     unit: float
+    points_before: dict = field(default_factory=dict)
+    points_after: dict = field(default_factory=dict)
 
     def summary(self) -> dict:
         u = self.unit
@@ -126,6 +130,11 @@ class Evaluation:
                 "count": len(self.checks_after),
             },
             "tie_patch_discrepancies_rms_m": {"before": _rms(self.ties_before) * u, "after": _rms(self.ties_after) * u},
+            "control_check_points_rms_m": {
+                "before": _rms(self.points_before.values()) * u,
+                "after": _rms(self.points_after.values()) * u,
+                "count": len(self.points_after),
+            },
             "pairs_after": {
                 k: {kk: (vv * u if kk != "cells" else vv) for kk, vv in v.items()}
                 for k, v in self.after.per_pair().items()
@@ -149,4 +158,25 @@ def evaluate(block: LaserBlock, result: Adjustment, after: dict[str, StripPatche
         tie_discrepancies(block, initial),
         tie_discrepancies(block, final),
         block_unit(block),
+        control_check_points(block, initial),
+        control_check_points(block, final),
     )
+
+
+def control_check_points(block: LaserBlock, values) -> dict[str, float]:
+    """The check points of control and height patches (the paper's fourth roof point): their normal
+    (height patches: vertical) distance from the adjusted plane of their patch."""
+    g = block.given
+    if g is None:
+        return {}
+    ids = block.frames.ids
+    sel = [i for i in range(g.point_ids.size)
+           if g.point_role[i] == "check" and g.role[g.point_patch[i]] != "check" and g.ids[g.point_patch[i]] in ids]
+    if not sel:
+        return {}
+    patch = np.array([ids.index(g.ids[g.point_patch[i]]) for i in sel])
+    uvd = np.array([np.asarray(values[Plane(ids[p])], float) for p in patch])
+    f, n, _ = block.frames.distance(patch, block.to_work(g.xyz[sel]), uvd)
+    vertical = np.array([g.role[g.point_patch[i]] == "height" for i in sel])
+    f = np.where(vertical, f / n[:, 2], f)
+    return {str(g.point_ids[i]): float(v) for i, v in zip(sel, f)}

@@ -9,8 +9,9 @@ Planes: ``Plane(patch)`` holds ``(u, v, d)``; with the patch's fixed reference p
   strip's GPS/IMU, the correction functions of its GPS/IMU models and the calibration
   (``Boresight``, ``LeverArm``, ``RangeOffset``, ``ScanIndex``); without a trajectory, the anchor's
   given point plus the position correction function. Observation: its normal distance to the
-  patch's plane is 0, sigma the anchor's (from the strip's plane fit). The anchors of one patch in
-  one strip form one observation unit (data snooping removes them together).
+  patch's plane is 0, sigma the anchor's (from the strip's plane fit). The four anchors of a patch in
+  a strip enter as three orthonormal combinations (offset, tilt a, tilt b; :data:`FOUR_TO_THREE`),
+  one observation unit (data snooping removes them together).
 - :class:`ControlPatchPoints`: surveyed points on control patches lie in their plane.
 """
 
@@ -29,6 +30,35 @@ from scangeo.lsq.parameters import JacobianPart
 from scangeo.orientation.models import ModelSet
 
 CALIBRATION_KEYS = (Boresight(), LeverArm(), RangeOffset(), ScanIndex())
+
+#: The four anchors of a patch in a strip (``+a, -a`` along its first principal axis, ``+b, -b`` along
+#: the second; ``planes.anchors``) enter as three orthonormal combinations of their normal distances:
+#: offset, tilt along a, tilt along b. The fourth combination (the anchors' non-planarity) carries no
+#: information on the plane and would only add one to the redundancy per patch and strip.
+_s = np.sqrt(0.5)
+FOUR_TO_THREE = np.array([[0.5, _s, 0.0], [0.5, -_s, 0.0], [0.5, 0.0, _s], [0.5, 0.0, -_s]])
+COMBINATIONS = ("offset", "tilt a", "tilt b")
+
+
+def combine_rows(r: np.ndarray) -> np.ndarray:
+    """Whitened anchor residuals (4 per unit) -> the three combinations per unit."""
+    return (r.reshape(-1, 4) @ FOUR_TO_THREE).ravel()
+
+
+def combine_part(part: JacobianPart) -> JacobianPart:
+    """A Jacobian part of anchor rows (4 per unit) as one of the combined rows (3 per unit)."""
+    b = part.cols if part.block is None else part.block
+    rows, cols, vals, block = (np.ravel(x) for x in np.broadcast_arrays(part.rows, part.cols, part.values, b))
+    out_r, out_c, out_v, out_b = [], [], [], []
+    for c in range(3):
+        w = FOUR_TO_THREE[rows % 4, c]
+        keep = w != 0.0
+        out_r.append(3 * (rows[keep] // 4) + c)
+        out_c.append(cols[keep])
+        out_v.append(vals[keep] * w[keep])
+        out_b.append(block[keep])
+    cat = np.concatenate
+    return JacobianPart(part.keys, cat(out_r), cat(out_c), cat(out_v), None if part.block is None else cat(out_b))
 
 
 @dataclass
@@ -111,12 +141,17 @@ class StripAnchors(ObservationGroup):
         self.name = f"anchors {strip}"
         self.strip = strip
         self.frames = frames
-        self.sigma = np.asarray(sigma, float)
+        self._anchor_sigma = np.asarray(sigma, float)
+        self._k = self._anchor_sigma.size
+        if self._k % 4 or np.any(np.asarray(patch).reshape(-1, 4) != np.asarray(patch)[::4, None]):
+            raise ValueError("StripAnchors: four anchors per patch, consecutive")
+        self.sigma = np.repeat(self._anchor_sigma[::4], 3)
         uniq, self._local = np.unique(patch, return_inverse=True)
         self._plane_keys = [Plane(frames.ids[i]) for i in uniq]
         self._patch = np.asarray(patch)
-        units, row_unit = np.unique(unit_id, return_inverse=True)
-        self._describe([frames.ids[i] for i in patch], "normal distance", "m", row_unit)
+        units, row_unit = np.unique(np.asarray(unit_id)[::4], return_inverse=True)
+        self._describe(np.repeat([frames.ids[i] for i in self._patch[::4]], 3), np.tile(COMBINATIONS, self._k // 4),
+                       "m", np.repeat(row_unit, 3))
         self.points = np.asarray(points, float)
         self.polar = polar
         self.trajectory = polar is not None
@@ -136,7 +171,7 @@ class StripAnchors(ObservationGroup):
         return list(dict.fromkeys(keys + list(self._plane_keys)))
 
     def _corrections(self, values) -> np.ndarray:
-        c = np.zeros((self.n_rows, 6))
+        c = np.zeros((self._k, 6))
         for key, rows, D in self._design:
             c[rows] += D @ np.asarray(values[key], float)
         return c
@@ -160,16 +195,17 @@ class StripAnchors(ObservationGroup):
             p = self.pos0 + c[:, :3]
         uvd = _plane_values(self.frames, values, self._local, self._plane_keys)
         f, n, dd = self.frames.distance(self._patch, p, uvd)
-        return f / self.sigma, d, n, dd
+        return f / self._anchor_sigma, d, n, dd
 
     def residuals(self, values) -> np.ndarray:
-        return self._evaluate(values, False)[0]
+        return combine_rows(self._evaluate(values, False)[0])
 
     def linearise(self, values) -> Linearisation:
         r, d, n, dd = self._evaluate(values, True)
-        w = 1.0 / self.sigma
-        rows = np.arange(self.n_rows)
-        g = np.zeros((self.n_rows, 6))
+        w = 1.0 / self._anchor_sigma
+        k = self._k
+        rows = np.arange(k)
+        g = np.zeros((k, 6))
         g[:, :3] = n
         if d is not None:
             g[:, 3:] = np.einsum("ni,nik->nk", n, d.attitude)
@@ -183,44 +219,60 @@ class StripAnchors(ObservationGroup):
             cal_key: Key
             for cal_key, M in ((Boresight(), d.boresight), (LeverArm(), d.lever_arm)):
                 J = np.einsum("ni,nik->nk", n, M) * w[:, None]
-                parts.append(JacobianPart([cal_key], np.repeat(rows, 3), np.tile(np.arange(3), self.n_rows), J.ravel()))
+                parts.append(JacobianPart([cal_key], np.repeat(rows, 3), np.tile(np.arange(3), k), J.ravel()))
             for cal_key, v in ((RangeOffset(), d.range), (ScanIndex(), d.index)):
-                parts.append(
-                    JacobianPart([cal_key], rows, np.zeros(self.n_rows, np.int64), np.einsum("ni,ni->n", n, v) * w)
-                )
+                parts.append(JacobianPart([cal_key], rows, np.zeros(k, np.int64), np.einsum("ni,ni->n", n, v) * w))
         parts.append(
             JacobianPart(
                 self._plane_keys,
                 np.repeat(rows, 3),
-                np.tile(np.arange(3), self.n_rows),
+                np.tile(np.arange(3), k),
                 (dd * w[:, None]).ravel(),
                 np.repeat(self._local, 3),
             )
         )
-        return Linearisation(r, parts)
+        return Linearisation(combine_rows(r), [combine_part(p) for p in parts])
 
 
 class ControlPatchPoints(ObservationGroup):
-    """Surveyed points on control patches: normal distance to the patch's plane = 0 (sigma given)."""
+    """Surveyed points on control patches: normal distance to the patch's plane = 0 (sigma given);
+    ``vertical``: height-only control planes (sports fields), the vertical distance = 0 instead
+    (the plane's height above the point; its horizontal position is free)."""
 
     def __init__(
-        self, ids: np.ndarray, patch: np.ndarray, points: np.ndarray, sigma: np.ndarray, frames: PatchFrames
+        self,
+        ids: np.ndarray,
+        patch: np.ndarray,
+        points: np.ndarray,
+        sigma: np.ndarray,
+        frames: PatchFrames,
+        vertical: bool = False,
     ) -> None:
-        self.name = "control patches"
+        self.name = "height control planes" if vertical else "control patches"
+        self.vertical = vertical
         self.frames = frames
         self.sigma = np.asarray(sigma, float)
         self.points = np.asarray(points, float)
         self._patch = np.asarray(patch)
         uniq, self._local = np.unique(patch, return_inverse=True)
         self._plane_keys = [Plane(frames.ids[i]) for i in uniq]
-        self._describe(list(ids), "normal distance", "m")
+        self._describe(list(ids), "vertical distance" if vertical else "normal distance", "m")
 
     def keys(self):
         return list(self._plane_keys)
 
     def linearise(self, values) -> Linearisation:
         uvd = _plane_values(self.frames, values, self._local, self._plane_keys)
-        f, _, dd = self.frames.distance(self._patch, self.points, uvd)
+        f, n, dd = self.frames.distance(self._patch, self.points, uvd)
+        if self.vertical:
+            # f_v = f / n_z; d n_z / d(u, v) = (e_z - n_z (n . e)) / |m| for e = e1, e2
+            _, norm = self.frames._normals(self._patch, uvd)
+            nz = n[:, 2]
+            dnz = np.zeros_like(dd)
+            for k, e in enumerate((self.frames.e1[self._patch], self.frames.e2[self._patch])):
+                dnz[:, k] = (e[:, 2] - nz * np.einsum("ij,ij->i", n, e)) / norm
+            dd = dd / nz[:, None] - (f / nz**2)[:, None] * dnz
+            f = f / nz
         rows = np.arange(self.n_rows)
         return Linearisation(
             f / self.sigma,

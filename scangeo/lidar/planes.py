@@ -98,25 +98,23 @@ def fit_planes(
     return Planes(n, total - n, mean, normal, sigma, axes, spread, t_mean, grad)
 
 
-def anchors(planes: Planes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Three anchor points per plane that carry the plane fit's information (see docs/lidar.md).
+#: anchors per patch and strip (the paper's four; see :func:`anchors`)
+ANCHORS = 4
 
-    Anchors at 0, 120 and 240 deg on the ellipse with semi-axes ``sqrt(2) spread`` in the plane,
-    each with sigma ``sigma sqrt(3 / n)``: estimating offset and two tilts from the anchors gives
-    the same variances as from the ``n`` points. Returns points (m, 3, 3) (relative coordinates),
-    their times (m, 3) and sigmas (m,).
+
+def anchors(planes: Planes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The four anchor points per plane that carry the plane fit's information (see docs/lidar.md).
+
+    Anchors at ``+a, -a`` along the first in-plane principal axis and ``+b, -b`` along the second,
+    with ``(a, b) = sqrt(2)`` times the standard deviations of the returns along them, each with sigma
+    ``2 sigma / sqrt(n)``: estimating offset and two tilts from the four anchors gives the same
+    variances as from the ``n`` returns. Returns points (m, 4, 3) (the caller's coordinates), their
+    times (m, 4) and sigmas (m,).
     """
-    phi = np.radians([0.0, 120.0, 240.0])
-    a = np.sqrt(2.0) * planes.spread
-    off = (
-        a[:, None, 0, None] * np.cos(phi)[None, :, None] * planes.axes[:, None, 0, :]
-        + a[:, None, 1, None] * np.sin(phi)[None, :, None] * planes.axes[:, None, 1, :]
-    )
-    pts = planes.centroid[:, None, :] + off
-    t = (
-        planes.time[:, None]
-        + a[:, 0, None] * np.cos(phi)[None, :] * planes.time_gradient[:, 0, None]
-        + a[:, 1, None] * np.sin(phi)[None, :] * planes.time_gradient[:, 1, None]
-    )
-    sig = planes.sigma * np.sqrt(3.0 / np.maximum(planes.count, 1))
+    a = np.sqrt(2.0) * planes.spread  # (m, 2)
+    sign = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])  # (4, 2): along axis 1, axis 2
+    step = sign[None, :, :] * a[:, None, :]  # (m, 4, 2)
+    pts = planes.centroid[:, None, :] + np.einsum("mkj,mjc->mkc", step, planes.axes)
+    t = planes.time[:, None] + np.einsum("mkj,mj->mk", step, planes.time_gradient)
+    sig = planes.sigma * 2.0 / np.sqrt(np.maximum(planes.count, 1))
     return pts, t, sig

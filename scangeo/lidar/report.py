@@ -86,7 +86,7 @@ def write_html(path: Path, results: dict, figure: str | None) -> None:
             ["strip", "returns", "t_start", "t_end", "planar_cells", "patches"],
         ),
         "<h2>Patches</h2>",
-        _table([results["patches"]], ["tie", "control", "check"]),
+        _table([results["patches"]], ["tie", "control", "height", "check"]),
     ]
     if ev:
         rows = [

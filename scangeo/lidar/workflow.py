@@ -37,7 +37,7 @@ def laser_result(
                 "patches": int(f.patches.cells.size)}
             for s, f in block.found.items()
         },
-        patches={k: int(sum(1 for x in block.kinds if x == k)) for k in ("tie", "control", "check")},
+        patches={k: int(sum(1 for x in block.kinds if x == k)) for k in ("tie", "control", "height", "check")},
         sigma0=st.sigma0,
         accounting=st.accounting.as_dict(),
         converged=result.solution.converged,

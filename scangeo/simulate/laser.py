@@ -61,6 +61,8 @@ class LaserBlockConfig:
     control_patches: int = 8
     check_patches: int = 6
     control_sigma: float = 0.01
+    fourth_as_check: bool = False  # the fourth surveyed point of each control patch is a check point
+    height_patches: int = 0  # sports fields: flat 20 m x 14 m, four height points each (height control)
     moved_roof: tuple[float, ...] = ()  # (strip index, dz m): one roof in that strip moved (a blunder)
     trajectory_rate_hz: float = 200.0
     time_start: float = 400000.0
@@ -259,6 +261,7 @@ def _write_ground(out: Path, scene: LaserScene, frame: MapFrame, cfg: LaserBlock
     roofs = [group[k] for k in range(max(map(len, by_azimuth), default=0)) for group in by_azimuth if k < len(group)]
     rows = []
     ring = 8.0 * np.array([[np.cos(a), np.sin(a)] for a in np.linspace(0, 2 * np.pi, 13)] + [[0.0, 0.0]])
+    corners = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
     n_roof = 0
     for i in range(total):
         if i % 3 == 2 or n_roof >= len(roofs):  # every third patch on flat ground
@@ -276,11 +279,26 @@ def _write_ground(out: Path, scene: LaserScene, frame: MapFrame, cfg: LaserBlock
             e1, e2 = np.array([np.cos(a), np.sin(a)]), np.array([-np.sin(a), np.cos(a)])
         role = "control" if i < cfg.control_patches else "check"
         pid = f"{'C' if role == 'control' else 'K'}{i + 1}"
-        for j, (su, sv) in enumerate(((1, 1), (-1, 1), (-1, -1), (1, -1))):
-            xy = c + 2.5 * su * e1 + 2.0 * sv * e2
-            z = scene.height(np.array([xy[0]]), np.array([xy[1]]))[0] + rng.normal(0, cfg.control_sigma)
-            X, Y, Z = frame.project_to_map(np.array([[xy[0], xy[1], z]]))
-            rows.append(
-                f"{pid}.{j + 1},{pid},{X[0]:.4f},{Y[0]:.4f},{Z[0]:.4f},{cfg.control_sigma},{cfg.control_sigma},{role}"
-            )
+        rows += _surveyed(pid, role, c + 2.5 * corners[:, :1] * e1 + 2.0 * corners[:, 1:] * e2, scene, frame, cfg, rng)
+    for i in range(cfg.height_patches):  # sports fields on open ground
+        for _ in range(1000):
+            c = rng.uniform(-half, half, 2)
+            if np.all(scene.building_at(c[0] + 2.0 * ring[:, 0], c[1] + 2.0 * ring[:, 1])[0] < 0):
+                break
+        field = c + corners * [10.0, 7.0]
+        rows += _surveyed(f"H{i + 1}", "height", field, scene, frame, cfg, rng)
     write_text(out / "ground.csv", "point,patch,x,y,z,sigma_xy,sigma_z,role\n" + "\n".join(rows) + "\n")
+
+
+def _surveyed(pid: str, role: str, xy: np.ndarray, scene: LaserScene, frame: MapFrame, cfg: LaserBlockConfig,
+              rng) -> list[str]:
+    """ground.csv rows of the surveyed points ``xy`` (project frame) of one patch; with ``fourth_as_check``
+    the fourth point of a control (or height) patch is a check point."""
+    z = scene.height(xy[:, 0], xy[:, 1]) + rng.normal(0, cfg.control_sigma, len(xy))
+    X, Y, Z = frame.project_to_map(np.column_stack([xy, z]))
+    out = []
+    for j in range(len(xy)):
+        r = "check" if (cfg.fourth_as_check and role != "check" and j == 3) else role
+        out.append(f"{pid}.{j + 1},{pid},{X[j]:.4f},{Y[j]:.4f},{Z[j]:.4f},{cfg.control_sigma},{cfg.control_sigma},{r}")
+    return out
+

@@ -87,9 +87,9 @@ def test_jacobians_match_finite_differences():
     polar = Polar(tt, rng.uniform(450, 550, n), rng.uniform(-0.3, 0.3, n), rng.normal(0, 0.01, n))
     cal = Calibration.of([0.001, -0.002, 0.003], [0.1, 0.2, -0.3])
     pts = georeference(*sampler.at(tt), polar, cal)
-    patch = np.repeat(np.arange(4), 3)
-    normals = rng.normal(0, 0.3, (4, 3)) + [0, 0, 1]
-    frames = PatchFrames.from_points([f"p{i}" for i in range(4)], pts[::3] + 0.5, normals)
+    patch = np.repeat(np.arange(3), 4)  # four anchors per patch
+    normals = rng.normal(0, 0.3, (3, 3)) + [0, 0, 1]
+    frames = PatchFrames.from_points([f"p{i}" for i in range(3)], pts[::4] + 0.5, normals)
     models = ModelSet([GpsImuModel("s", ("s",), 0.0, 10.0, 2, 1, False, np.zeros(3), None, {"s": (-np.inf, np.inf)})])
     values = {
         Correction("s"): rng.normal(0, 1e-3, models.models["s"].size),
@@ -104,6 +104,7 @@ def test_jacobians_match_finite_differences():
         StripAnchors("s", patch, patch, np.full(n, 0.01), frames, models, pts, tt, polar, sampler),
         StripAnchors("s", patch, patch, np.full(n, 0.01), frames, position_only, pts, tt),
         ControlPatchPoints(np.arange(n).astype(str), patch, pts, np.full(n, 0.01), frames),
+        ControlPatchPoints(np.arange(n).astype(str), patch, pts, np.full(n, 0.01), frames, vertical=True),
     ):
         vals = {k: values[k] for k in group.keys()}
         if getattr(group, "trajectory", True) is False:

@@ -1,17 +1,22 @@
 """Missions in a laser project.toml and the GPS/IMU model variants built by the shared builder
-(scangeo.orientation.models): per strip, per mission, for the block (issue 24)."""
+(scangeo.orientation.models): per strip, per mission, for the block; control patches with a check
+point and height-only control planes (issue 24)."""
 
 from __future__ import annotations
 
+import json
 import logging
 import shutil
 
 import numpy as np
 import pytest
 
+from scangeo.cli import main
 from scangeo.errors import ProjectFileError
 from scangeo.lidar.adjust import LaserOptions, build, run
+from scangeo.lidar.evaluation import control_check_points
 from scangeo.lidar.project import LaserProject
+from scangeo.lidar.variants import read_variants
 from scangeo.orientation.models import Correction
 from tests.session_projects import laser_block  # noqa: F401  (session fixture)
 
@@ -73,3 +78,53 @@ def test_a_mission_that_is_not_a_name_is_an_error(laser_block, tmp_path):  # noq
     (root / "project.toml").write_text(text)
     with pytest.raises(ProjectFileError, match=r"mission"):
         LaserProject.load(root)
+
+
+def test_fourth_roof_point_as_check_and_height_control_planes(laser_block, found, tmp_path):  # noqa: F811
+    """The paper's control: four surveyed points per roof patch, the fourth a check point; flat control
+    patches turned into height-only control planes (sports fields)."""
+    lines = (laser_block / "ground.csv").read_text().splitlines()
+    out = [lines[0]]
+    for line in lines[1:]:
+        cells = line.split(",")
+        if cells[1] in ("C3", "C6"):  # the flat control patches (every third patch is on open ground)
+            cells[-1] = "height"
+        elif cells[-1] == "control" and cells[0].endswith(".4"):
+            cells[-1] = "check"
+        out.append(",".join(cells))
+    ground = tmp_path / "ground.csv"
+    ground.write_text("\n".join(out) + "\n")
+    block = build(LaserProject.load(laser_block), LaserOptions(), ground, found=found)
+    kinds = dict(zip(block.frames.ids, block.kinds))
+    assert kinds.get("C3") == "height" and kinds.get("C1") == "control"
+    assert {g.name for g in block.groups} >= {"control patches", "height control planes"}
+    result = run(block)
+    before = control_check_points(block, block.parameters.values())
+    after = control_check_points(block, result.parameters.values())
+    assert set(after) == {f"C{i}.4" for i in (1, 2, 4, 5, 7, 8) if f"C{i}" in kinds}
+    rms = np.sqrt(np.mean(np.square(list(after.values()))))
+    assert rms < 0.02 and np.sqrt(np.mean(np.square(list(before.values())))) > 2 * rms
+
+
+def test_variants_side_by_side(laser_block, tmp_path, capsys):  # noqa: F811
+    """``scangeo lidar compare``: the paper's variants on the same patches, one table."""
+    variants = tmp_path / "variants.toml"
+    variants.write_text('[mission]\nmodels = "mission"\nposition_degree = 0\nattitude_degree = 0\n\n'
+                        '[strip]\nmodels = "strip"\n')
+    out = tmp_path / "cmp"
+    assert main(["lidar", "compare", str(laser_block), "--variants", str(variants), "--out", str(out),
+                 "--no-progress"]) == 0
+    assert "comparison.html" in capsys.readouterr().out
+    saved = json.loads((out / "comparison.json").read_text())
+    assert list(saved) == ["mission", "strip"]
+    assert saved["mission"]["options"]["models"] == "mission"
+    keys = [p["key"] for p in saved["mission"]["parameters"] if p["component"] == "x0"]
+    assert keys == ["Correction(model=mission 1)"]
+    # one shift and misalignment for both strips leaves more of the strip differences than a model per strip
+    flat = {n: r["evaluation"]["strip_differences_flat_rms_m"]["after"] for n, r in saved.items()}
+    assert flat["strip"] < flat["mission"]
+    assert (out / "comparison.html").read_text().count("<tr>") == 3
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[x]\nmodel = \"strip\"\n")
+    with pytest.raises(ProjectFileError, match=r"bad.toml \[x\].*model"):
+        read_variants(bad)
