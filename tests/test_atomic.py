@@ -77,16 +77,11 @@ def test_the_scan_finds_every_kind_of_rename():
     assert [n for n, _ in _renames(ast.parse(code))] == [2, 3, 4, 5, 6]
 
 
-# being converted while other engineers edit them (issue 26); this list only shrinks
-_PENDING = {"adjustment/reliability_summary.py", "lidar/lasio.py", "lidar/outputs.py", "lidar/report.py",
-            "reports/report.py", "reports/tables.py"}
-
-
 def test_no_module_but_atomic_renames_files():
     offenders = [
         f"{path.relative_to(PACKAGE.parent)}:{line} {what}"
         for path in sorted(PACKAGE.rglob("*.py"))
-        if path.relative_to(PACKAGE).as_posix() not in {"atomic.py", *_PENDING}
+        if path.relative_to(PACKAGE).as_posix() != "atomic.py"
         for line, what in _renames(ast.parse(path.read_text(encoding="utf-8")))
     ]
     assert not offenders, "write through scangeo.atomic instead of renaming by hand:\n" + "\n".join(offenders)

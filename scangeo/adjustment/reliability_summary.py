@@ -21,10 +21,8 @@ non-separable points, the weakest strip positions). Formats in docs/formats.md.
 """
 from __future__ import annotations
 
-import csv
 import json
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,6 +33,7 @@ from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Ground
 from scangeo.adjustment.neighbourhoods import MARGIN, RADIUS, strip_neighbourhoods
 from scangeo.adjustment.results import VariantResult
+from scangeo.atomic import write_csv, write_text
 from scangeo.lsq.parameters import Layout
 from scangeo.lsq.reliability import OrientationProbe, Reliability, compute_reliability, delta0
 from scangeo.lsq.statistics import MIN_REDUNDANCY
@@ -315,16 +314,9 @@ def write_reliability(result: VariantResult, folder, vr: VariantReliability | No
     renamed when complete); ``vr`` the reliability if already computed."""
     vr = vr if vr is not None else variant_reliability(result)
     folder = Path(folder)
-    tmp = folder / ".reliability.csv.tmp"
-    with open(tmp, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(UNIT_COLUMNS)
-        for r in unit_table(vr):
-            w.writerow([_fmt_inf(x) if isinstance(x, float) else x for x in r])
-    os.replace(tmp, folder / "reliability.csv")
-    tmp = folder / ".reliability.json.tmp"
-    tmp.write_text(json.dumps(reliability_dict(vr), indent=1))
-    os.replace(tmp, folder / "reliability.json")
+    write_csv(folder / "reliability.csv", UNIT_COLUMNS,
+              ([_fmt_inf(x) if isinstance(x, float) else x for x in r] for r in unit_table(vr)))
+    write_text(folder / "reliability.json", json.dumps(reliability_dict(vr), indent=1))
 
 
 __all__ = ["COLUMNS", "UNIT_COLUMNS", "VariantReliability", "check_columns", "reliability_dict", "reliability_lines",

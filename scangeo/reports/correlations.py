@@ -29,12 +29,24 @@ def _describe(name: str) -> str:
     return kind if degree == "0" else f"{kind} (degree {degree} term)"
 
 
+_MEANING = ("move the footprint alike (one can stand in for the other), so the observations fix their "
+            "combination, not each one; control across the strip or in more bands separates them (or leave one "
+            "out: a degree, the rotation, a calibration unknown)")
+
+
 def note(a: str, b: str, r: float, model: str) -> str:
     """A plain-language note for a correlated pair of model ``model``."""
-    pair = f"the {_describe(a)} and the {_describe(b)} of {model}"
-    return (f"{pair} are correlated {r:+.3f}: they move the footprint alike (one can stand in for the other), so "
-            "the observations fix their combination, not each one; control across the strip or in more bands "
-            "separates them (or leave one out: a degree, the rotation, a calibration unknown)")
+    return f"the {_describe(a)} and the {_describe(b)} of {model} are correlated {r:+.3f}: they {_MEANING}"
+
+
+def pair_kind(a: str, b: str) -> str:
+    """The kind of a correlated pair, whatever its model: ``shift in x ~ roll``."""
+    return f"{_describe(a)} ~ {_describe(b)}"
+
+
+def explanation(a: str, b: str) -> str:
+    """What a correlation of the kind of pair (``a``, ``b``) means, said once for all its models."""
+    return f"The {_describe(a)} and the {_describe(b)} of a GPS/IMU model {_MEANING}."
 
 
 def correlated_pairs(result, threshold: float = 0.95) -> list[dict]:
@@ -76,4 +88,4 @@ def correlated_pairs(result, threshold: float = 0.95) -> list[dict]:
     return out
 
 
-__all__ = ["correlated_pairs", "note"]
+__all__ = ["correlated_pairs", "explanation", "note", "pair_kind"]

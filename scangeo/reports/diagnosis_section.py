@@ -14,7 +14,7 @@ from scangeo.adjustment.diagnosis.output import read_diagnosis
 from scangeo.adjustment.summary import Comparison
 from scangeo.reports import html
 from scangeo.reports.figures import png
-from scangeo.reports.tables import markdown_tables
+from scangeo.reports.tables import correlation_kinds, markdown_tables
 
 
 def misclosure_plot(diagnosis: dict) -> bytes:
@@ -80,8 +80,10 @@ def diagnosis_section(project_root, comparison: Comparison) -> html.Section:
                                     text_columns=(0, 4)))
     if "correlations" in tables:
         sec.parts.append("<h3>Correlated unknowns (|r| &gt; 0.95)</h3>")
+        kinds = correlation_kinds(comparison)
+        sec.parts.append(html.bullet_list([f"{kind}: {text}" for kind, (text, _) in kinds.items()]))
         sec.parts.append(html.table(*tables["correlations"], table_id="correlations-table",
-                                    text_columns=(0, 1, 2, 3, 5), wide_columns=(5,)))
+                                    text_columns=(0, 1, 2), wide_columns=(2,)))
     return sec
 
 

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import datetime
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +29,7 @@ import numpy as np
 
 from scangeo import __version__
 from scangeo.adjustment.summary import Comparison
+from scangeo.atomic import write_text
 from scangeo.io.project import Project
 from scangeo.orientation.file import FILE_NAME as ORIENTATION_FILE
 from scangeo.orientation.file import read_orientation
@@ -311,10 +311,7 @@ def write_report(
         )
     ]
     text = html.document(f"scangeo residual report: {root.name}", intro, sections)
-    path = folder / "report.html"
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    path = write_text(folder / "report.html", text)
     callback(steps, steps, "report: done")
     return ReportFiles(path, gpkg, text.count('class="report-figure"'))
 

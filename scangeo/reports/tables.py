@@ -14,10 +14,12 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
 from pathlib import Path
 
 from scangeo.adjustment.summary import Comparison, VariantSummary
+from scangeo.atomic import write_text
+from scangeo.errors import ProjectFileError
+from scangeo.reports.correlations import explanation, pair_kind
 
 FILES = ("comparison.md", "comparison.csv", "comparison.json")
 
@@ -83,11 +85,24 @@ def markdown_tables(c: Comparison) -> dict[str, tuple[list[str], list[list[str]]
                     _f(cv["bic"].get(v.name), 1), cv["group"].get(v.name, ""),
                     "**yes**" if v.name == cv.get("recommended") else ""] for v in c.variants if v.error is None]
         tables["cross-validation"] = (cv_head, cv_rows)
-    pairs = [[v.name, p["model"], p["a"], p["b"], f"{p['r']:+.3f}", p["note"]] for v in c.variants
-             for p in v.correlations]
-    if pairs:
-        tables["correlations"] = (["variant", "model", "unknown", "unknown", "r", "note"], pairs)
+    kinds = correlation_kinds(c)
+    if kinds:
+        rows = [[kind, variant, ", ".join(f"{model} {r:+.3f}" for model, r in pairs)]
+                for kind, (_, by_variant) in kinds.items() for variant, pairs in by_variant.items()]
+        tables["correlations"] = (["pair", "variant", "models (r)"], rows)
     return tables
+
+
+def correlation_kinds(c: Comparison) -> dict[str, tuple[str, dict[str, list[tuple[str, float]]]]]:
+    """The correlated pairs of all variants by kind of pair (``shift in x ~ roll``), the most frequent
+    kind first: ``{kind: (explanation, {variant: [(model, r)]})}``; each kind is explained once."""
+    kinds: dict[str, tuple[str, dict[str, list[tuple[str, float]]]]] = {}
+    for v in c.variants:
+        for p in v.correlations:
+            kind = pair_kind(p["a"], p["b"])
+            entry = kinds.setdefault(kind, (explanation(p["a"], p["b"]), {}))
+            entry[1].setdefault(v.name, []).append((p["model"], p["r"]))
+    return dict(sorted(kinds.items(), key=lambda kv: -sum(map(len, kv[1][1].values()))))
 
 
 def text_table(head: list[str], rows: list[list[str]]) -> str:
@@ -131,7 +146,9 @@ def markdown(c: Comparison) -> str:
                 f"observations. Recommended: **{rec}** ({cv.get('reason', '')}).", "",
                 _md_table(*tables["cross-validation"])]
     if "correlations" in tables:
-        out += ["", "## Correlated unknowns (|r| > 0.95)", "", _md_table(*tables["correlations"])]
+        out += ["", "## Correlated unknowns (|r| > 0.95)", ""]
+        out += [f"* **{kind}**: {text}" for kind, (text, _) in correlation_kinds(c).items()]
+        out += ["", _md_table(*tables["correlations"])]
     return "\n".join(out) + "\n"
 
 
@@ -167,9 +184,7 @@ def csv_text(c: Comparison) -> str:
 
 
 def _write(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    write_text(path, text)
 
 
 def write_comparison(c: Comparison, folder=None) -> list[Path]:
@@ -185,8 +200,6 @@ def write_comparison(c: Comparison, folder=None) -> list[Path]:
 
 def read_comparison(folder) -> Comparison:
     """The comparison written by :func:`write_comparison` (``PROJECT/results/comparison.json``)."""
-    from scangeo.errors import ProjectFileError
-
     path = Path(folder) / "comparison.json"
     if not path.exists():
         raise ProjectFileError(f"{path}: no comparison yet (run 'scangeo compare' on the project first)")
