@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from scangeo.dtm import DTM
 from scangeo.errors import MissingFileError, ProjectFileError
 from scangeo.frames import Geoid, MapFrame, ProjectFrame, parse_crs
 from scangeo.io.project_schema import SensorKeys, StripKeys, read_project_file
@@ -15,6 +16,9 @@ from scangeo.io.toml_config import load_toml
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.sensors.strip import Mounting, StripGeometry
 from scangeo.timing import LineTiming
+from scangeo.trajectory.checks import check_strip_trajectory, strip_times_of
+from scangeo.trajectory.readers import read_trajectory
+from scangeo.trajectory.spline import OrientationSpline
 
 log = logging.getLogger(__name__)
 
@@ -144,8 +148,6 @@ class Project:
 
     @cached_property
     def dtm(self):
-        from scangeo.dtm import DTM
-
         return DTM.open(self.dtm_path, self.map_frame)
 
     # --- strips ---------------------------------------------------------------------------------
@@ -159,9 +161,6 @@ class Project:
 
     def stream(self, strip_id: str, check: bool = True):
         """The strip's GPS/IMU stream as measured; ``check``: coverage and gaps (scangeo.trajectory.checks)."""
-        from scangeo.trajectory.checks import check_strip_trajectory, strip_times_of
-        from scangeo.trajectory.readers import read_trajectory
-
         stream = read_trajectory(self.strip(strip_id).trajectory, crs=self.trajectory_crs or self.crs)
         if check:
             check_strip_trajectory(stream, strip_times_of(self, strip_id))  # coverage, gaps: errors naming lines
@@ -202,8 +201,6 @@ class Project:
 
         ``check=False`` skips the trajectory's coverage and gap checks (locate answers point by point
         "outside the trajectory" instead); rectify, adjust and the reports keep them."""
-        from scangeo.trajectory.spline import OrientationSpline
-
         if spline is None:
             traj = self.stream(strip_id, check=check).to_project(self.map_frame.frame)
             spline = OrientationSpline.from_trajectory(traj, self.knot_spacing)

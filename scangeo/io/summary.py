@@ -14,7 +14,11 @@ from typing import Any
 import numpy as np
 
 from scangeo.errors import InputFileError, ScangeoError
+from scangeo.frames import geodetic_to_ecef
+from scangeo.io.points import GroundPoints, ImagePoints
+from scangeo.io.project import Project
 from scangeo.sensors.models import Whiskbroom
+from scangeo.trajectory.readers import read_sbet, read_trajectory_csv
 
 KINDS = ("trajectory", "dtm", "image", "points", "ground", "project")
 SBET_SUFFIXES = (".out", ".sbet")
@@ -118,9 +122,6 @@ def summarise(path, kind: str | None = None, crs: str | None = None) -> dict[str
 
 def summarise_trajectory(path: Path, crs: str | None = None) -> dict[str, Any]:
     """Records, rate, time span, extent (lat/lon degrees, ellipsoidal h) and attitude ranges."""
-    from scangeo.frames import geodetic_to_ecef
-    from scangeo.trajectory.readers import read_sbet, read_trajectory_csv
-
     sbet = path.suffix.lower() in SBET_SUFFIXES or _is_binary(path)
     s = read_sbet(path) if sbet else read_trajectory_csv(path, crs=crs)
     steps = np.diff(s.time)
@@ -198,8 +199,6 @@ def summarise_raster(path: Path, as_dtm: bool) -> dict[str, Any]:
 
 def summarise_points(path: Path, kind: str) -> dict[str, Any]:
     """Counts of image measurements per strip (points.csv) or of ground points per role (ground.csv)."""
-    from scangeo.io.points import GroundPoints, ImagePoints
-
     if kind == "points":
         pts = ImagePoints.read(path)
         strips, counts = np.unique(pts.strip.astype(str), return_counts=True)
@@ -225,8 +224,6 @@ def summarise_project(path: Path) -> dict[str, Any]:
 
     A strip whose files cannot be read is reported with an ``error`` rather than stopping the summary.
     """
-    from scangeo.io.project import Project
-
     project = Project.load(path)
     sensor = project.sensor
     model = sensor.model

@@ -33,7 +33,7 @@ from scangeo.match.output import GROUND_COLUMNS, POINT_COLUMNS, merge_rows, writ
 from scangeo.match.overlaps import find_overlaps, strip_cells
 from scangeo.match.reference import Reference
 from scangeo.match.strips import MatchStrip
-from scangeo.match.tasks import MatchTask, TaskResult, margin_cells, run_task
+from scangeo.match.tasks import _CACHE, MatchTask, TaskResult, margin_cells, run_task
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify.geometry import nadir_ground_pixel
 from scangeo.rectify.output_grid import nice_resolution
@@ -297,8 +297,6 @@ def _write_cells(path: Path, report: dict) -> None:
 def run_tasks(tasks: list[MatchTask], workers: int, scheduler: str | None, progress: ProgressCallback
               ) -> list[TaskResult]:
     """Run tasks in this process, a process pool or on a Dask scheduler; results in task order."""
-    from scangeo.match.tasks import _CACHE
-
     _CACHE.clear()  # files may have changed since an earlier run in this process
     total = len(tasks)
     progress(0, total, "match")

@@ -21,6 +21,7 @@ from scangeo.io.project import Project
 from scangeo.match.correlate import match_template, prepare, smooth
 from scangeo.match.options import MatchOptions
 from scangeo.match.overlaps import Cell
+from scangeo.match.reference import Reference
 from scangeo.match.strips import Chip, ChipGrid, MatchStrip
 
 log = logging.getLogger(__name__)
@@ -191,8 +192,6 @@ def run_task(task: MatchTask) -> TaskResult:
     candidates = empty = 0
     reference = None
     if task.kind == "control":
-        from scangeo.match.reference import Reference
-
         reference = Reference(task.reference or "", project.crs, options.reference_bands)
     try:
         for cell in task.cells:

@@ -40,6 +40,7 @@ from scangeo.rectify.core_geometry import CoreStripGeometry
 from scangeo.rectify.geolocation import write_igm
 from scangeo.rectify.geometry import nadir_ground_pixel
 from scangeo.rectify.geotiff import BandInfo, remove_partials
+from scangeo.rectify.mosaic import build_mosaic
 from scangeo.rectify.options import RectifyOptions
 from scangeo.rectify.output_grid import OutputGrid, nice_resolution
 from scangeo.rectify.strip import Finaliser, StripResult, rectify_strip
@@ -313,8 +314,6 @@ def rectify_project(
         result.strips[s["strip"]] = s
     result.strips = {sid: result.strips[sid] for sid in ids}
     if options.mosaic:
-        from scangeo.rectify.mosaic import build_mosaic
-
         result.mosaic = build_mosaic([folder / f"{sid}.tif" for sid in ids], folder / "mosaic.tif", options.geotiff)
     result.seconds = time.perf_counter() - started
     return result

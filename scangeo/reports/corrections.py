@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from scangeo.adjustment.block import strip_data
 from scangeo.io.project import Project
 from scangeo.orientation.file import FILE_NAME, Orientation, load_orientation, read_orientation
 
@@ -42,8 +43,6 @@ def _measured(project: Project, strip_id: str):
 def correction_series(project: Project, variant: str, strip_id: str) -> Series:
     """The applied correction of a strip over its image, at the adjustment's GPS/IMU epochs: the
     adjusted spline minus the GPS/IMU observed there: x, y, z (m, P), roll, pitch, heading (rad)."""
-    from scangeo.adjustment.block import strip_data
-
     adjusted = load_orientation(project, variant).strip(strip_id).spline
     data = strip_data(project, strip_id)
     t0, t1 = image_window(project, strip_id)

@@ -23,6 +23,7 @@ import numpy as np
 from scangeo.errors import ProjectFileError
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
+from scangeo.orientation.file import load_orientation
 
 
 @dataclass(frozen=True)
@@ -124,8 +125,6 @@ def check_vectors(project: Project, variant: str, geometry_of=None) -> ResidualV
     strip = np.array([k[1] for k in keys], dtype=object)
     dx, dy = np.full(n, np.nan), np.full(n, np.nan)
     if geometry_of is None:
-        from scangeo.orientation.file import load_orientation
-
         geometry_of = load_orientation(project, variant).geometry
     for sid in dict.fromkeys(strip):
         sel = np.flatnonzero(strip == sid)

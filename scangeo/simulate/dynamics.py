@@ -22,6 +22,7 @@ from scipy.ndimage import uniform_filter1d
 
 from scangeo.errors import TrajectoryError
 from scangeo.simulate.config import TurbulenceConfig
+from scangeo.trajectory import read_trajectory
 
 CHANNELS = ("roll", "pitch", "heading", "lateral", "along", "vertical")
 
@@ -110,8 +111,6 @@ def read_dynamics_source(path: str):
                                                                     ("roll", "pitch", "azimuth")))
     except (OSError, ValueError) as exc:
         raise TrajectoryError(f"{path}: cannot read the trajectory for replay ({exc})") from exc
-    from scangeo.trajectory import read_trajectory
-
     stream = read_trajectory(path)
     return stream.time, stream.h, stream.roll, stream.pitch, stream.heading
 

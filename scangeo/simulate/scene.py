@@ -19,6 +19,7 @@ import math
 import numba as nb
 import numpy as np
 
+from scangeo.errors import InputFileError
 from scangeo.simulate.fields import fbm, fbm_at, hash01, noise_at
 from scangeo.threading_layer import choose_threading_layer
 
@@ -245,8 +246,6 @@ class TextureScene:
                  resample_to_m: float = 1.0) -> None:
         import cv2
         import rasterio
-
-        from scangeo.errors import InputFileError
 
         try:
             with rasterio.open(path) as src:

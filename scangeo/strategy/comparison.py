@@ -16,10 +16,16 @@ from pathlib import Path
 
 from scangeo.adjustment.block import CONTROL_COMPONENTS
 from scangeo.adjustment.ground import DtmHeights
-from scangeo.adjustment.results import VariantResult
+from scangeo.adjustment.outputs import write_results
+from scangeo.adjustment.results import VariantResult, run_variant
 from scangeo.adjustment.summary import Comparison, VariantSummary
+from scangeo.adjustment.variants import read_variants
 from scangeo.errors import DTMError, InputFileError, ProjectFileError, ScangeoError
+from scangeo.io.project import Project
 from scangeo.progress import ProgressCallback, no_progress, scaled
+from scangeo.reports.correlations import correlated_pairs
+from scangeo.strategy.crossvalidation import cross_validate
+from scangeo.strategy.default_variants import ensure_variants_file
 from scangeo.truth.true_error import Truth
 
 log = logging.getLogger(__name__)
@@ -34,8 +40,6 @@ def _num(x) -> float | None:
 
 def summarise(result: VariantResult, truth: Truth | None = None) -> VariantSummary:
     """The figures of one adjusted variant (and its true error when ``truth`` is given)."""
-    from scangeo.reports.correlations import correlated_pairs
-
     block, adj = result.block, result.adjustment
     measured = {str(p) for p in block.points.point}
     control: dict[str, int] = {}
@@ -82,12 +86,6 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
         check points (:mod:`scangeo.strategy.crossvalidation`; 0: none).
     callback : progress ``callback(done, total, message)``.
     """
-    from scangeo.adjustment.outputs import write_results
-    from scangeo.adjustment.results import run_variant
-    from scangeo.adjustment.variants import read_variants
-    from scangeo.io.project import Project
-    from scangeo.strategy.default_variants import ensure_variants_file
-
     root = Path(project_root)
     project = Project.load(root)
     if variants_file is None:
@@ -120,8 +118,6 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
     comparison = Comparison(str(root), str(path), reference, [s.id for s in project.strips], summaries,
                             truth is not None)
     if folds >= 2:
-        from scangeo.strategy.crossvalidation import cross_validate
-
         cv = cross_validate(root, variants, summaries, folds, path, callback)
         comparison.crossvalidation = cv.as_dict()
         log.info("recommended: %s (%s)", cv.recommended, cv.reason)

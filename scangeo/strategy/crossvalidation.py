@@ -35,8 +35,10 @@ from pathlib import Path
 import numpy as np
 
 from scangeo.adjustment.plausibility import sigma0_warning
+from scangeo.adjustment.results import run_variant
 from scangeo.adjustment.variants import Variant
 from scangeo.errors import ScangeoError
+from scangeo.io.points import GroundPoints
 from scangeo.progress import ProgressCallback, no_progress
 
 log = logging.getLogger(__name__)
@@ -118,9 +120,6 @@ def recommend(cv: CrossValidation, summaries) -> None:
 def cross_validate(project_root, variants: dict[str, Variant], summaries, folds: int = 4, variants_file=None,
                    callback: ProgressCallback = no_progress, tolerance: float = 0.05) -> CrossValidation:
     """Cross-validate every variant of ``summaries`` (module docstring); ``folds`` >= 2."""
-    from scangeo.adjustment.results import run_variant
-    from scangeo.io.points import GroundPoints
-
     root = Path(project_root)
     ground = GroundPoints.read(root / "ground.csv") if (root / "ground.csv").exists() else None
     control = [str(p) for p, r in zip(ground.point, ground.role) if str(r) == "control"] if ground is not None else []

@@ -19,7 +19,11 @@ from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from pathlib import Path
 
+from scangeo.adjustment.diagnosis.diagnose import diagnose
+from scangeo.adjustment.diagnosis.output import write_diagnosis
+from scangeo.atomic import write_text
 from scangeo.errors import ProjectFileError
+from scangeo.io.project import Project
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.resources import DEFAULT_VARIANTS
 
@@ -77,8 +81,6 @@ def render_default_variants(problems: Sequence[ProblemStrip] | ProblemStrip,
 
 
 def _check_strip(root: Path, problem: ProblemStrip) -> None:
-    from scangeo.io.project import Project
-
     project = Project.load(root)
     ids = [s.id for s in project.strips]
     if problem.strip not in ids:
@@ -93,8 +95,6 @@ def _check_strip(root: Path, problem: ProblemStrip) -> None:
 
 def write_variants_file(project_root, problems: Sequence[ProblemStrip], header: str = "") -> Path:
     """Fill in the default variants for ``problems`` and write ``PROJECT/variants.toml`` (checked first)."""
-    from scangeo.atomic import write_text
-
     root = Path(project_root)
     for p in problems:
         _check_strip(root, p)
@@ -123,9 +123,6 @@ def ensure_variants_file(project_root, problem_strip: str | None = None,
     if problem_strip is None:
         if breaks_lines is not None:
             raise ProjectFileError(f"{path}: --breaks-lines needs --problem-strip (the strip they belong to)")
-        from scangeo.adjustment.diagnosis.diagnose import diagnose
-        from scangeo.adjustment.diagnosis.output import write_diagnosis
-
         diagnosis = diagnose(root, callback=callback)
         write_diagnosis(diagnosis)
         problems = [ProblemStrip(s, diagnosis.breaks_of(s), "scangeo diagnose") for s in diagnosis.problem_strips]

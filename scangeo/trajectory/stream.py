@@ -42,6 +42,9 @@ def check_times(time: np.ndarray, source: str, line_of=None) -> None:
 class GpsImuStream:
     """A GPS/IMU trajectory as measured.
 
+    Read one with :func:`scangeo.trajectory.readers.read_trajectory` (CSV or Applanix SBET by its
+    content), ``read_trajectory_csv`` or ``read_sbet``.
+
     Parameters
     ----------
     time : (n,) float array, seconds (the project's time base), strictly increasing.
@@ -108,20 +111,6 @@ class GpsImuStream:
         R_LB = np.swapaxes(frame.R_PL(lat, lon), -1, -2) @ trajectory.R_PB()
         roll, pitch, heading = matrix_to_rph(R_LB)
         return cls(trajectory.time, lat, lon, h, roll, pitch, np.unwrap(heading), trajectory.source)
-
-    @classmethod
-    def from_csv(cls, path, crs=None) -> GpsImuStream:
-        """Read a trajectory CSV (see docs/formats.md); ``crs`` is needed for x,y,z columns."""
-        from scangeo.trajectory.readers import read_trajectory_csv
-
-        return read_trajectory_csv(path, crs=crs)
-
-    @classmethod
-    def from_sbet(cls, path) -> GpsImuStream:
-        """Read an Applanix SBET binary file."""
-        from scangeo.trajectory.readers import read_sbet
-
-        return read_sbet(path)
 
 
 @dataclass(frozen=True)

@@ -43,8 +43,14 @@ from dataclasses import dataclass, replace
 
 from scipy import stats
 
+from scangeo.adjustment.block import build_block
 from scangeo.adjustment.diagnosis.patterns import CHI2_95, BreakEstimate
+from scangeo.adjustment.results import read_measurements
+from scangeo.adjustment.variants import StripModels, Variant
 from scangeo.errors import ScangeoError
+from scangeo.io.project import Project
+from scangeo.lsq.engine import SnoopingOptions, adjust
+from scangeo.lsq.solver import SolverOptions
 
 log = logging.getLogger(__name__)
 
@@ -79,13 +85,6 @@ def s_model_cost(project_root, dtm_height_points: Sequence[str] = ("*",), positi
     The project's files are read once; every probe starts its unknowns where the previous probe left
     them (the same answer in fewer iterations: the candidates differ by one break line).
     """
-    from scangeo.adjustment.block import build_block
-    from scangeo.adjustment.results import read_measurements
-    from scangeo.adjustment.variants import StripModels, Variant
-    from scangeo.io.project import Project
-    from scangeo.lsq.engine import SnoopingOptions, adjust
-    from scangeo.lsq.solver import SolverOptions
-
     project = Project.load(project_root)
     points, ground = read_measurements(project)
     start: dict = {}
