@@ -21,6 +21,7 @@ from scangeo.atomic import write_csv
 from scangeo.errors import ProjectFileError
 from scangeo.io.points import column_floats, read_rows
 from scangeo.io.project import Project
+from scangeo.orientation.file import FILE_NAME, load_adjusted_geometry, results_folder
 from scangeo.sensors.strip import StripGeometry, status_text
 
 OUTSIDE_IMAGE = "outside the image"
@@ -173,3 +174,25 @@ def locate_ground_file(project: Project, strip_id: str, path, geometry: StripGeo
         for p, (x, y, z), li, pi, r in zip(points, xyz, line, pixel, reasons)
     ]
     return LocatedPoints(["point", "x", "y", "z", "line", "pixel", "reason"], rows)
+
+
+def variant_geometry(project: Project, strip_id: str, variant: str = "DG") -> StripGeometry:
+    """The strip's geometry for ``variant``: its ``orientation.json`` when there is one; ``DG``
+    without one is direct georeferencing, unchecked (lines beyond the trajectory are answered point
+    by point, with their reason)."""
+    project.strip(strip_id)  # an unknown strip is named before any orientation is read
+    if variant.upper() == "DG" and not (results_folder(project, variant) / FILE_NAME).exists():
+        return project.geometry(strip_id, check=False)
+    return load_adjusted_geometry(project, variant, strip_id)
+
+
+def locate_points(project_path, strip_id: str, variant: str = "DG", *, image=None, ground=None) -> LocatedPoints:
+    """``scangeo locate``: the image points of the CSV ``image`` on the map, or the map points of
+    ``ground`` in the image (give one), with the orientation of ``variant``."""
+    if (image is None) == (ground is None):
+        raise ProjectFileError("locate: give the image points or the ground points (one of them)")
+    project = Project.load(project_path)
+    geometry = variant_geometry(project, strip_id, variant)
+    if image is not None:
+        return locate_image_file(project, strip_id, image, geometry)
+    return locate_ground_file(project, strip_id, ground, geometry)

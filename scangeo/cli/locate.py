@@ -2,7 +2,7 @@
 
 Image points -> map coordinates on the DTM, or map points -> image coordinates, for one strip with
 direct georeferencing or a variant's adjusted orientation (its ``orientation.json``). A thin shell
-over :mod:`scangeo.locate`.
+over :func:`scangeo.locate.locate_points`.
 """
 from __future__ import annotations
 
@@ -33,21 +33,9 @@ def add_parser(subparsers, common: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from scangeo.io.project import Project
-    from scangeo.locate import locate_ground_file, locate_image_file
-    from scangeo.orientation.file import FILE_NAME, load_adjusted_geometry, results_folder
+    from scangeo.locate import locate_points
 
-    project = Project.load(args.project)
-    project.strip(args.strip)  # an unknown strip is named before any orientation is read
-    if args.variant.upper() == "DG" and not (results_folder(project, args.variant) / FILE_NAME).exists():
-        # direct georeferencing unchecked: lines beyond the trajectory are answered point by point
-        geometry = project.geometry(args.strip, check=False)
-    else:
-        geometry = load_adjusted_geometry(project, args.variant, args.strip)
-    if args.image:
-        result = locate_image_file(project, args.strip, args.image, geometry)
-    else:
-        result = locate_ground_file(project, args.strip, args.ground, geometry)
+    result = locate_points(args.project, args.strip, args.variant, image=args.image, ground=args.ground)
     if args.output:
         result.write(args.output)
     else:
