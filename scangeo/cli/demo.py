@@ -1,16 +1,17 @@
-"""``scangeo demo [OUT]``: simulate the reference block, compare all strategies, rectify, report.
+"""``scangeo demo [OUT]``: simulate the reference block, then ``scangeo run`` on it.
 
-A thin shell over :func:`scangeo.pipeline.demo.run_demo` (docs/reports.md).
+A thin shell over :func:`scangeo.pipeline.demo.run_demo` (docs/reports.md, docs/run.md).
 """
 from __future__ import annotations
 
 
 def add_parser(subparsers, common) -> None:
     p = subparsers.add_parser(
-        "demo", parents=[common], help="all of it on a built-in block: simulate, compare, rectify, report",
+        "demo", parents=[common], help="all of it on a built-in block: simulate, then scangeo run",
         description="Simulate the vienna2000 block (three strips of 7,000 lines, the middle one a problem strip) "
-                    "into OUT, compare the default strategies, rectify the strips with the best one and write the "
-                    "report (docs/reports.md). --quick runs the same on the small 'quick' preset in seconds.",
+                    "into OUT, then run every stage on it (scangeo run: check, clean, diagnose, compare, rectify the "
+                    "recommended variant, report; docs/run.md, docs/reports.md). --quick runs the same on the small "
+                    "'quick' preset in seconds.",
     )
     p.add_argument("out", nargs="?", default="demo", help="folder to create (default ./demo)")
     p.add_argument("--preset", default="vienna2000", help="simulation preset or TOML file (default vienna2000)")
@@ -26,6 +27,7 @@ def add_parser(subparsers, common) -> None:
 
 def run(args) -> int:
     from scangeo.cli import progress_of
+    from scangeo.cli.run import summary_lines
     from scangeo.pipeline.demo import run_demo
     from scangeo.reports.tables import markdown_tables, text_table
 
@@ -36,11 +38,8 @@ def run(args) -> int:
     if result.matched is not None:
         print("\nthe same on matched ties and control (scangeo match; OUT/matched):")
         print(text_table(*markdown_tables(result.matched)["check points"]))
-    print(f"best variant: {result.best}")
-    if result.ortho:
-        print(f"orthoimages: {result.ortho}")
-    print(f"report: {result.report}")
-    if result.geopackage:
-        print(f"residual vectors: {result.geopackage}")
+    print(f"lowest check-point rms: {result.best}")
+    if result.run is not None:
+        print("\n".join(summary_lines(result.run)))
     print("seconds: " + ", ".join(f"{k} {v:.0f}" for k, v in result.seconds.items()))
     return 0

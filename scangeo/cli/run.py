@@ -60,6 +60,11 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_DONE
 
 
+def _number(x) -> str:
+    """A figure of the manifest (a number, or a string such as ``inf``) with two decimals."""
+    return f"{x:.2f}" if isinstance(x, int | float) else str(x)
+
+
 def summary_lines(result) -> list[str]:
     """The end-of-run summary: stages, recommended variant and why, figures, outputs."""
     lines = []
@@ -72,7 +77,8 @@ def summary_lines(result) -> list[str]:
         lines.append(f"blunders removed: {r['image']} image measurements, {r['ground']} ground coordinates"
                      + (f" ({len(r['not_separable_points'])} points not separable, removed whole)"
                         if r["not_separable_points"] else "")
-                     + f"; sigma0 {clean['sigma0_before']} -> {clean['sigma0_after']} (results/cleaning/)")
+                     + f"; sigma0 {_number(clean['sigma0_before'])} -> {_number(clean['sigma0_after'])} "
+                     "(results/cleaning/)")
     diagnose = result.summary_of("diagnose")
     if diagnose:
         problems = diagnose.get("problem_strips", {})
