@@ -25,7 +25,7 @@ import numpy as np
 
 from scangeo.atomic import write_csv
 from scangeo.dtm import DTM
-from scangeo.errors import GeometryError, MissingDependencyError, ProjectFileError
+from scangeo.errors import GeometryError, ProjectFileError
 from scangeo.io.project import Project
 from scangeo.match.consistency import local_affine_inliers, precision_from_loo
 from scangeo.match.options import MatchOptions
@@ -34,6 +34,7 @@ from scangeo.match.overlaps import find_overlaps, strip_cells
 from scangeo.match.reference import Reference
 from scangeo.match.strips import MatchStrip
 from scangeo.match.tasks import _CACHE, MatchTask, TaskResult, margin_cells, run_task
+from scangeo.parallel import run_tasks
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify.geometry import nadir_ground_pixel
 from scangeo.rectify.output_grid import nice_resolution
@@ -161,7 +162,7 @@ def match_project(project_path: str | Path, variant: str = "DG", references: Seq
     if not tasks:
         raise GeometryError(f"{project.root}: no strips overlap and no reference covers a strip: nothing to match "
                            f"(strips: {', '.join(ids)})")
-    results = run_tasks(tasks, workers, scheduler, progress)
+    results = run_match_tasks(tasks, workers, scheduler, progress)
     dtm = project.dtm if reference_dtm is None else DTM.open(reference_dtm, project.map_frame)
     sigma_z = project.dtm_sigma if reference_dtm_sigma is None else reference_dtm_sigma
     ref_res = {r.info.path: r.info.resolution for r in refs}
@@ -294,43 +295,13 @@ def _write_cells(path: Path, report: dict) -> None:
               ([p[4], p[2], f"{p[0]:.3f}", f"{p[1]:.3f}", p[3]] for p in report["positions"]))
 
 
-def run_tasks(tasks: list[MatchTask], workers: int, scheduler: str | None, progress: ProgressCallback
-              ) -> list[TaskResult]:
-    """Run tasks in this process, a process pool or on a Dask scheduler; results in task order."""
+def run_match_tasks(tasks: list[MatchTask], workers: int, scheduler: str | None, progress: ProgressCallback
+                    ) -> list[TaskResult]:
+    """Run tasks in this process, a process pool or on a Dask scheduler (:mod:`scangeo.parallel`);
+    results in task order."""
     _CACHE.clear()  # files may have changed since an earlier run in this process
     total = len(tasks)
     progress(0, total, "match")
-    if scheduler:
-        return _run_dask(tasks, scheduler, lambda n: progress(n, total, "match"))
-    if workers > 1 and total > 1:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-
-        out: list[TaskResult | None] = [None] * total
-        with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            futures = {pool.submit(run_task, t): i for i, t in enumerate(tasks)}
-            from concurrent.futures import as_completed
-
-            for n, f in enumerate(as_completed(futures), start=1):
-                out[futures[f]] = f.result()
-                progress(n, total, f"match {tasks[futures[f]].name}")
-        return [r for r in out if r is not None]
-    results = []
-    for n, t in enumerate(tasks, start=1):
-        results.append(run_task(t))
-        progress(n, total, f"match {t.name}")
-    return results
-
-
-def _run_dask(tasks: list[MatchTask], address: str, on_done) -> list[TaskResult]:
-    try:
-        from dask.distributed import Client
-        from dask.distributed import as_completed as dask_completed
-    except ImportError as exc:  # pragma: no cover - depends on the installation
-        raise MissingDependencyError("--scheduler needs dask[distributed] (pip install 'scangeo[cluster]')") from exc
-    with Client(address) as client:
-        futures = [client.submit(run_task, t, pure=False, key=f"match-{t.kind}-{t.name}-{i}")
-                   for i, t in enumerate(tasks)]
-        for n, _ in enumerate(dask_completed(futures), start=1):
-            on_done(n)
-        return [f.result() for f in futures]
+    return run_tasks(run_task, tasks, workers=workers, scheduler=scheduler,
+                     on_done=lambda n, t: progress(n, total, f"match {t.name}"),
+                     key=lambda t, i: f"match-{t.kind}-{t.name}-{i}")

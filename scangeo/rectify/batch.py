@@ -23,7 +23,6 @@ import multiprocessing
 import os
 import time
 import warnings
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -32,9 +31,10 @@ from rasterio.windows import Window
 
 from scangeo import __version__
 from scangeo.atomic import write_text
-from scangeo.errors import MissingDependencyError, ProjectFileError
+from scangeo.errors import ProjectFileError
 from scangeo.io.project import Project
 from scangeo.orientation.file import Orientation, load_orientation, results_folder
+from scangeo.parallel import run_tasks
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify.core_geometry import CoreStripGeometry
 from scangeo.rectify.geolocation import write_igm
@@ -333,32 +333,12 @@ def _threads_per_worker(workers: int) -> int:
 def _run_pool(tasks: list[StripTask], workers: int, on_done) -> list[dict]:
     threads = _threads_per_worker(workers)
     tasks = [StripTask(**{**asdict_shallow(t), "threads": threads}) for t in tasks]
-    out = []
-    ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-        futures = [pool.submit(run_strip_task, t) for t in tasks]
-        for n, f in enumerate(as_completed(futures), start=1):
-            out.append(f.result())
-            on_done(n)
-    return out
+    return run_tasks(run_strip_task, tasks, workers=workers, on_done=lambda n, t: on_done(n))
 
 
 def _run_dask(tasks: list[StripTask], address: str, on_done) -> list[dict]:
-    try:
-        from dask.distributed import Client
-        from dask.distributed import as_completed as dask_completed
-    except ImportError as exc:  # pragma: no cover - depends on the installation
-        raise MissingDependencyError("--scheduler needs dask[distributed] (pip install 'scangeo[cluster]')") from exc
-    out = []
-    with Client(address) as client:
-        futures = [
-            client.submit(run_strip_task, t, pure=False, key=f"rectify-{t.variant}-{t.strip}-{t.fingerprint}")
-            for t in tasks
-        ]
-        for n, f in enumerate(dask_completed(futures), start=1):
-            out.append(f.result())
-            on_done(n)
-    return out
+    return run_tasks(run_strip_task, tasks, scheduler=address, on_done=lambda n, t: on_done(n),
+                     key=lambda t, i: f"rectify-{t.variant}-{t.strip}-{t.fingerprint}")
 
 
 def asdict_shallow(task: StripTask) -> dict:
