@@ -83,14 +83,11 @@ def local_probe_effects(normal: sp.csc_matrix, Js_csc: sp.csc_matrix, Js: sp.csr
     if not rows.size:
         return [ProbeEffect(rows, np.zeros((0, P.shape[0] // 2))) for P in probes]
     factor = Factorizer().factorize(normal[:, D][D, :])
-    P = sp.vstack([P[:, D] for P in probes]).tocsr()
-    W = np.asarray(factor.solve(P.T.toarray())).reshape(D.size, P.shape[0])
     J = Js[rows][:, D]
-    out, a = [], 0
-    for Pk in probes:
-        k = Pk.shape[0]
-        out.append(ProbeEffect(rows, _lengths((J @ W[:, a:a + k]) * size[rows, None])))
-        a += k
+    out = []
+    for P in probes:   # one probe at a time: memory (domain x 2 positions) stays that of one probe
+        W = np.asarray(factor.solve(P[:, D].T.toarray())).reshape(D.size, P.shape[0])
+        out.append(ProbeEffect(rows, _lengths((J @ W) * size[rows, None])))
     return out
 
 
