@@ -18,6 +18,14 @@ as a user would run it:
   with ``--scheduler`` the same rectifications again on a Dask LocalCluster of 2 worker processes
   (1 thread each; ``local``) or the given scheduler, through ``--scheduler ADDRESS``.
 
+``--sizes 24 48 96`` (issue 23) instead measures how every stage grows with the block: for each
+number of strips a block24 project with that many strips (``--lines`` lines each) is simulated by
+``scangeo simulate --preset block24 --set flight.strips=N`` (``--no-images`` unless ``--images``),
+then ``adjust --variant SE`` (with the reliability), ``diagnose``, ``compare --only SE S2``,
+``report`` and, with images, ``match`` and ``rectify --variant SE --mosaic``, each as its own process;
+printed: seconds and peak memory per stage and size, and their ratios to the smallest size (linear
+cost: the ratio of the sizes). Run: python tests/benchmarks/block.py --sizes 24 48 96 --lines 7000
+
 Figures: wall seconds per stage, seconds per strip, and the peak resident memory of each stage's
 process (``ru_maxrss`` of the process and its largest child; beside it the peak of the whole
 process tree, worker processes summed, sampled from /proc every 0.25 s; for Dask the workers' peak as they report
@@ -138,6 +146,46 @@ def run_stage(label: str, args: list[str], log: list) -> tuple[float, float]:
     return dt, rss
 
 
+def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path) -> None:
+    """Every stage at each block size (strips): seconds and peak MiB, ratios to the smallest."""
+    table: dict[tuple[str, int], tuple[float, float]] = {}
+    stages: list[str] = []
+    for n in sizes:
+        root = work / f"block{n}"
+        shutil.rmtree(root, ignore_errors=True)
+        sim = ["simulate", str(root), "--preset", "block24", "--set", f"flight.strips={n}",
+               "--set", f"flight.lines={lines}", "--no-progress"] + ([] if images else ["--no-images"])
+        plan = [("simulate", sim)]
+        if images:
+            plan.append(("match", ["match", str(root), "--no-progress"]))
+        r = str(root)
+        plan += [("adjust SE (with reliability)", ["adjust", r, "--variant", "SE", "--no-progress"]),
+                 ("diagnose", ["diagnose", r, "--no-progress"]),
+                 ("compare (every variant)", ["compare", r, "--no-progress"]),
+                 ("report", ["report", r, "--no-progress"])]
+        if images:
+            plan.append(("rectify SE + mosaic", ["rectify", r, "--variant", "SE", "--mosaic", "--no-progress"]))
+        log: list = []
+        for name, args in plan:
+            if name not in stages:
+                stages.append(name)
+            table[name, n] = run_stage(f"{n} strips: {name}", args, log)
+        shutil.rmtree(root, ignore_errors=True)
+    base = sizes[0]
+    print(f"\nstage scaling ({lines} lines per strip; ratios to {base} strips; linear = "
+          + ", ".join(f"{n / base:.0f}x" for n in sizes[1:]) + "):")
+    for name in stages:
+        cells = []
+        for n in sizes:
+            if (name, n) not in table:
+                continue
+            dt, rss = table[name, n]
+            b_dt, b_rss = table[name, base]
+            cells.append(f"{n}: {dt:.1f} s {rss:.0f} MiB" + ("" if n == base else
+                                                                 f" ({dt / b_dt:.2f}x, {rss / b_rss:.2f}x)"))
+        print(f"  {name:<30} " + "; ".join(cells))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--lines", type=int, default=7000)
@@ -148,7 +196,19 @@ def main() -> None:
     ap.add_argument("--skip-adjust", action="store_true", help="reuse the adjustments of a kept project")
     ap.add_argument("--workers", type=int, default=2,
                     help="also rectify with this many local worker processes (--workers; 1: not)")
+    ap.add_argument("--sizes", type=int, nargs="+", default=None,
+                    help="stage scaling: block sizes in strips (e.g. 24 48 96); see the docstring")
+    ap.add_argument("--images", action="store_true", help="with --sizes: render images, then match and rectify")
     args = ap.parse_args()
+    if args.sizes:
+        print(f"cores {os.cpu_count()}, load average {os.getloadavg()[0]:.1f}")
+        work = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="scangeo-bench-sizes-"))
+        try:
+            stage_scaling(args.sizes, args.lines, args.images, work)
+        finally:
+            if not args.keep:
+                shutil.rmtree(work, ignore_errors=True)
+        return
     import numba
 
     from scangeo.threading_layer import choose_threading_layer
