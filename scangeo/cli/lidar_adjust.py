@@ -35,6 +35,8 @@ def add_adjust(sub, common) -> None:
     p.add_argument("--position-degree", type=int, default=None, help="degree of the position correction polynomials")
     p.add_argument("--attitude-degree", type=int, default=None, help="degree of the attitude correction polynomials")
     p.add_argument("--workers", type=int, default=None, help="strips searched for patches at once (processes)")
+    p.add_argument("--scheduler", default=None,
+                   help="address of a Dask scheduler (tcp://host:8786): the patch search runs there, a task per strip")
     p.add_argument("--no-strips", action="store_true", help="do not write corrected LAS/LAZ strips")
     p.set_defaults(func=run_adjust, writes_project=True)
 
@@ -93,6 +95,7 @@ def run_adjust(args: argparse.Namespace) -> int:
         position_degree=args.position_degree,
         attitude_degree=args.attitude_degree,
         workers=args.workers,
+        scheduler=args.scheduler,
     )
     ev = result.evaluation or {}
     acc = result.accounting

@@ -35,7 +35,7 @@ from scangeo.lidar.lasio import StripCloud, read_strip
 from scangeo.lidar.patches import PatchOptions, TiePatch, grid_name, homologous
 from scangeo.lidar.planes import ANCHORS, anchors
 from scangeo.lidar.project import LaserProject, LaserStrip
-from scangeo.lidar.search import METHODS, StripFound, find_all, seed_name
+from scangeo.lidar.search import METHODS, MIN_RETURNS_PER_LINE, StripFound, find_all, seed_name
 from scangeo.lsq.engine import Adjustment, SnoopingOptions, adjust
 from scangeo.lsq.observations import ObservationGroup
 from scangeo.lsq.parameters import Parameters
@@ -87,6 +87,8 @@ class LaserOptions:
     snooping: bool = setting(True, doc="data snooping of the patch observations")
     critical_value: float = setting(3.29, gt=0, unit="1", doc="data snooping: critical value of |w|")
     workers: int = setting(1, ge=1, unit="1", doc="strips searched for patches at once (processes)")
+    scheduler: str | None = setting(None, default_doc="none",
+                                    doc="address of a Dask scheduler: the patch search runs there, a task per strip")
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -233,10 +235,12 @@ def build(
     prior = project.sensor.range_sigma_m / unit
     given = read_patch_ground(ground) if ground is not None and Path(ground).exists() else None
     if found is None:
-        found = find_all(project, popt, prior, given, options.workers, callback, options.patch_search)
+        found = find_all(project, popt, prior, given, options.workers, callback, options.patch_search,
+                         options.scheduler)
     seeded = any(f.candidates is not None for f in found.values())
     ties = homologous({s: f.patches for s, f in found.items()}, popt, name=seed_name(found) if seeded else grid_name)
     what = "candidates" if seeded else "planar cells"
+    fallback = options.patch_search == "rows" and not seeded
     notes = [
         f"{len(ties)} tie patches in {len(found)} strips ("
         + ", ".join(
@@ -245,6 +249,9 @@ def build(
         )
         + ")"
     ]
+    if fallback:
+        notes.append(f"patch_search rows: fewer than {MIN_RETURNS_PER_LINE} returns per scan line in a strip "
+                     "(a thinned or resampled cloud): the grid cells are the patches")
     strips = {s.id: s for s in project.strips}
     samplers = {sid: _sampler(project, strips[sid], f) for sid, f in found.items()} if mode == "trajectory" else {}
     nominal = project.sensor.calibration()

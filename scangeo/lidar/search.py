@@ -1,4 +1,5 @@
-"""The patch search over all strips of a laser project, strip by strip (in worker processes on request).
+"""The patch search over all strips of a laser project, strip by strip (in worker processes or on a
+Dask cluster on request: :func:`scangeo.parallel.run_tasks`).
 
 Two methods (``[adjustment] patch_search``):
 
@@ -16,10 +17,9 @@ them, whichever method found the tie patches) and the control and check patches 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
+import logging
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -31,9 +31,14 @@ from scangeo.lidar.planes import Planes
 from scangeo.lidar.project import LaserProject, LaserStrip
 from scangeo.lidar.rowbuffer import Candidates, RowBuffer
 from scangeo.lidar.seeded import Seeds, fit_seeds, members
+from scangeo.parallel import run_tasks
 from scangeo.progress import ProgressCallback, no_progress
 
 METHODS = ("rows", "grid")
+#: below this many returns per scan line (on average) in any strip, the row buffer has no scan lines
+#: to work on (a thinned or resampled cloud): the search falls back to the grid cells
+MIN_RETURNS_PER_LINE = 20
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -82,23 +87,6 @@ def _pass2(args):
     return fit_seeds(strip.id, chunks, seeds, rows, options, prior, speed)
 
 
-def map_strips(
-    fn: Callable[[Any], Any], tasks: Sequence, workers: int, on_done: Callable[[int, Any], None]
-) -> list:
-    """``fn`` over ``tasks`` (in ``workers`` processes when more than one), in order; ``on_done(k, result)``."""
-    out = []
-    if workers > 1 and len(tasks) > 1:
-        with ProcessPoolExecutor(min(workers, len(tasks))) as pool:
-            for k, res in enumerate(pool.map(fn, tasks)):
-                out.append(res)
-                on_done(k, res)
-    else:
-        for k, task in enumerate(tasks):
-            out.append(fn(task))
-            on_done(k, out[-1])
-    return out
-
-
 def find_all(
     project: LaserProject,
     options: PatchOptions,
@@ -107,15 +95,28 @@ def find_all(
     workers: int = 1,
     callback: ProgressCallback = no_progress,
     method: str = "rows",
+    scheduler: str | None = None,
 ) -> dict[str, StripFound]:
-    """Both passes over every strip (in parallel processes with ``workers > 1``)."""
+    """Both passes over every strip: in this process, in ``workers`` local processes, or on the Dask
+    scheduler at ``scheduler`` (:func:`scangeo.parallel.run_tasks`; a task is one strip, and carries
+    its file paths, not its returns)."""
     strips: list[LaserStrip] = list(project.strips)
     steps = len(strips) * (2 if method == "rows" else 1)
     tasks = [(s, project.crs, options, prior, given, method) for s in strips]
-    found_list = map_strips(_pass1, tasks, workers,
-                            lambda k, r: callback(k + 1, steps, f"patches of strip {r.id} (pass 1)"))
+    found_list = run_tasks(_pass1, tasks, workers, scheduler,
+                           lambda n, t: callback(n, steps, f"patches of strip {t[0].id} (pass 1)"),
+                           key=lambda t, i: f"lidar-pass1-{t[0].id}")
     found = {f.id: f for f in found_list}
     if method != "rows":
+        return found
+    thin = [f.id for f in found_list
+            if f.candidates is not None and f.count < MIN_RETURNS_PER_LINE * f.candidates.lines]
+    if thin:
+        # thinned or resampled clouds have no scan lines left to buffer: the grid cells stand in
+        log.warning("strip %s has fewer than %d returns per scan line: the grid cells are the patches",
+                    thin[0], MIN_RETURNS_PER_LINE)
+        for f in found_list:
+            f.candidates = None
         return found
     candidates = {f.id: f.candidates for f in found_list if f.candidates is not None}
     seeds = Seeds.of(candidates)
@@ -123,8 +124,9 @@ def find_all(
         (s, project.crs, seeds, seeds.inside(candidates[s.id].bounds), options, prior, candidates[s.id].speed)
         for s in strips
     ]
-    fits = map_strips(_pass2, tasks2, workers,
-                      lambda k, r: callback(len(strips) + k + 1, steps, f"patches of strip {r.strip} (pass 2)"))
+    fits = run_tasks(_pass2, tasks2, workers, scheduler,
+                     lambda n, t: callback(len(strips) + n, steps, f"patches of strip {t[0].id} (pass 2)"),
+                     key=lambda t, i: f"lidar-pass2-{t[0].id}")
     for sid, patches in members({f.strip: f for f in fits}, seeds).items():
         found[sid].patches = patches
     return found

@@ -16,6 +16,7 @@ from scangeo.lidar.plane_kernel import fit_planes_fast
 from scangeo.lidar.planes import fit_planes
 from scangeo.lidar.project import LaserProject
 from scangeo.lidar.rowbuffer import RowBuffer, search_strip
+from scangeo.lidar.search import find_all
 from scangeo.lidar.seeded import Seeds, fit_seeds, members
 from tests.lidar.test_lidar_adjust import truth_values
 from tests.session_projects import laser_block  # noqa: F401  (session fixture)
@@ -142,3 +143,21 @@ def test_rows_and_grid_side_by_side_on_the_laser_block(laser_block):  # noqa: F8
     # the laser preset at 500 m rows 0.690 cm, grid 0.698 cm, noise 0.685 cm
     assert after["grid"] < 1.05 * noise and after["rows"] < 1.05 * noise
     assert after["rows"] < 1.03 * after["grid"]
+
+
+def test_dask_route_gives_the_same_patches(laser_block):  # noqa: F811
+    """The patch search per strip on a Dask LocalCluster finds what the in-process route finds."""
+    pytest.importorskip("dask.distributed")
+    from dask.distributed import LocalCluster
+
+    project = LaserProject.load(laser_block)
+    options, prior = LaserOptions().patches, project.sensor.range_sigma_m
+    local = find_all(project, options, prior, None)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster:
+        remote = find_all(project, options, prior, None, scheduler=cluster.scheduler_address)
+    assert list(remote) == list(local)
+    for sid, f in local.items():
+        assert f.patches.cells.size > 20
+        assert np.array_equal(remote[sid].patches.cells, f.patches.cells)
+        assert np.allclose(remote[sid].patches.planes.centroid, f.patches.planes.centroid, rtol=0, atol=1e-9)
+        assert remote[sid].candidates.size == f.candidates.size
