@@ -23,8 +23,10 @@ difference decays with the margin between ``near`` and the edge of the domain (o
 by about ten times per strip of margin) and is zero when the domain holds every unknown coupled to
 it. Rows that touch no ``near`` column are not evaluated for this probe (their effect on it is taken
 as below the largest).
-Cost per probe: that of its neighbourhood, so linear in the number of probes; probes run in parallel
-threads (the factorisation and the solves release the GIL).
+Cost per probe: that of its neighbourhood, so linear in the number of probes. Parallel: CHOLMOD's
+supernodal factorisation and solves use the BLAS's threads; ``workers`` threads over the windows
+overlap only what releases the GIL (scikit-sparse 0.4 holds it during CHOLMOD's calls, so the
+default is one).
 """
 from __future__ import annotations
 
