@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from scangeo.atomic import atomic_path
 from scangeo.errors import LidarError
 from scangeo.lidar.strip_adjustment import ControlArea, Strip, TieArea, offset_covariance
 
@@ -137,6 +138,7 @@ def plot_design(layout: BlockLayout, path: str) -> dict[str, np.ndarray]:
     ax1.legend(fontsize=7)
     ax1.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100)
     plt.close(fig)
     return scenarios
