@@ -121,6 +121,14 @@ def _log_warning(message, category, filename, lineno, file=None, line=None) -> N
     log.info("%s (%s:%d): %s", category.__name__, Path(filename).name, lineno, message)
 
 
+def _look_angles(root: Path) -> str | None:
+    """The ``[sensor] look_angles`` table of project.toml (a file the sensor model reads), if any."""
+    with open(root / "project.toml", "rb") as fh:
+        sensor = tomllib.load(fh).get("sensor", {})
+    table = sensor.get("look_angles") if isinstance(sensor, dict) else None
+    return str(table) if table else None
+
+
 def _forward_only(progress: ProgressCallback) -> ProgressCallback:
     """The run's one bar never moves back (a stage's library calls may restart their own counts)."""
     high = 0.0
@@ -191,7 +199,7 @@ def run(project, *, references=(), reference_dtm=None, from_stage: str | None = 
     manifest.options = {"from": from_stage, "until": until, "settings_file": str(settings_file or ""),
                         **settings.as_dict()}
     manifest.recommended = None
-    ctx = Context(root, loaded, settings, {}, previous)
+    ctx = Context(root, loaded, settings, {}, previous, _look_angles(root))
     forced = set(NAMES[NAMES.index(from_stage):]) if from_stage else set()
     progress = _forward_only(progress)
     total, edge = sum(s.weight for s in plan), 0.0

@@ -75,12 +75,15 @@ class Context:
     settings: RunSettings
     records: dict[str, dict[str, Any]]  # the record of every stage done (this run or earlier)
     previous: dict[str, dict[str, Any]] = field(default_factory=dict)  # records found at the start
+    look_angles: str | None = None  # a pushbroom's look-angle table ([sensor] look_angles), relative
 
     def base_files(self) -> list[Path]:
-        """What every adjustment reads: project.toml, the DTM (and geoid grid), trajectories, line times."""
+        """What every adjustment reads: project.toml, the DTM (and geoid grid), a pushbroom's look-angle
+        table, the trajectories and line-time tables."""
         p = self.project
         files = [self.root / "project.toml", p.dtm_path]
         files += [Path(p.geoid.path)] if p.geoid.path else []
+        files += [self.root / self.look_angles] if self.look_angles else []
         for s in p.strips:
             files += [s.trajectory] + ([s.line_times] if s.line_times else [])
         return [Path(f) for f in files]
