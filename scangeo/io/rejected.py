@@ -131,6 +131,14 @@ def set_aside(project_root, points: ImagePoints, ground: GroundPoints
         xyz = coords.get(p)
         if xyz is not None and np.all(np.abs(ground.xyz[i] - np.asarray(xyz)) < SAME):
             keep_g[i] = False
+    # a tie point left with a single measurement (its other one set aside, this one corrected since) cannot
+    # be used: set aside with the others instead of failing the input checks
+    names = points.point.astype(str)
+    lost = set(names[~keep])
+    given = set(ground.point.astype(str)[keep_g])
+    left, count = np.unique(names[keep], return_counts=True)
+    orphans = {p for p, c in zip(left, count) if c == 1 and p in lost and p not in given}
+    keep &= ~np.isin(names, list(orphans))
     n = int((~keep).sum() + (~keep_g).sum())
     if n:
         log.info("%d measurements set aside by the cleaning (%s; scangeo clean --restore brings them back)", n, path)

@@ -11,6 +11,7 @@ import pytest
 from scangeo.adjustment.diagnosis.diagnose import diagnose
 from scangeo.adjustment.plausibility import sigma0_warning
 from scangeo.adjustment.results import read_measurements
+from scangeo.io.point_checks import check_points
 from scangeo.io.project import Project
 from scangeo.io.rejected import read_rejected, rejected_path
 from scangeo.strategy.cleaning import CleaningOptions, clean, restore
@@ -85,18 +86,22 @@ def test_blunders_are_set_aside_and_the_good_measurements_kept(cleaned):
 def test_restore_and_a_corrected_measurement_bring_them_back(cleaned, tmp_path):
     root = shutil.copytree(cleaned[0], tmp_path / "p")
     key = next(iter(cleaned[1]))
-    true = next(r for r in _rows(root / "truth" / "measurements.csv") if (r["point"], r["strip"]) == key)
+    tie = next(k for k, kind in cleaned[1].items() if kind == "tie")   # its partner stays set aside
+    truth = {(r["point"], r["strip"]): r for r in _rows(root / "truth" / "measurements.csv")}
     points = _rows(root / "points.csv")
     for r in points:
-        if (r["point"], r["strip"]) == key:
-            r["pixel"] = true["pixel"]       # the user fixes the typo
+        if (r["point"], r["strip"]) in (key, tie):
+            r["pixel"] = truth[(r["point"], r["strip"])]["pixel"]       # the user fixes the typos
     with open(root / "points.csv", "w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, list(points[0]))
         writer.writeheader()
         writer.writerows(points)
-    back, _ = read_measurements(Project.load(root))
+    project = Project.load(root)
+    back, ground = read_measurements(project)
     kept = set(zip(back.point.astype(str), back.strip.astype(str)))
     assert key in kept and len(kept) == len(points) - len([r for r in cleaned[2].rejected if r.kind == "image"]) + 1
+    assert tie not in kept       # a tie point with one measurement left cannot be used: set aside, no error
+    check_points(project, back, ground)
     assert restore(root) and not restore(root)
     back, _ = read_measurements(Project.load(root))
     assert len(back) == len(points)     # restored: every measurement is used again
