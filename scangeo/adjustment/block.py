@@ -1,4 +1,5 @@
-"""Set up the adjustment of a project for one variant: unknowns, GPS/IMU models, observation groups.
+"""Set up the adjustment of a project for one variant: unknowns, GPS/IMU models, observation groups;
+and adjust it (:func:`adjust_variant`: build, then :func:`adjust_block` with the variant's settings).
 
 Unknowns: ``Knots(strip)`` (the orientation spline of the navigation reference point, fitted to the
 GPS/IMU as start values; fixed in DG), ``Correction(model)`` per GPS/IMU model, ``Ground(point)``
@@ -9,6 +10,7 @@ measurements (not of check points), control coordinates, and DTM heights at tie 
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -22,9 +24,13 @@ from scangeo.errors import AdjustmentError
 from scangeo.io.point_checks import check_points
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
+from scangeo.lsq.engine import Adjustment, SnoopingOptions, adjust
+from scangeo.lsq.keys import Key
 from scangeo.lsq.observations import ObservationGroup
 from scangeo.lsq.parameters import Parameters
+from scangeo.lsq.solver import SolverOptions
 from scangeo.orientation.models import GpsImuModel, ModelSet, coefficient_priors, group_model, strip_models
+from scangeo.progress import ProgressCallback, no_progress
 from scangeo.sensors.models import Whiskbroom
 from scangeo.sensors.strip import StripGeometry
 from scangeo.trajectory.spline import COMPONENTS, OrientationSpline
@@ -277,3 +283,33 @@ def _observation_groups(setup: _Setup) -> list[ObservationGroup]:
     if dtm_pts:
         groups.append(DtmHeights(dtm_pts, project.dtm, project.dtm_sigma))
     return groups
+
+
+def adjust_block(block: Block, snooping: bool | None = None, start: Mapping[Key, np.ndarray] | None = None,
+                 callback: ProgressCallback = no_progress) -> Adjustment:
+    """Adjust a built block with its variant's solver settings and data snooping.
+
+    Parameters
+    ----------
+    snooping : None: as the variant says (``snooping``, ``critical_value``, ``rejections_per_round``,
+        ``snooping_method``); False: no data snooping (probes, planning); True: on, with the variant's settings.
+    start : start values of unknowns by key (e.g. the previous probe's solution); keys the block lacks,
+        or whose size differs, are left at the block's start values.
+    callback : progress of the adjustment.
+    """
+    v = block.variant
+    for key, values in (start or {}).items():
+        if key in block.parameters and block.parameters[key].values.size == np.size(values):
+            block.parameters[key].values[:] = values
+    options = SnoopingOptions(enabled=v.snooping if snooping is None else snooping, critical_value=v.critical_value,
+                              per_round=max(1, v.rejections_per_round), method=v.snooping_method)
+    return adjust(block.parameters, block.groups, SolverOptions(max_iterations=v.max_iterations, backend=v.backend),
+                  options, callback, point_key=Ground)
+
+
+def adjust_variant(project: Project, variant: Variant, points: ImagePoints, ground: GroundPoints,
+                   snooping: bool | None = None, start: Mapping[Key, np.ndarray] | None = None,
+                   callback: ProgressCallback = no_progress) -> tuple[Block, Adjustment]:
+    """Build the block of ``variant`` (:func:`build_block`) and adjust it (:func:`adjust_block`)."""
+    block = build_block(project, variant, points, ground)
+    return block, adjust_block(block, snooping, start, callback)

@@ -18,15 +18,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scangeo.adjustment.block import build_block
+from scangeo.adjustment.block import adjust_variant
 from scangeo.adjustment.reliability_summary import VariantReliability, variant_reliability
 from scangeo.adjustment.results import CheckResiduals, VariantResult
 from scangeo.adjustment.variants import Variant, find_variant
 from scangeo.errors import AdjustmentError
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
-from scangeo.lsq.engine import SnoopingOptions, adjust
-from scangeo.lsq.solver import SolverOptions
 from scangeo.progress import ProgressCallback, no_progress
 
 #: Probe grid of the planning maps (lines x pixels per strip): denser than for an adjusted variant.
@@ -123,9 +121,7 @@ def plan_block(project_root, variant: str | Variant = "SE", variants_file=None, 
            for f in ("point", "strip", "line", "pixel", "sigma_px", "file_line")]
     points = ImagePoints(cat[0], cat[1], cat[2], cat[3], cat[4], cat[5], "<planned>")
     callback(0.2, 1.0, "planning: adjustment")
-    block = build_block(project, v, points, ground)
-    adj = adjust(block.parameters, block.groups, SolverOptions(max_iterations=v.max_iterations, backend=v.backend),
-                 SnoopingOptions(enabled=False))
+    block, adj = adjust_variant(project, v, points, ground, snooping=False)
     e = np.zeros(0)
     result = VariantResult(block, adj, CheckResiduals(e.astype(object), e.astype(object), e, e, e.astype(int), e),
                            time.perf_counter() - t0, list(block.notes))

@@ -12,16 +12,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from scangeo.adjustment.block import Block, build_block
+from scangeo.adjustment.block import Block, adjust_variant
 from scangeo.adjustment.image import ImageObservations
-from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.keys import Boresight, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
 from scangeo.adjustment.variants import Variant, find_variant
 from scangeo.io import rejected
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
-from scangeo.lsq.engine import Adjustment, SnoopingOptions, adjust
+from scangeo.lsq.engine import Adjustment
 from scangeo.lsq.keys import Key
-from scangeo.lsq.solver import SolverOptions
 from scangeo.orientation.file import DIRECT, Orientation, StripOrientation, map_reference
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.sensors.models import Whiskbroom
@@ -182,20 +181,7 @@ def run_variant(project_root, variant: str | Variant, variants_file=None,
     v = variant if isinstance(variant, Variant) else find_variant(project.root, variant, variants_file)
     points, ground = read_measurements(project)
     callback(0.0, 1.0, f"{v.name}: setting up")
-    block = build_block(project, v, points, ground)
-    adj = adjust(
-        block.parameters,
-        block.groups,
-        SolverOptions(max_iterations=v.max_iterations, backend=v.backend),
-        SnoopingOptions(
-            enabled=v.snooping,
-            critical_value=v.critical_value,
-            per_round=max(1, v.rejections_per_round),
-            method=v.snooping_method,
-        ),
-        callback,
-        point_key=Ground,
-    )
+    block, adj = adjust_variant(project, v, points, ground, callback=callback)
     result = VariantResult(block, adj, CheckResiduals(*(np.zeros(0),) * 5), 0.0, list(block.notes))
     result.checks = evaluate_checks(block, result.geometry)
     result.seconds = time.perf_counter() - t0

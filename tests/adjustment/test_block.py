@@ -8,11 +8,13 @@ import shutil
 import numpy as np
 import pytest
 
+from scangeo.adjustment.block import adjust_block, adjust_variant, build_block
 from scangeo.adjustment.outputs import write_results
-from scangeo.adjustment.results import evaluate_checks, run_variant
+from scangeo.adjustment.results import evaluate_checks, read_measurements, run_variant
 from scangeo.adjustment.variants import StripModels, Variant, read_variants
 from scangeo.cli import main
 from scangeo.errors import ProjectFileError
+from scangeo.io.project import Project
 from scangeo.sensors.strip import Mounting, StripGeometry
 from scangeo.simulate.block import simulate
 from scangeo.simulate.config import load_preset
@@ -130,6 +132,28 @@ def test_injected_blunders_are_flagged(shifted, tmp_path):
     assert len(flagged_points & blunder_points) >= 0.95 * len(blunder_points)
     good = len(set(count) - blunder_points)
     assert len(flagged_points - blunder_points) <= 0.01 * good
+
+
+def test_adjust_variant_is_build_then_adjust_with_the_variants_settings(shifted, tmp_path):
+    # one call builds and adjusts a variant: with the variant's snooping it is run_variant's adjustment;
+    # snooping=False rejects nothing; started from a solution it stays there
+    root, _, _ = with_blunders(shifted, tmp_path / "blunders", seed=13, n=3)
+    v = Variant("SHIFT", "SE", attitude_degree=-1)
+    project = Project.load(root)
+    points, ground = read_measurements(project)
+    block, adj = adjust_variant(project, v, points, ground)
+    reference = run_variant(root, v).adjustment
+    assert [r.id for r in adj.rejections] == [r.id for r in reference.rejections] and adj.rejections
+    assert adj.statistics.sigma0 == pytest.approx(reference.statistics.sigma0, rel=1e-12)
+    _, plain = adjust_variant(project, v, points, ground, snooping=False)
+    assert not plain.rejections and plain.statistics.sigma0 > 1.5 * adj.statistics.sigma0
+    solved = {b.key: b.values.copy() for b in plain.parameters}
+    again = adjust_block(build_block(project, v, points, ground), snooping=False, start=solved)
+    # the first step from the solution is a small fraction of the first step from the block's start values
+    first, first_plain = again.solution.iterations[0], plain.solution.iterations[0]
+    assert first.max_scaled_step < 0.05 * first_plain.max_scaled_step
+    assert first.cost == pytest.approx(plain.solution.iterations[-1].cost, rel=1e-4)
+    assert again.statistics.sigma0 == pytest.approx(plain.statistics.sigma0, rel=1e-5)  # both converged
 
 
 def test_snooping_by_update_agrees_with_full_resolutions(shifted, tmp_path):

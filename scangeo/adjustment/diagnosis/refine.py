@@ -43,14 +43,12 @@ from dataclasses import dataclass, replace
 
 from scipy import stats
 
-from scangeo.adjustment.block import build_block
+from scangeo.adjustment.block import adjust_variant
 from scangeo.adjustment.diagnosis.patterns import CHI2_95, BreakEstimate
 from scangeo.adjustment.results import read_measurements
 from scangeo.adjustment.variants import StripModels, Variant
 from scangeo.errors import ScangeoError
 from scangeo.io.project import Project
-from scangeo.lsq.engine import SnoopingOptions, adjust
-from scangeo.lsq.solver import SolverOptions
 
 log = logging.getLogger(__name__)
 
@@ -95,13 +93,7 @@ def s_model_cost(project_root, dtm_height_points: Sequence[str] = ("*",), positi
         v = Variant("diagnosis-S", "S", "split model probing a break line", strips=strips, dtm_heights=True,
                     dtm_height_points=tuple(dtm_height_points), snooping=False)
         try:
-            block = build_block(project, v, points, ground)
-            for key, values in start.items():
-                if key in block.parameters and block.parameters[key].values.size == values.size:
-                    block.parameters[key].values[:] = values
-            adj = adjust(block.parameters, block.groups, SolverOptions(max_iterations=v.max_iterations,
-                                                                       backend=v.backend),
-                         SnoopingOptions(enabled=False))
+            _, adj = adjust_variant(project, v, points, ground, snooping=False, start=start)
         except ScangeoError as exc:  # a candidate the adjustment cannot solve is not a candidate
             log.info("break probe %s failed: %s", breaks, exc)
             return math.inf, math.nan, 0
