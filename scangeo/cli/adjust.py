@@ -23,6 +23,7 @@ def add_parser(subparsers, common) -> None:
 
 
 def run(args) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.adjustment.reliability_summary import reliability_lines, variant_reliability
     from scangeo.cli import progress_of
     from scangeo.workflow import adjust

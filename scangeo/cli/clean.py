@@ -31,6 +31,7 @@ def add_parser(subparsers, common) -> None:
 def run(args) -> int:
     from dataclasses import replace
 
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.cli import progress_of
     from scangeo.strategy.cleaning import CleaningOptions, clean, restore, summary_lines
 

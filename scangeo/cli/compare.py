@@ -32,6 +32,7 @@ def add_parser(subparsers, common) -> None:
 
 
 def run(args) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.cli import progress_of
     from scangeo.reports.tables import markdown_tables, text_table
     from scangeo.workflow import compare

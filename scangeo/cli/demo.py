@@ -26,6 +26,7 @@ def add_parser(subparsers, common) -> None:
 
 
 def run(args) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.cli import progress_of
     from scangeo.cli.run import summary_lines
     from scangeo.pipeline.demo import run_demo

@@ -30,6 +30,7 @@ def add_parser(subparsers, common) -> None:
 
 
 def run(args) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.adjustment.diagnosis.output import summary_lines
     from scangeo.cli import progress_of
     from scangeo.workflow import diagnose

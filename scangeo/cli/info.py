@@ -26,6 +26,7 @@ def add_parser(subparsers, common: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.io.summary import summarise, summary_text
 
     summary = summarise(args.file, kind=args.kind, crs=args.crs)

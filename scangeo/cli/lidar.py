@@ -69,6 +69,7 @@ def _add_errors(sub, common) -> None:
 
 
 def run_errors(args: argparse.Namespace) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.lidar.error_sources import error_budget_by_source
     from scangeo.lidar.laser_equation import FlightGeometry, SystematicErrors
 
@@ -107,6 +108,7 @@ def run_errors(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------------------- budget
 def _add_budget(sub, common) -> None:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.lidar.budget import BudgetSigmas
 
     d = BudgetSigmas()
@@ -134,6 +136,7 @@ def _add_budget(sub, common) -> None:
 
 
 def run_budget(args: argparse.Namespace) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.lidar.budget import BudgetSigmas, alpha_from_covariance, area_mean_budget
 
     sigmas = BudgetSigmas(**{n: getattr(args, f"sigma_{n}") for n in BudgetSigmas.__dataclass_fields__})
@@ -166,6 +169,7 @@ def run_budget(args: argparse.Namespace) -> int:
 
 
 def _scenario_table(sigmas) -> list[dict]:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.lidar.budget import default_scenarios, scenario_row
     from scangeo.lidar.network import BlockLayout, offset_precision
 
@@ -198,6 +202,7 @@ def _add_network(sub, common) -> None:
 
 
 def run_network(args: argparse.Namespace) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.lidar.network import BlockLayout, design_scenarios, plot_design
 
     layout = BlockLayout(
@@ -244,6 +249,7 @@ def _add_check(sub, common) -> None:
 
 
 def run_check(args: argparse.Namespace) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.lidar.real_data import consistency
 
     r = consistency(args.sbet, args.las, args.config, args.heading)
@@ -304,6 +310,7 @@ def _add_forward_reverse(sub, common) -> None:
 
 
 def run_forward_reverse(args: argparse.Namespace) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.lidar.calibration_flights import recover_attitude
     from scangeo.lidar.laser_equation import FlightGeometry, SystematicErrors
 
@@ -345,6 +352,7 @@ def add_parser(subparsers, common) -> None:
     _add_network(sub, common)
     _add_forward_reverse(sub, common)
     _add_check(sub, common)
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.cli.lidar_adjust import add_adjust, add_compare
 
     add_adjust(sub, common)

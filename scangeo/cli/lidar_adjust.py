@@ -59,6 +59,7 @@ def add_compare(sub, common) -> None:
 
 def run_compare(args: argparse.Namespace) -> int:
     # imported here: the command line starts without loading the adjustment (start-up cost)
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.cli import progress_of
     from scangeo.lidar.variants import compare_laser, read_variants, write_comparison
 
@@ -78,6 +79,7 @@ def run_compare(args: argparse.Namespace) -> int:
 
 def run_adjust(args: argparse.Namespace) -> int:
     # imported here: the command line starts without loading the adjustment (start-up cost)
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.cli import progress_of
     from scangeo.lidar.workflow import adjust_laser
 

@@ -33,6 +33,7 @@ def add_parser(subparsers, common: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.locate import locate_points
 
     result = locate_points(args.project, args.strip, args.variant, image=args.image, ground=args.ground)

@@ -39,6 +39,7 @@ def add_parser(subparsers, common) -> None:
 
 def options_of(args: argparse.Namespace):
     """MatchOptions from ``--config`` and the flags (flags win)."""
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.cli import settings_table
     from scangeo.match.options import MatchOptions
 
@@ -51,6 +52,7 @@ def options_of(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.cli import progress_of
     from scangeo.workflow import match_points
 

@@ -26,6 +26,7 @@ def add_parser(subparsers, common) -> None:
 
 
 def run(args) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.adjustment.planning import plan_block
     from scangeo.adjustment.reliability_summary import reliability_lines
     from scangeo.cli import progress_of

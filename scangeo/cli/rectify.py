@@ -44,6 +44,7 @@ def add_parser(subparsers, common) -> None:
 
 def options_of(args: argparse.Namespace):
     """RectifyOptions from ``--config`` and the flags (flags win)."""
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.cli import settings_table
     from scangeo.rectify.options import RectifyOptions
 
@@ -59,6 +60,7 @@ def options_of(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.cli import progress_of
     from scangeo.workflow import rectify_strips
 

@@ -20,6 +20,7 @@ def add_parser(subparsers, common) -> None:
 
 
 def run(args) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.cli import progress_of
     from scangeo.reports.report import write_report
 

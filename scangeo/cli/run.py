@@ -43,6 +43,7 @@ def add_parser(subparsers, common) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.atomic import OutputLock
     from scangeo.cli import progress_of
     from scangeo.errors import OutputLockedError

@@ -50,6 +50,7 @@ def add_parser(subparsers, common) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.cli import progress_of
     from scangeo.simulate.config import available_presets, merge, preset_path
     from scangeo.workflow import LaserSimulation, simulate_project
