@@ -23,6 +23,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+import pyproj
 
 from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex
 from scangeo.errors import LidarError
@@ -204,8 +205,6 @@ def _sampler(project: LaserProject, strip: LaserStrip, f: StripFound) -> Traject
 
 def map_unit(crs) -> float:
     """Metres per unit of the map CRS's first axis (1 for metres, 0.3048... for feet)."""
-    import pyproj
-
     info = pyproj.CRS.from_user_input(crs).axis_info
     return float(info[0].unit_conversion_factor) if info else 1.0
 

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pyproj
 
 from scangeo.atomic import atomic_path
 from scangeo.errors import InputFileError
@@ -43,7 +44,7 @@ class StripCloud:
 
 def _open(path: Path):
     """laspy's reader of a file whose header was checked against the file first (las_header)."""
-    import laspy
+    import laspy  # start-up cost: laspy and its LAZ backend load when a LAS file is read
 
     check_las_file(path)
     try:
@@ -54,11 +55,11 @@ def _open(path: Path):
 
 def laspy_errors() -> tuple[type[Exception], ...]:
     """What laspy and its LAZ back-end raise for a file they cannot read (both imported lazily)."""
-    import laspy
+    import laspy  # start-up cost: laspy and its LAZ backend load when a LAS file is read
 
     errors: tuple[type[Exception], ...] = (OSError, ValueError, EOFError, laspy.errors.LaspyException)
     try:
-        import lazrs
+        import lazrs  # optional LAZ backend
     except ImportError:
         return errors
     return (*errors, lazrs.LazrsError)
@@ -82,8 +83,6 @@ def check_header(path: Path, header, crs) -> None:
     except Exception as exc:  # laspy raises several kinds for broken VLRs
         raise InputFileError(f"{path}: cannot parse the CRS in the header ({exc})") from exc
     if file_crs is not None and crs is not None:
-        import pyproj
-
         want = pyproj.CRS.from_user_input(crs)
         got = file_crs.sub_crs_list[0] if file_crs.is_compound else file_crs
         if not got.equals(want, ignore_axis_order=True):
@@ -150,7 +149,7 @@ def write_corrected(
     The first input file's header (point format, version, scales, VLRs with the CRS, extra
     dimensions) is kept; bounds and counts are updated by the writer.
     """
-    import laspy
+    import laspy  # start-up cost: laspy and its LAZ backend load when a LAS file is read
 
     out = Path(out)
     count = 0

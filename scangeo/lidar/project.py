@@ -35,6 +35,8 @@ from scangeo.frames import Geoid, MapFrame, ProjectFrame, parse_crs
 from scangeo.io.schema import read, setting
 from scangeo.io.toml_config import load_toml
 from scangeo.lidar.georeference import Calibration
+from scangeo.lidar.lasio import bounds
+from scangeo.trajectory.readers import read_trajectory
 
 
 # --- the keys of a laser project.toml (scangeo.io.schema: every key typed, errors naming file and key) ---
@@ -164,16 +166,12 @@ class LaserProject:
     def map_frame(self) -> MapFrame:
         if self.origin is not None:
             return MapFrame(self.crs, ProjectFrame.from_origin(*self.origin), self.geoid)
-        from scangeo.lidar.lasio import bounds
-
         b = np.array([bounds(f) for s in self.strips for f in s.las])
         cx, cy = 0.5 * (b[:, 0].min() + b[:, 2].max()), 0.5 * (b[:, 1].min() + b[:, 3].max())
         return MapFrame.centred_on(self.crs, float(cx), float(cy), 0.0, self.geoid)
 
     def trajectory(self, strip: LaserStrip):
         """The strip's GPS/IMU in the project frame (ProjectTrajectory)."""
-        from scangeo.trajectory.readers import read_trajectory
-
         if strip.trajectory is None:
             raise ProjectFileError(f"{self.root / 'project.toml'}: strip {strip.id} has no trajectory")
         stream = read_trajectory(strip.trajectory, crs=self.trajectory_crs or self.crs)

@@ -27,6 +27,8 @@ from scipy.optimize import least_squares
 
 from scangeo.errors import InputFileError
 from scangeo.frames import R_ecef_ned, geodetic_to_ecef
+from scangeo.lidar.las_header import check_las_file
+from scangeo.lidar.lasio import laspy_errors
 from scangeo.rotation import rph_to_matrix, unwrap_heading
 from scangeo.trajectory.readers import read_sbet_records
 
@@ -74,10 +76,7 @@ def load_returns(sbet: str | Path, las: str | Path, utm_zone: int, heading: str 
     ``heading``: ``"platform"`` uses the SBET heading field as the true heading (leeward, PDAL);
     ``"true"`` uses platform heading minus wander angle.
     """
-    import laspy
-
-    from scangeo.lidar.las_header import check_las_file
-    from scangeo.lidar.lasio import laspy_errors
+    import laspy  # start-up cost: laspy and its LAZ backend load when a LAS file is read
 
     nav = read_sbet_records(sbet)
     check_las_file(las)

@@ -19,7 +19,7 @@ from scangeo.lidar.differences import Differences, mosaic
 
 
 def write_difference_grid(path: Path, before: Differences, after: Differences, crs) -> None:
-    import rasterio
+    import rasterio  # start-up cost: GDAL loads only when the difference grid is written
     from affine import Affine
 
     gb, (x0, y1), rows, cols = mosaic(before)
@@ -43,7 +43,7 @@ def write_difference_grid(path: Path, before: Differences, after: Differences, c
 
 
 def write_difference_figure(path: Path, before: Differences, after: Differences, unit_name: str = "m") -> None:
-    import matplotlib
+    import matplotlib  # start-up cost: matplotlib loads only when a figure is drawn
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -151,7 +151,7 @@ def _correction(coef: np.ndarray, t: np.ndarray, t0: float, t1: float) -> np.nda
 
 def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = ".las") -> dict:
     """Write a laser project (project.toml, strips/*.las, nav/*.csv, ground.csv, truth.json) to ``out``."""
-    import laspy
+    import laspy  # start-up cost: laspy and its LAZ backend load when a LAS file is read
 
     out = Path(out)
     (out / "strips").mkdir(parents=True, exist_ok=True)
