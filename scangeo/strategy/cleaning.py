@@ -38,6 +38,7 @@ import numpy as np
 from scangeo.adjustment.block import Block, build_block
 from scangeo.adjustment.ground import DtmHeights, GroundControl
 from scangeo.adjustment.image import ImageObservations
+from scangeo.adjustment.keys import Ground
 from scangeo.adjustment.results import read_measurements
 from scangeo.adjustment.variants import StripModels, Variant
 from scangeo.atomic import write_text
@@ -229,11 +230,11 @@ def clean(project: Project | Path | str, options: CleaningOptions = CleaningOpti
             g.sigma = g.sigma * options.dtm_sigma_factor
     solver = SolverOptions(max_iterations=variant.max_iterations, backend=variant.backend)
     first = adjust(block.parameters, block.groups, solver, SnoopingOptions(enabled=False),
-                   scaled(progress, 0.05, 0.3))
+                   scaled(progress, 0.05, 0.3), point_key=Ground)
     n_image = sum(g.n_rows // 2 for g in block.groups if isinstance(g, ImageObservations))
     snooping = SnoopingOptions(critical_value=options.critical_value, per_round=options.per_round,
                                max_rejections=max(1, int(options.max_fraction * n_image)))
-    adj = adjust(block.parameters, block.groups, solver, snooping, scaled(progress, 0.3, 1.0))
+    adj = adjust(block.parameters, block.groups, solver, snooping, scaled(progress, 0.3, 1.0), point_key=Ground)
     rejected, dtm, mdb = _rejected(block, adj, cleaning_ground)
     notes = list(block.notes)
     if len(adj.rejections) >= snooping.max_rejections:
