@@ -18,6 +18,7 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from scangeo.errors import ScangeoError
+from scangeo.version import __version__
 
 if TYPE_CHECKING:
     from scangeo.io.project import Project
@@ -38,7 +39,6 @@ if TYPE_CHECKING:
         simulate_project,
     )
 
-__version__ = "0.1.0"
 __all__ = [
     "Adjustment", "ComparisonRun", "DiagnosisRun", "LaserResult", "LaserSimulation", "Project", "ScangeoError",
     "__version__", "adjust", "compare", "diagnose", "lidar_adjust", "match_points", "read_orientation",

@@ -33,4 +33,4 @@ def test_import_scangeo_loads_the_workflow_only_when_asked():
     code = ("import sys, scangeo; before = sorted(m for m in sys.modules if m.startswith('scangeo'));"
             "scangeo.compare; print(before, 'scangeo.workflow' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip() == "['scangeo', 'scangeo.errors'] True"
+    assert out.strip() == "['scangeo', 'scangeo.errors', 'scangeo.version'] True"

@@ -18,10 +18,10 @@ import importlib
 import logging
 import sys
 
-from scangeo import __version__
 from scangeo.atomic import OutputLock
 from scangeo.errors import ProjectFileError, ScangeoError
 from scangeo.progress import TextProgress, no_progress
+from scangeo.version import __version__
 
 #: Sub-command modules of scangeo.cli, in the order ``--help`` lists them.
 COMMANDS = [

@@ -14,8 +14,8 @@ import json
 from pathlib import Path
 from typing import Any
 
-from scangeo import __version__
 from scangeo.rectify.batch import content_hash
+from scangeo.version import __version__
 
 
 def relative_name(path: Path, root: Path) -> str:

@@ -25,8 +25,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from scangeo import __version__
 from scangeo.atomic import write_text
+from scangeo.version import __version__
 
 log = logging.getLogger(__name__)
 

@@ -20,7 +20,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from scangeo import __version__
 from scangeo.errors import ProjectFileError, ScangeoError
 from scangeo.io.project import Project
 from scangeo.match.options import MatchOptions
@@ -29,6 +28,7 @@ from scangeo.pipeline.manifest import Manifest
 from scangeo.pipeline.stages import NAMES, STAGES, Context, RunSettings, Stage, tie_points
 from scangeo.progress import ProgressCallback, no_progress, scaled
 from scangeo.rectify.options import RectifyOptions
+from scangeo.version import __version__
 
 log = logging.getLogger(__name__)
 

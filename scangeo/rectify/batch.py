@@ -29,7 +29,6 @@ from pathlib import Path
 import rasterio
 from rasterio.windows import Window
 
-from scangeo import __version__
 from scangeo.atomic import write_text
 from scangeo.errors import ProjectFileError
 from scangeo.io.project import Project
@@ -45,6 +44,7 @@ from scangeo.rectify.options import RectifyOptions
 from scangeo.rectify.output_grid import OutputGrid, nice_resolution
 from scangeo.rectify.strip import Finaliser, StripResult, rectify_strip
 from scangeo.threading_layer import choose_threading_layer
+from scangeo.version import __version__
 
 log = logging.getLogger(__name__)
 

@@ -30,7 +30,6 @@ import numpy as np
 import rasterio
 from rasterio.windows import Window
 
-from scangeo import __version__
 from scangeo.errors import InputFileError
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify.cell_map import map_cells
@@ -41,6 +40,7 @@ from scangeo.rectify.geotiff import BandInfo, bands_of, describe, finalise, remo
 from scangeo.rectify.options import RectifyOptions
 from scangeo.rectify.output_grid import OutputGrid
 from scangeo.rectify.strip_run import StripResult, StripRun, gdal_cache, start_run, strip_grid, tile_slices
+from scangeo.version import __version__
 
 log = logging.getLogger(__name__)
 

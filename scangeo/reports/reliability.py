@@ -20,12 +20,12 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from scangeo import __version__
 from scangeo.adjustment.planning import Plan
 from scangeo.adjustment.reliability_summary import UNIT_COLUMNS, reliability_dict, unit_table, write_reliability
 from scangeo.atomic import write_text
 from scangeo.reports import html
 from scangeo.reports.figures import png
+from scangeo.version import __version__
 
 
 def read_variant_reliability(folder: Path) -> tuple[list[dict], dict] | None:

@@ -27,7 +27,6 @@ from pathlib import Path
 
 import numpy as np
 
-from scangeo import __version__
 from scangeo.adjustment.summary import Comparison
 from scangeo.atomic import write_text
 from scangeo.io.project import Project
@@ -42,6 +41,7 @@ from scangeo.reports.matching import match_section
 from scangeo.reports.reliability import reliability_section
 from scangeo.reports.residual_vectors import ResidualVectors, check_vectors
 from scangeo.reports.tables import markdown_tables, read_comparison
+from scangeo.version import __version__
 
 
 @dataclass(frozen=True)
