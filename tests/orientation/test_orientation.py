@@ -164,6 +164,22 @@ def test_unreadable_missing_and_foreign_files(tmp_path, adjusted):
         load_orientation(project, "MOVED")
 
 
+def test_an_orientation_loads_from_an_explicit_path(tmp_path, adjusted):
+    # a copy outside results/: by the file (a Path or a .json string) or by its folder, the same spline
+    root, _ = adjusted
+    project = Project.load(root)
+    by_name = load_orientation(project, VARIANT.name)
+    elsewhere = tmp_path / "kept"
+    elsewhere.mkdir()
+    (elsewhere / "orientation.json").write_bytes((root / "results" / VARIANT.name / "orientation.json").read_bytes())
+    for given in (elsewhere / "orientation.json", str(elsewhere / "orientation.json"), elsewhere):
+        doc = load_orientation(project, given)
+        assert doc.variant == VARIANT.name
+        np.testing.assert_array_equal(doc.strips["01"].spline.coef, by_name.strips["01"].spline.coef)
+    with pytest.raises(OrientationFileError, match="no orientation file there"):
+        load_orientation(project, tmp_path / "none.json")
+
+
 def test_pushbroom_tables_and_line_time_tables_round_trip(tmp_path, adjusted):
     root, _ = adjusted
     doc = direct_orientation(Project.load(root))
