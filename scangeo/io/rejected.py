@@ -131,10 +131,11 @@ def set_aside(project_root, points: ImagePoints, ground: GroundPoints
         xyz = coords.get(p)
         if xyz is not None and np.all(np.abs(ground.xyz[i] - np.asarray(xyz)) < SAME):
             keep_g[i] = False
-    # a tie point left with a single measurement (its other one set aside, this one corrected since) cannot
-    # be used: set aside with the others instead of failing the input checks
+    # a point left with a single measurement and no ground coordinates (its other measurement or its
+    # coordinates set aside) is not determined: set aside with the others instead of failing the input
+    # checks or being held by the solver's regularisation
     names = points.point.astype(str)
-    lost = set(names[~keep])
+    lost = set(names[~keep]) | set(ground.point.astype(str)[~keep_g])
     given = set(ground.point.astype(str)[keep_g])
     left, count = np.unique(names[keep], return_counts=True)
     orphans = {p for p, c in zip(left, count) if c == 1 and p in lost and p not in given}
