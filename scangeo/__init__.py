@@ -6,8 +6,9 @@ docs/api.md shows the workflow from Python.
 
 The front door (``scangeo.workflow``): :class:`Project`, :func:`simulate_project`,
 :func:`match_points`, :func:`adjust`, :func:`compare`, :func:`diagnose`, :func:`rectify_strips`,
-:func:`rectify_in_memory`, :func:`read_orientation` and :func:`lidar_adjust`, each returning a
-dataclass. They load on first use (PEP 562 ``__getattr__``): ``import scangeo`` alone stays cheap
+:func:`rectify_in_memory`, :func:`read_orientation`, :func:`lidar_adjust` and the staged pipeline
+:func:`run` (``scangeo.pipeline.run``, docs/run.md), each returning a dataclass. They load on first use (PEP 562
+``__getattr__``): ``import scangeo`` alone stays cheap
 (milliseconds, instead of the seconds numba, GDAL and the adjustment take to import) and has no
 process-wide side effects (numba's threading layer is chosen the moment before scangeo's first
 parallel kernel runs, ``scangeo.threading_layer``).
@@ -22,6 +23,7 @@ from scangeo.version import __version__
 
 if TYPE_CHECKING:
     from scangeo.io.project import Project
+    from scangeo.pipeline.run import RunResult, run
     from scangeo.workflow import (
         Adjustment,
         ComparisonRun,
@@ -42,13 +44,13 @@ if TYPE_CHECKING:
 __all__ = [
     "Adjustment", "ComparisonRun", "DiagnosisRun", "LaserResult", "LaserSimulation", "Project", "ScangeoError",
     "__version__", "adjust", "compare", "diagnose", "lidar_adjust", "match_points", "read_orientation",
-    "rectify_in_memory", "rectify_strips", "simulate_project",
-    # the staged pipeline `run` (issue 25) joins here, mapped in _LAZY to "scangeo.pipeline.run"
+    "rectify_in_memory", "rectify_strips", "simulate_project", "RunResult", "run",
 ]
 
 # name -> the module that defines it, imported on first access (module docstring)
 _LAZY = {name: "scangeo.workflow" for name in __all__ if name not in ("Project", "ScangeoError", "__version__")}
 _LAZY["Project"] = "scangeo.io.project"
+_LAZY["run"] = _LAZY["RunResult"] = "scangeo.pipeline.run"
 
 
 def __getattr__(name: str) -> Any:

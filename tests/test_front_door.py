@@ -27,6 +27,10 @@ def test_every_workflow_call_returns_a_dataclass():
         returned = typing.get_type_hints(f)["return"]
         for t in typing.get_args(returned) or (returned,):
             assert dataclasses.is_dataclass(t), f"{f.__name__} returns {t}"
+    # the staged pipeline is defined in scangeo.pipeline.run and reached through the same door
+    assert scangeo.run.__module__ == "scangeo.pipeline.run"
+    assert typing.get_type_hints(scangeo.run)["return"] is scangeo.RunResult
+    assert dataclasses.is_dataclass(scangeo.RunResult)
 
 
 def test_import_scangeo_loads_the_workflow_only_when_asked():
