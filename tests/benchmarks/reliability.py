@@ -12,7 +12,14 @@
 3. ``--vienna``: false alarms on the simulated vienna2000 block (3 strips x 7,000 lines, no
    blunders) with S (the middle strip split at lines 2400 and 4900, DTM heights) and BE.
 
+4. ``--scaling 12 24 48``: the external reliability of block24 cut to that many strips
+   (``--lines`` lines each, SE), exact (the whole factor, every row, per strip) against local (the
+   windows of :mod:`scangeo.adjustment.neighbourhoods`), side by side in this process: CPU seconds
+   of each (``time.process_time``: less sensitive to a shared machine than wall time) and the
+   largest relative difference of the strips' largest shifts.
+
 Run:  python tests/benchmarks/reliability.py [--seeds 3] [--strips 4 --lines 1500] [--vienna]
+      python tests/benchmarks/reliability.py --scaling 12 24 48 --lines 1500
 """
 from __future__ import annotations
 
@@ -88,13 +95,59 @@ def false_alarms(root: Path) -> None:
               f"adjustment {t_adj:.1f} s, reliability of {rows} rows {t_rel:.1f} s")
 
 
+def scaling(sizes: list[int], lines: int, work: Path) -> None:
+    """Exact against local external reliability on block24 cut to each size (CPU seconds)."""
+    import os
+    import warnings
+
+    from scangeo.adjustment.keys import Ground
+    from scangeo.adjustment.reliability_summary import strip_probes
+    from scangeo.lsq.reliability import compute_reliability
+    from scangeo.simulate.block import simulate
+    from scangeo.simulate.config import config_from_dict
+    from tests.benchmarks.block import block_config
+
+    rows = []
+    for n in sizes:
+        _, data = block_config(lines)
+        data["flight"]["strips"] = n
+        data["output"]["images"] = False
+        cfg = config_from_dict(data, source=f"block24, {n} strips")
+        root = work / f"b{n}"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            simulate(root, cfg)
+        result = run_variant(root, "SE")
+        sol, st = result.adjustment.solution, result.adjustment.statistics
+        st.redundancy_numbers()      # the selected inverse, shared by both
+        cpu = {}
+        rel = {}
+        for name, radius in (("exact", None), ("local", 2)):
+            t = time.process_time()
+            probes = strip_probes(result, radius=radius)
+            rel[name] = compute_reliability(sol, st, probes, point_key=Ground)
+            cpu[name] = time.process_time() - t
+        diff = max(abs(rel["local"].ext_strip[k][0] / rel["exact"].ext_strip[k][0] - 1) for k in rel["exact"].ext_strip)
+        rows.append((n, sol.layout.n, cpu["exact"], cpu["local"], diff))
+        print(f"{n} strips ({sol.layout.n} unknowns): exact {cpu['exact']:.1f} CPU s, local {cpu['local']:.1f} CPU s, "
+              f"largest shift per strip differs by {diff:.1e} relative; load {os.getloadavg()[0]:.1f}", flush=True)
+    n0, _, e0, l0, _ = rows[0]
+    print(f"ratios to {n0} strips (linear: " + ", ".join(f"{n / n0:.0f}x" for n, *_ in rows[1:]) + "): "
+          + "; ".join(f"{n}: exact {e / e0:.2f}x, local {lo / l0:.2f}x" for n, _, e, lo, _ in rows[1:]))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--strips", type=int, default=4)
     ap.add_argument("--lines", type=int, default=1500)
     ap.add_argument("--vienna", action="store_true", help="also the false alarms on vienna2000 (a few minutes)")
+    ap.add_argument("--scaling", type=int, nargs="+", default=None, help="block sizes (strips) for part 4")
     a = ap.parse_args()
+    if a.scaling:
+        with tempfile.TemporaryDirectory() as tmp:
+            scaling(a.scaling, a.lines, Path(tmp))
+        return
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         if a.vienna:
