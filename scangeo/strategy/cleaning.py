@@ -62,6 +62,8 @@ class CleaningOptions:
     """How :func:`clean` adjusts and tests (module docstring).
 
     piece_lines : length of the pieces every strip's GPS/IMU model is split into (lines).
+    min_pieces : a strip is split into at least this many pieces (a short strip's drift still gets
+        kinks: one 700-line piece over a 600-line strip is as stiff as P1).
     position_degree : degree of each piece's position correction (1: piecewise linear).
     critical_value : of Baarda's |w| (3.29: alpha0 = 0.1 %, two-sided).
     per_round : units of distinct points removed per re-solution.
@@ -77,6 +79,7 @@ class CleaningOptions:
 
     method: str = "snooping"
     piece_lines: float = 700.0
+    min_pieces: int = 3
     position_degree: int = 1
     critical_value: float = 3.29
     per_round: int = 4
@@ -93,6 +96,9 @@ class CleaningOptions:
         if not self.piece_lines > 0:
             raise ProjectFileError(f"cleaning piece_lines: expected a positive number of lines, "
                                    f"found {self.piece_lines}")
+        if not self.min_pieces >= 1:
+            raise ProjectFileError(f"cleaning min_pieces: expected a whole number of at least 1, "
+                                   f"found {self.min_pieces}")
 
 
 @dataclass(frozen=True)
@@ -147,10 +153,11 @@ def cleaning_variant(project: Project, options: CleaningOptions) -> Variant:
     strips = []
     for s in project.strips:
         n = project.n_lines(s.id)
-        k = max(1, round(n / options.piece_lines))
+        k = max(options.min_pieces, round(n / options.piece_lines))
         breaks = tuple(float(round(n * i / k)) for i in range(1, k))
         strips.append(StripModels(s.id, position_degree=options.position_degree, breaks_lines=breaks))
-    return Variant("cleaning", "S", f"every strip split into pieces of about {options.piece_lines:g} lines, "
+    return Variant("cleaning", "S", f"every strip split into pieces of about {options.piece_lines:g} lines "
+                   f"(at least {options.min_pieces}), "
                    f"position degree {options.position_degree} per piece"
                    + ("; DTM heights" if options.dtm_heights else "")
                    + (f" (sigma x {options.dtm_sigma_factor:g})" if options.dtm_sigma_factor != 1.0 else ""),
