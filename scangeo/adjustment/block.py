@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -286,7 +286,7 @@ def _observation_groups(setup: _Setup) -> list[ObservationGroup]:
 
 
 def adjust_block(block: Block, snooping: bool | None = None, start: Mapping[Key, np.ndarray] | None = None,
-                 callback: ProgressCallback = no_progress) -> Adjustment:
+                 callback: ProgressCallback = no_progress, max_rejections: int | None = None) -> Adjustment:
     """Adjust a built block with its variant's solver settings and data snooping.
 
     Parameters
@@ -296,6 +296,7 @@ def adjust_block(block: Block, snooping: bool | None = None, start: Mapping[Key,
     start : start values of unknowns by key (e.g. the previous probe's solution); keys the block lacks,
         or whose size differs, are left at the block's start values.
     callback : progress of the adjustment.
+    max_rejections : data snooping stops after this many units (None: the engine's default).
     """
     v = block.variant
     for key, values in (start or {}).items():
@@ -303,6 +304,8 @@ def adjust_block(block: Block, snooping: bool | None = None, start: Mapping[Key,
             block.parameters[key].values[:] = values
     options = SnoopingOptions(enabled=v.snooping if snooping is None else snooping, critical_value=v.critical_value,
                               per_round=max(1, v.rejections_per_round), method=v.snooping_method)
+    if max_rejections is not None:
+        options = replace(options, max_rejections=max_rejections)
     return adjust(block.parameters, block.groups, SolverOptions(max_iterations=v.max_iterations, backend=v.backend),
                   options, callback, point_key=Ground)
 

@@ -35,10 +35,9 @@ from pathlib import Path
 
 import numpy as np
 
-from scangeo.adjustment.block import Block, build_block
+from scangeo.adjustment.block import Block, adjust_block, build_block
 from scangeo.adjustment.ground import DtmHeights, GroundControl
 from scangeo.adjustment.image import ImageObservations
-from scangeo.adjustment.keys import Ground
 from scangeo.adjustment.results import read_measurements
 from scangeo.adjustment.variants import StripModels, Variant
 from scangeo.atomic import write_text
@@ -46,9 +45,8 @@ from scangeo.errors import ProjectFileError
 from scangeo.io.points import GroundPoints
 from scangeo.io.project import Project
 from scangeo.io.rejected import CLEANING_DIR, RejectedMeasurement, rejected_path, write_rejected
-from scangeo.lsq.engine import Adjustment, SnoopingOptions, adjust
+from scangeo.lsq.engine import Adjustment
 from scangeo.lsq.reliability import delta0
-from scangeo.lsq.solver import SolverOptions
 from scangeo.lsq.statistics import MIN_REDUNDANCY
 from scangeo.progress import ProgressCallback, no_progress, scaled
 
@@ -235,17 +233,14 @@ def clean(project: Project | Path | str, options: CleaningOptions = CleaningOpti
     for g in block.groups:
         if isinstance(g, DtmHeights) and options.dtm_sigma_factor != 1.0:
             g.sigma = g.sigma * options.dtm_sigma_factor
-    solver = SolverOptions(max_iterations=variant.max_iterations, backend=variant.backend)
-    first = adjust(block.parameters, block.groups, solver, SnoopingOptions(enabled=False),
-                   scaled(progress, 0.05, 0.3), point_key=Ground)
+    first = adjust_block(block, snooping=False, callback=scaled(progress, 0.05, 0.3))
     n_image = sum(g.n_rows // 2 for g in block.groups if isinstance(g, ImageObservations))
-    snooping = SnoopingOptions(critical_value=options.critical_value, per_round=options.per_round,
-                               max_rejections=max(1, int(options.max_fraction * n_image)))
-    adj = adjust(block.parameters, block.groups, solver, snooping, scaled(progress, 0.3, 1.0), point_key=Ground)
+    max_rejections = max(1, int(options.max_fraction * n_image))
+    adj = adjust_block(block, snooping=True, callback=scaled(progress, 0.3, 1.0), max_rejections=max_rejections)
     rejected, dtm, mdb = _rejected(block, adj, cleaning_ground)
     notes = list(block.notes)
-    if len(adj.rejections) >= snooping.max_rejections:
-        notes.append(f"data snooping stopped at {snooping.max_rejections} rejections ({100 * options.max_fraction:g} "
+    if len(adj.rejections) >= max_rejections:
+        notes.append(f"data snooping stopped at {max_rejections} rejections ({100 * options.max_fraction:g} "
                      "% of the image measurements): the model, the sigmas or the data need a look")
     n_ground = sum(len(g.points) for g in block.groups if isinstance(g, GroundControl))
     result = Cleaning(str(project.root), tuple(rejected), float(first.statistics.sigma0),
