@@ -140,6 +140,10 @@ class _Outcome:
     keep_system: bool = False
 
 
+#: Why an unknown is regularised when every observation that determined it was removed (data snooping).
+REMOVED = "every observation that determined it was removed"
+
+
 class Solver:
     """Solves ``min sum ||r_g(x)||^2`` over the free unknowns of ``parameters``."""
 
@@ -156,6 +160,7 @@ class Solver:
         self.factorizer = Factorizer(options.backend)
         self.regularisation: list[RegularisationNote] = []
         self._regularised: dict[int, int] = {}   # column -> times tightened
+        self._observed = np.zeros(self.layout.n, bool)  # columns some active observation has determined
 
     # -- assembly -------------------------------------------------------------------------------
     def linearisation(self, values, active: list[np.ndarray]) -> tuple[np.ndarray, sp.csr_matrix, list[slice]]:
@@ -184,9 +189,12 @@ class Solver:
         N.data /= scale[N.indices] * np.repeat(scale, np.diff(N.indptr))
         return System(r, J, scale, N, (J.T @ r) / scale, slices)
 
-    def _regularise(self, values, columns: np.ndarray, reason: str, tighten: float = 1.0) -> PseudoObservations:
+    def _regularise(self, values, columns: np.ndarray, reason: str, tighten: float = 1.0,
+                    removed: np.ndarray | None = None) -> PseudoObservations:
+        """Pseudo-observations holding ``columns`` at their values; ``removed`` marks those whose observations
+        were all taken out (data snooping): expected, logged at INFO instead of WARNING."""
         keys, comps, vals, sig, names = [], [], [], [], []
-        for col in columns:
+        for k, col in enumerate(columns):
             key, i = self.layout.locate(int(col))
             block = self.parameters[key]
             reg = block.regularisation_sigma
@@ -196,9 +204,11 @@ class Solver:
             vals.append(values[key][i])
             sig.append(sigma)
             names.append(block.names[i])
-            self.regularisation.append(RegularisationNote(key, block.names[i], sigma, reason))
+            why = REMOVED if removed is not None and removed[k] else reason
+            self.regularisation.append(RegularisationNote(key, block.names[i], sigma, why))
             self._regularised[int(col)] = self._regularised.get(int(col), -1) + 1
-            log.warning("regularised %s[%s] with sigma %g: %s", key.label, block.names[i], sigma, reason)
+            log.log(logging.INFO if why == REMOVED else logging.WARNING,
+                    "regularised %s[%s] with sigma %g: %s", key.label, block.names[i], sigma, why)
         return PseudoObservations("regularisation", keys, np.array(comps), np.array(vals), np.array(sig), names)
 
     def factorize(self, values, active: list[np.ndarray]) -> tuple[System, Factor]:
@@ -207,6 +217,7 @@ class Solver:
             system = self.system(values, active)
             raw_diag = np.asarray((system.jacobian.multiply(system.jacobian)).sum(axis=0)).ravel()
             empty = np.flatnonzero(raw_diag <= 0.0)
+            self._observed |= raw_diag > 0.0
             reason = "no observation determines it"
             if empty.size == 0:
                 try:
@@ -231,7 +242,8 @@ class Solver:
                 if rounds > 4:
                     raise NotPositiveDefinite("regularisation did not make the normal equations regular", pivots)
                 fresh, tighten = empty, 100.0**rounds
-            group = self._regularise(values, fresh, reason, tighten)
+            removed = self._observed[fresh] if reason == "no observation determines it" else None
+            group = self._regularise(values, fresh, reason, tighten, removed)
             self.groups.append(group)
             active = active + [np.ones(group.n_rows, bool)]
 

@@ -1,12 +1,15 @@
 """Data snooping finds injected blunders; rank defects end in a regularisation note, never a failure."""
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import pytest
 
 from scangeo.lsq import Parameters, SnoopingOptions, Solver, SolverOptions, Statistics, Unknown, adjust
 from scangeo.lsq import factor as factor_module
 from scangeo.lsq.removal import RemovalUpdate
+from scangeo.lsq.solver import REMOVED
 
 from .backends import BACKENDS
 from .problems import Distances, HeightDifferences, levelling_network
@@ -160,7 +163,7 @@ def test_removal_update_follows_a_nonlinear_problem():
 
 
 @pytest.mark.parametrize("method", ["update", "resolve"])
-def test_removal_that_leaves_an_unknown_undetermined_is_regularised(method):
+def test_removal_that_leaves_an_unknown_undetermined_is_regularised(method, caplog):
     # PX is tied to the network only by the two lines of one observation unit; one holds a blunder.
     # Removing the unit leaves PX undetermined: the update declines, the full solution regularises PX
     rng = np.random.default_rng(5)
@@ -173,9 +176,14 @@ def test_removal_that_leaves_an_unknown_undetermined_is_regularised(method):
     group.row_unit = np.concatenate([np.arange(net.n_rows), [net.n_rows, net.n_rows]])
     params = levelling_parameters(truth)
     params[Unknown("PX")].regularisation_sigma[:] = 5.0
-    result = adjust(params, [group], SolverOptions(), SnoopingOptions(method=method))
+    with caplog.at_level(logging.INFO, logger="scangeo.lsq.solver"):
+        result = adjust(params, [group], SolverOptions(), SnoopingOptions(method=method))
     assert [r.id for r in result.rejections] == ["P3-PX"]
     assert [(n.key, n.sigma) for n in result.solution.regularisation] == [(Unknown("PX"), 5.0)]
+    # expected after a removal: said at INFO with the cause, not as a warning on the user's terminal
+    assert result.solution.regularisation[0].reason == REMOVED
+    (record,) = [r for r in caplog.records if "regularised" in r.getMessage()]
+    assert record.levelno == logging.INFO
     assert result.full_solutions == 2
 
 
