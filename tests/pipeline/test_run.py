@@ -124,11 +124,11 @@ KILLER = textwrap.dedent("""
 
     def progress(done, total, message=""):
         global seen
-        seen += message.startswith(sys.argv[2])
-        if seen == int(sys.argv[3]):
+        seen += message.startswith(sys.argv[3])
+        if seen == int(sys.argv[4]):
             os.kill(os.getpid(), signal.SIGKILL)
 
-    run(sys.argv[1], progress=progress)
+    run(sys.argv[1], from_stage=sys.argv[2], progress=progress)
 """)
 
 
@@ -164,22 +164,38 @@ def _outputs(root: Path, name: str, roots: list[Path]) -> dict:
     return out
 
 
-def test_a_run_killed_in_a_stage_resumes_to_the_same_outputs(ran, tmp_path):
+def test_a_run_killed_in_every_stage_in_turn_resumes_to_the_same_outputs(ran, tmp_path):
+    # One process per stage: ``--from STAGE``, SIGKILLed at the stage's second progress report (rectify: at
+    # strip 02's second, strip 01 complete). The next process must first finish the stage the last one was
+    # killed in ("stopped in it"), then is killed in its own; a last plain run finishes the report. The
+    # outputs are then those of the uninterrupted run, and no partial file is left anywhere.
     name = ran[1].recommended
     root = copy_project(ran[0], tmp_path / "block")
-    (root / "results" / name / "ortho" / "02.tif").unlink()  # the rectify stage runs again: an output is gone
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
-    # killed at strip 02's second progress report (resampling); strip 01 is complete from the first run, skipped
-    killed = subprocess.run([sys.executable, "-c", KILLER, str(root), "rectify: strip 02: ", "2"], env=env,
-                            capture_output=True, text=True, timeout=600)
-    assert killed.returncode == -signal.SIGKILL, killed.stderr
-    record = json.loads((root / "results" / "run.json").read_text(encoding="utf-8"))["stages"]
-    assert record["rectify"]["status"] == "running" and record["compare"]["status"] == "up to date"
-    assert not (root / "results" / name / "ortho" / "02.tif").exists()
+    stages = ["check", "match", "clean", "diagnose", "compare", "rectify", "report"]
+    killed_in = None
+    for stage in stages:
+        prefix = "rectify: strip 02: " if stage == "rectify" else stage  # a stage's reports start with its name
+        if stage == "rectify":  # orthoimages complete with the current fingerprint would be skipped
+            for sid in ("01", "02"):
+                (root / "results" / name / "ortho" / f"{sid}.tif").unlink()
+        killed = subprocess.run([sys.executable, "-c", KILLER, str(root), stage, prefix, "2"], env=env,
+                                capture_output=True, text=True, timeout=600)
+        assert killed.returncode == -signal.SIGKILL, (stage, killed.stderr[-2000:])
+        record = json.loads((root / "results" / "run.json").read_text(encoding="utf-8"))["stages"]
+        assert record[stage]["status"] == "running", stage
+        if killed_in is not None:  # the stage the last process was killed in was done first
+            assert record[killed_in]["status"] == "ran", (stage, killed_in)
+            assert record[killed_in]["reason"] == "the last run stopped in it (running)", killed_in
+        if stage == "rectify":
+            assert (root / "results" / name / "ortho" / "01.tif").exists()
+            assert not (root / "results" / name / "ortho" / "02.tif").exists()
+        killed_in = stage
     resumed = run(root)
-    assert resumed.ran == ["rectify"]
-    assert "stopped in it (running)" in resumed.outcome("rectify").reason
-    assert resumed.summary_of("rectify")["strips"] == {"01": "skipped", "02": "done"}
+    assert resumed.ran == ["report"]
+    assert "stopped in it (running)" in resumed.outcome("report").reason
+    record = json.loads((root / "results" / "run.json").read_text(encoding="utf-8"))["stages"]
+    assert record["rectify"]["summary"]["strips"] == {"01": "skipped", "02": "done"}
     mine, theirs = _outputs(root, name, [root, ran[0]]), _outputs(ran[0], name, [root, ran[0]])
     assert mine.keys() == theirs.keys()
     for key in mine:
@@ -188,5 +204,7 @@ def test_a_run_killed_in_a_stage_resumes_to_the_same_outputs(ran, tmp_path):
             assert mine[key][1:] == theirs[key][1:], key
         else:
             assert mine[key] == theirs[key], key
-    assert sorted(p.name for p in (root / "results" / name / "ortho").iterdir()) == \
-        sorted(p.name for p in (ran[0] / "results" / name / "ortho").iterdir())  # no partial file left
+    # no partial file under a final name (a kill may leave a hidden .NAME.PID.tmp, which no run reads)
+    for folder in ("", "results", f"results/{name}", f"results/{name}/ortho", "results/cleaning"):
+        visible = [sorted(p.name for p in (r / folder).iterdir() if not p.name.startswith(".")) for r in (root, ran[0])]
+        assert visible[0] == visible[1], folder
