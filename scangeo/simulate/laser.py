@@ -1,71 +1,35 @@
 """A simulated laser block with known truth: a laser project for ``scangeo lidar adjust``.
 
-Parallel north-south strips (alternating direction) plus an east-west cross strip over a scene of
-flat ground and gable roofs (``laser_scene.py``). Each strip's GPS/IMU has a shift and a drift of the
+Parallel north-south strips (alternating direction) plus an east-west cross strip over a scene of flat
+ground and gable roofs (``laser_scene.py``); or, with missions (the montafon preset, ``laser_plan.py``),
+several flights of parallel and cross strips over an alpine valley, each mission with its own GPS shift
+and IMU misalignment on top of the strips' errors. Each strip's GPS/IMU has a shift and a drift of the
 positions and an offset and a drift of the attitude (linear in the strip's normalised time, as the
-adjustment's correction polynomials model them); the scanner has a boresight error that the
-project file does not know; ranges get white noise. Returns are cast with the *true* trajectory and
-calibration; the LAS files carry the points as a processor computes them from the *measured*
-GPS/IMU and the nominal calibration; the trajectory CSVs are the measured GPS/IMU. Control and check
-patches (four surveyed points each on flat ground or roof faces) go to ground.csv; ``truth.json``
-holds every injected error, with ``c = true - measured`` as the adjustment estimates it.
+adjustment's correction polynomials model them); the scanner has a boresight error that the project file
+does not know; ranges get white noise. Returns are cast with the *true* trajectory and calibration; the
+LAS files carry the points as a processor computes them from the *measured* GPS/IMU and the nominal
+calibration; the trajectory CSVs are the measured GPS/IMU. Control and check patches (four surveyed
+points each on flat ground or roof faces) go to ground.csv; ``truth.json`` holds every injected error,
+with ``c = true - measured`` as the adjustment estimates it.
 """
 
 from __future__ import annotations
 
 import json
-import tomllib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from scangeo.atomic import atomic_path, write_text
-from scangeo.errors import ProjectFileError
 from scangeo.frames import MapFrame
-from scangeo.io.schema import read
 from scangeo.lidar.georeference import Calibration, Polar, beam, body_rotations, georeference
 from scangeo.rotation import R_ENU_NED, rph_to_matrix
+from scangeo.simulate.laser_config import LaserBlockConfig, is_laser_preset, load_laser_config
+from scangeo.simulate.laser_plan import block_half_extent, inside_limits, plans, triangle, true_trajectory, valley_of
 from scangeo.simulate.laser_scene import LaserScene
 from scangeo.trajectory.readers import write_trajectory_csv
 from scangeo.trajectory.stream import GpsImuStream, ProjectTrajectory
-
-
-@dataclass(frozen=True)
-class LaserBlockConfig:
-    """Every key of a laser preset's ``[laser]`` table (lengths m, angles deg, times s)."""
-
-    crs: str = "EPSG:32633"
-    centre: tuple[float, ...] = (500000.0, 5300000.0)
-    seed: int = 16
-    strips: int = 3
-    strip_spacing: float = 220.0
-    strip_length: float = 900.0
-    cross_strip: bool = True
-    height: float = 450.0
-    speed: float = 60.0
-    fov_deg: float = 40.0
-    pulse_rate_hz: float = 20000.0
-    scan_rate_hz: float = 40.0
-    range_sigma: float = 0.02
-    lever_arm: tuple[float, ...] = (0.1, -0.2, 0.3)
-    boresight_deg: tuple[float, ...] = (0.0, 0.0, 0.0)
-    boresight_error_deg: tuple[float, ...] = (0.02, -0.015, 0.03)
-    gps_shift_sigma: tuple[float, ...] = (0.10, 0.10, 0.08)
-    gps_drift_sigma: tuple[float, ...] = (0.05, 0.05, 0.05)
-    imu_offset_sigma_deg: float = 0.003
-    imu_drift_sigma_deg: float = 0.005
-    attitude_wobble_deg: tuple[float, ...] = (1.0, 0.7, 0.5)
-    building_spacing: float = 50.0
-    building_fill: float = 0.55
-    control_patches: int = 8
-    check_patches: int = 6
-    control_sigma: float = 0.01
-    fourth_as_check: bool = False  # the fourth surveyed point of each control patch is a check point
-    height_patches: int = 0  # sports fields: flat 20 m x 14 m, four height points each (height control)
-    moved_roof: tuple[float, ...] = ()  # (strip index, dz m): one roof in that strip moved (a blunder)
-    trajectory_rate_hz: float = 200.0
-    time_start: float = 400000.0
 
 
 @dataclass
@@ -75,72 +39,8 @@ class LaserTruth:
     boresight_error_deg: list
     strips: dict = field(default_factory=dict)  # id -> {t_start, t_end, position [[a0],[a1]], attitude_deg}
     moved_roof: dict | None = None
-
-
-def load_laser_config(path, overrides: dict | None = None) -> LaserBlockConfig:
-    """Read the ``[laser]`` table of a preset file (a Path or package resource); unknown keys are errors."""
-    try:
-        data = tomllib.loads(path.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise ProjectFileError(f"{path}: cannot read the laser preset ({exc})") from exc
-    unknown = sorted(set(data) - {"laser"})
-    if unknown:
-        raise ProjectFileError(f"{path}: unknown table [{unknown[0]}] (a laser preset has only [laser])")
-    table = dict(data.get("laser", {}))
-    table.update(overrides or {})
-    return read(LaserBlockConfig, table, str(path), "laser")  # every key typed (scangeo.io.schema)
-
-
-def is_laser_preset(path) -> bool:
-    try:
-        return "laser" in tomllib.loads(path.read_text())
-    except (OSError, tomllib.TOMLDecodeError):
-        return False
-
-
-def _triangle(t: np.ndarray, rate: float) -> np.ndarray:
-    """Oscillating-mirror scan angle pattern in [-1, 1]: +1 (right edge) -> -1 -> +1 per period."""
-    phase = (t * rate) % 1.0
-    return 4.0 * np.abs(phase - 0.5) - 1.0
-
-
-@dataclass
-class StripPlan:
-    id: str
-    start: np.ndarray  # (2,) project x, y
-    heading: float  # rad, clockwise from north
-    t0: float
-    duration: float
-
-
-def _plans(cfg: LaserBlockConfig) -> list[StripPlan]:
-    out, t = [], cfg.time_start
-    dur = cfg.strip_length / cfg.speed
-    half = 0.5 * cfg.strip_length
-    for k in range(cfg.strips):
-        x = (k - 0.5 * (cfg.strips - 1)) * cfg.strip_spacing
-        north = k % 2 == 0
-        out.append(StripPlan(str(k + 1), np.array([x, -half if north else half]), 0.0 if north else np.pi, t, dur))
-        t += dur + 60.0
-    if cfg.cross_strip:
-        out.append(StripPlan(str(cfg.strips + 1), np.array([-half, 0.0]), 0.5 * np.pi, t, dur))
-    return out
-
-
-def _true_trajectory(plan: StripPlan, cfg: LaserBlockConfig, t: np.ndarray, phase: np.ndarray):
-    s = cfg.speed * (t - plan.t0)
-    d = np.array([np.sin(plan.heading), np.cos(plan.heading)])
-    pos = np.column_stack([plan.start[0] + s * d[0], plan.start[1] + s * d[1], np.full(t.shape, cfg.height)])
-    w = np.radians(cfg.attitude_wobble_deg)
-    tt = t - plan.t0
-    ang = np.column_stack(
-        [
-            w[0] * np.sin(2 * np.pi * tt / 7.0 + phase[0]),
-            w[1] * np.sin(2 * np.pi * tt / 11.0 + phase[1]),
-            plan.heading + w[2] * np.sin(2 * np.pi * tt / 13.0 + phase[2]),
-        ]
-    )
-    return pos, ang
+    moved_roofs: list = field(default_factory=list)  # {strip, building, dz, x, y} per moved roof
+    missions: dict = field(default_factory=dict)  # name -> {position_m, attitude_deg}: its constant errors
 
 
 def _correction(coef: np.ndarray, t: np.ndarray, t0: float, t1: float) -> np.ndarray:
@@ -158,40 +58,52 @@ def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = 
     (out / "nav").mkdir(exist_ok=True)
     rng = np.random.default_rng(cfg.seed)
     frame = MapFrame.centred_on(cfg.crs, cfg.centre[0], cfg.centre[1], 0.0)
-    half = 0.5 * cfg.strip_length + 0.5 * cfg.height * np.tan(np.radians(cfg.fov_deg / 2)) + 50.0
-    scene = LaserScene.random((-half, -half, half, half), rng, cfg.building_spacing, cfg.building_fill)
+    valley = valley_of(cfg)
+    if cfg.mission_strips:
+        hx, hy = block_half_extent(cfg)
+        margin = 300.0  # beyond the outer strips' tracks: their swaths
+        bounds = (-hx - margin, -hy - margin, hx + margin, hy + margin)
+    else:
+        half = 0.5 * cfg.strip_length + 0.5 * cfg.height * np.tan(np.radians(cfg.fov_deg / 2)) + 50.0
+        bounds = (-half, -half, half, half)
+    scene = LaserScene.random(bounds, rng, cfg.building_spacing, cfg.building_fill, valley=valley,
+                              building_scale=cfg.building_scale)
     nominal = Calibration.of(np.radians(cfg.boresight_deg), cfg.lever_arm)
     true_cal = Calibration.of(np.radians(cfg.boresight_deg) + np.radians(cfg.boresight_error_deg), cfg.lever_arm)
     truth = LaserTruth(list(cfg.boresight_error_deg))
-    moved = None
+    flights = plans(cfg, scene)
+    moved = []  # (strip id, building, dz)
     if cfg.moved_roof:
         k = int(np.argmin(np.hypot(scene.buildings.x - 0.5 * cfg.strip_spacing, scene.buildings.y)))
-        moved = (str(int(cfg.moved_roof[0]) + 1), k, float(cfg.moved_roof[1]))
-        truth.moved_roof = {
-            "strip": moved[0],
-            "building": k,
-            "dz": moved[2],
-            "x": float(scene.buildings.x[k]),
-            "y": float(scene.buildings.y[k]),
-        }
+        moved.append((str(int(cfg.moved_roof[0]) + 1), k, float(cfg.moved_roof[1])))
+        truth.moved_roof = _moved(scene, *moved[0])
+    if cfg.moved_roofs:
+        moved += _moved_roofs(cfg, scene, flights)
+        truth.moved_roofs = [_moved(scene, *m) for m in moved[-cfg.moved_roofs:]]
+    mission_errors = {}
+    if cfg.mission_strips:  # a GPS shift and an IMU misalignment per mission (c = true - measured)
+        for name in dict.fromkeys(p.mission for p in flights):
+            mission_errors[name] = (
+                rng.normal(0, cfg.mission_shift_sigma),
+                np.radians(rng.normal(0, cfg.mission_misalignment_sigma_deg, 3)),
+            )
+            truth.missions[name] = {"position_m": mission_errors[name][0].tolist(),
+                                    "attitude_deg": np.degrees(mission_errors[name][1]).tolist()}
     strips_toml = []
-    for plan in _plans(cfg):
+    for plan in flights:
         n = int(plan.duration * cfg.pulse_rate_hz)
         t = plan.t0 + np.arange(n) / cfg.pulse_rate_hz
         phase = rng.uniform(0, 2 * np.pi, 3)
-        pos, ang = _true_trajectory(plan, cfg, t, phase)
-        theta = np.radians(cfg.fov_deg / 2) * _triangle(t - plan.t0, cfg.scan_rate_hz)
+        pos, ang = true_trajectory(plan, cfg, t, phase)
+        theta = np.radians(cfg.fov_deg / 2) * triangle(t - plan.t0, cfg.scan_rate_hz)
         R_PB = body_rotations(ang)
         R_BS = rph_to_matrix(*true_cal.boresight)
         d = np.einsum("nij,nj->ni", R_PB, beam(theta) @ R_BS.T)
         o = pos + R_PB @ true_cal.lever_arm
-        if moved is not None and moved[0] == plan.id:
-            scene.buildings.ridge[moved[1]] += moved[2]
-            scene.buildings.eave[moved[1]] += moved[2]
+        mine = [(k, dz) for sid, k, dz in moved if sid == plan.id]
+        _lift(scene, mine, 1.0)
         rho, ok = scene.cast(o, d)
-        if moved is not None and moved[0] == plan.id:
-            scene.buildings.ridge[moved[1]] -= moved[2]
-            scene.buildings.eave[moved[1]] -= moved[2]
+        _lift(scene, mine, -1.0)
         t, theta, rho = t[ok], theta[ok], rho[ok] + rng.normal(0.0, cfg.range_sigma, int(ok.sum()))
         # the GPS/IMU errors, c = true - measured, linear in tau over the strip's span
         t_lo, t_hi = float(t[0]), float(t[-1])
@@ -199,12 +111,17 @@ def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = 
         att_coef = np.radians(
             np.vstack([rng.normal(0, cfg.imu_offset_sigma_deg, 3), rng.normal(0, cfg.imu_drift_sigma_deg, 3)])
         )
+        if plan.mission in mission_errors:  # the mission's constant errors on top of the strip's
+            pos_coef[0] += mission_errors[plan.mission][0]
+            att_coef[0] += mission_errors[plan.mission][1]
         truth.strips[plan.id] = {
             "t_start": t_lo,
             "t_end": t_hi,
             "position_m": pos_coef.tolist(),
             "attitude_deg": np.degrees(att_coef).tolist(),
             "returns": int(t.size),
+            "mission": plan.mission,
+            "altitude_m": plan.altitude,
         }
         pos_m = pos[ok] - _correction(pos_coef, t, t_lo, t_hi)
         ang_m = ang[ok] - _correction(att_coef, t, t_lo, t_hi)
@@ -225,22 +142,29 @@ def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = 
             las.write(str(tmp), laz_backend=None) if las_extension == ".las" else las.write(str(tmp))
         # the measured GPS/IMU at the trajectory rate, a second beyond the strip at both ends
         tn = np.arange(plan.t0 - 1.0, plan.t0 + plan.duration + 1.0, 1.0 / cfg.trajectory_rate_hz)
-        pn, an = _true_trajectory(plan, cfg, tn, phase)
+        pn, an = true_trajectory(plan, cfg, tn, phase)
         pn = pn - _correction(pos_coef, tn, t_lo, t_hi)
         an = an - _correction(att_coef, tn, t_lo, t_hi)
         R = R_ENU_NED @ rph_to_matrix(an[:, 0], an[:, 1], an[:, 2])
         stream = GpsImuStream.from_project(ProjectTrajectory.from_rotations(tn, pn, R), frame.frame)
         write_trajectory_csv(out / "nav" / f"{plan.id}.csv", stream)
+        mission = f'mission = "{plan.mission}"\n' if cfg.mission_strips else ""
         strips_toml.append(
             f'[[strips]]\nid = "{plan.id}"\nlas = "strips/{plan.id}{las_extension}"\ntrajectory = "nav/{plan.id}.csv"\n'
+            + mission
         )
-    _write_ground(out, scene, frame, cfg, rng)
+    _write_ground(out, scene, frame, cfg, rng, {m["building"] for m in truth.moved_roofs})
     lat0, lon0 = np.degrees(frame.frame.lat0), np.degrees(frame.frame.lon0)
+    adjustment = ""
+    if cfg.adjustment:
+        adjustment = "[adjustment]\n" + "".join(
+            f"{k} = {int(v) if float(v).is_integer() else v}\n" for k, v in cfg.adjustment.items()) + "\n"
     project = (
         f'[project]\ncrs = "{cfg.crs}"\norigin = [{lat0:.10f}, {lon0:.10f}, {frame.frame.h0:.4f}]\n\n'
         f'[sensor]\nkind = "laser"\nfov_deg = {cfg.fov_deg}\npulse_rate_hz = {cfg.pulse_rate_hz}\n'
         f"scan_rate_hz = {cfg.scan_rate_hz}\nrange_sigma_m = {cfg.range_sigma}\n"
-        f"boresight_deg = {list(cfg.boresight_deg)}\nlever_arm_m = {list(cfg.lever_arm)}\n\n" + "\n".join(strips_toml)
+        f"boresight_deg = {list(cfg.boresight_deg)}\nlever_arm_m = {list(cfg.lever_arm)}\n\n" + adjustment
+        + "\n".join(strips_toml)
     )
     write_text(out / "project.toml", project)
     summary = {"config": asdict(cfg), "truth": asdict(truth), "buildings": scene.buildings.count}
@@ -248,12 +172,52 @@ def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = 
     return summary
 
 
-def _write_ground(out: Path, scene: LaserScene, frame: MapFrame, cfg: LaserBlockConfig, rng) -> None:
-    """Control and check patches: four surveyed points (a 5 m x 4 m rectangle) on ground or roof faces."""
+def _moved(scene: LaserScene, strip: str, k: int, dz: float) -> dict:
     b = scene.buildings
-    half = 0.5 * cfg.strip_length - 30.0
+    return {"strip": strip, "building": k, "dz": dz, "x": float(b.x[k]), "y": float(b.y[k])}
+
+
+def _lift(scene: LaserScene, moved: list[tuple[int, float]], sign: float) -> None:
+    """Raise (sign +1) or lower back (-1) the roofs of the given buildings."""
+    for k, dz in moved:
+        scene.buildings.ridge[k] += sign * dz
+        scene.buildings.eave[k] += sign * dz
+
+
+def _moved_roofs(cfg: LaserBlockConfig, scene: LaserScene, flights) -> list[tuple[str, int, float]]:
+    """``moved_roofs`` buildings well inside the block, each moved in the parallel strip flying
+    closest over it among those of the mission flown lowest (the densest: the roof is surely a patch);
+    a random stream of its own, so the rest of the block stays as without them."""
+    rng = np.random.default_rng(cfg.seed + 7919)
+    b = scene.buildings
+    inside = np.flatnonzero(inside_limits(cfg, b.x, b.y, 100.0))
+    chosen = rng.choice(inside, min(cfg.moved_roofs, inside.size), replace=False)
+    parallel = [p for p in flights if abs(np.sin(p.heading)) < 0.5]
+    if cfg.mission_clearance:
+        lowest = chr(ord("A") + int(np.argmin(cfg.mission_clearance)))
+        parallel = [p for p in parallel if p.mission == lowest]
+    out = []
+    for k in chosen:
+        best = min(parallel, key=lambda p: abs(p.start[0] - b.x[k]))
+        out.append((best.id, int(k), cfg.moved_roof_dz))
+    return out
+
+
+def _open_flat(scene: LaserScene, cfg: LaserBlockConfig, c: np.ndarray, ring: np.ndarray) -> bool:
+    """No building within the ring around ``c``, ground flatter than 3 %, inside the limits."""
+    return bool(np.all(scene.building_at(c[0] + ring[:, 0], c[1] + ring[:, 1])[0] < 0)
+                and np.all(scene.slope_at(c[0] + ring[:, 0], c[1] + ring[:, 1]) < 0.03)
+                and inside_limits(cfg, c[0], c[1], 30.0))
+
+
+def _write_ground(out: Path, scene: LaserScene, frame: MapFrame, cfg: LaserBlockConfig, rng,
+                  exclude: set[int] = frozenset()) -> None:  # type: ignore[assignment]
+    """Control and check patches: four surveyed points (a rectangle of ``survey_half``) on ground or roof
+    faces (not on the buildings in ``exclude``: the moved roofs), and sports fields (height control)."""
+    b = scene.buildings
+    half = np.array(block_half_extent(cfg)) - 30.0
     total = cfg.control_patches + cfg.check_patches
-    inside = np.flatnonzero((np.abs(b.x) < half) & (np.abs(b.y) < half))
+    inside = np.flatnonzero(inside_limits(cfg, b.x, b.y, 30.0) & ~np.isin(np.arange(b.count), list(exclude)))
     rng.shuffle(inside)
     # roof patches on distinct buildings, cycling through the ridge directions (roofs of one direction
     # alone leave the block's shift along the ridges free)
@@ -263,11 +227,13 @@ def _write_ground(out: Path, scene: LaserScene, frame: MapFrame, cfg: LaserBlock
     ring = 8.0 * np.array([[np.cos(a), np.sin(a)] for a in np.linspace(0, 2 * np.pi, 13)] + [[0.0, 0.0]])
     corners = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
     n_roof = 0
+    every = cfg.flat_control_every
+    su, sv = cfg.survey_half[0], cfg.survey_half[1]
     for i in range(total):
-        if i % 3 == 2 or n_roof >= len(roofs):  # every third patch on flat ground
+        if (every and i % every == every - 1) or n_roof >= len(roofs):  # every n-th patch on flat ground
             for _ in range(1000):
                 c = rng.uniform(-half, half, 2)
-                if np.all(scene.building_at(c[0] + ring[:, 0], c[1] + ring[:, 1])[0] < 0):
+                if _open_flat(scene, cfg, c, ring):
                     break
             e1, e2 = np.array([1.0, 0.0]), np.array([0.0, 1.0])
         else:
@@ -279,11 +245,11 @@ def _write_ground(out: Path, scene: LaserScene, frame: MapFrame, cfg: LaserBlock
             e1, e2 = np.array([np.cos(a), np.sin(a)]), np.array([-np.sin(a), np.cos(a)])
         role = "control" if i < cfg.control_patches else "check"
         pid = f"{'C' if role == 'control' else 'K'}{i + 1}"
-        rows += _surveyed(pid, role, c + 2.5 * corners[:, :1] * e1 + 2.0 * corners[:, 1:] * e2, scene, frame, cfg, rng)
-    for i in range(cfg.height_patches):  # sports fields on open ground
+        rows += _surveyed(pid, role, c + su * corners[:, :1] * e1 + sv * corners[:, 1:] * e2, scene, frame, cfg, rng)
+    for i in range(cfg.height_patches):  # sports fields on open, flat ground
         for _ in range(1000):
             c = rng.uniform(-half, half, 2)
-            if np.all(scene.building_at(c[0] + 2.0 * ring[:, 0], c[1] + 2.0 * ring[:, 1])[0] < 0):
+            if _open_flat(scene, cfg, c, 2.0 * ring):
                 break
         field = c + corners * [10.0, 7.0]
         rows += _surveyed(f"H{i + 1}", "height", field, scene, frame, cfg, rng)
@@ -302,3 +268,6 @@ def _surveyed(pid: str, role: str, xy: np.ndarray, scene: LaserScene, frame: Map
         out.append(f"{pid}.{j + 1},{pid},{X[j]:.4f},{Y[j]:.4f},{Z[j]:.4f},{cfg.control_sigma},{cfg.control_sigma},{r}")
     return out
 
+
+
+__all__ = ["LaserBlockConfig", "LaserTruth", "is_laser_preset", "load_laser_config", "simulate_laser"]

@@ -1,10 +1,14 @@
-"""A scene for simulated laser strips: flat, gently tilted ground with gable-roofed buildings whose
-roof faces look north, south, east, west or diagonally (different expositions), in the project frame.
+"""A scene for simulated laser strips: gently tilted ground, optionally an alpine valley (:class:`Valley`:
+a flat floor, planar sides rising some 2000 m to the ridges, ripples of every exposition on the sides),
+with gable-roofed buildings whose roof faces look north, south, east, west or diagonally (different
+expositions), in the project frame.
 
 Buildings sit on a regular lattice (one building at most per lattice cell, jittered), so the height
 of any point is found without a search: the lattice cell gives the only candidate building.
-Returns are cast onto the surface by a fixed-point iteration on the height; returns that do not
-converge (they graze a wall) are dropped as occluded.
+Returns are cast onto the surface by a fixed-point iteration on the height (first on the ground
+alone, then with the buildings); returns that do not converge (they graze a wall) are dropped as
+occluded. The iteration contracts where the slope times the tangent of the beam's off-nadir angle is
+below 1 (a 50 deg slope seen 20 deg off nadir: 0.43).
 """
 
 from __future__ import annotations
@@ -12,6 +16,47 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+
+def _softplus(x: np.ndarray, r: float) -> np.ndarray:
+    return r * np.logaddexp(0.0, x / r)
+
+
+@dataclass(frozen=True)
+class Valley:
+    """A valley along the project's y axis (heights in m above the project origin's level).
+
+    Across the valley (``u``: distance from its meandering axis) the ground is flat on the floor
+    (``|u| < floor_half_width``), rises with the side ``slope`` (tangent) and levels off at ``top``,
+    the kinks rounded over ``rounding`` metres; ripples of ``ripple`` metres (zero on the floor and on
+    the ridges) give the sides every exposition; the floor climbs ``floor_gradient`` along y.
+    """
+
+    floor: float
+    top: float
+    floor_half_width: float
+    slope: float
+    ripple: float = 0.0
+    ripple_wavelength: float = 1200.0
+    meander: float = 0.0
+    meander_wavelength: float = 6000.0
+    floor_gradient: float = 0.0
+    rounding: float = 60.0
+
+    def side(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """0 on the floor, 1 on the ridges."""
+        u = np.abs(x - self.meander * np.sin(2.0 * np.pi * y / self.meander_wavelength))
+        rise = self.top - self.floor
+        run = rise / self.slope
+        g = _softplus(u - self.floor_half_width, self.rounding) - _softplus(u - self.floor_half_width - run,
+                                                                                self.rounding)
+        return g / run
+
+    def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        s = self.side(x, y)
+        k = 2.0 * np.pi / self.ripple_wavelength
+        ripple = self.ripple * 4.0 * s * (1.0 - s) * np.sin(k * x) * np.sin(0.7 * k * y)
+        return self.floor + self.floor_gradient * y + (self.top - self.floor) * s + ripple
 
 
 @dataclass
@@ -44,6 +89,8 @@ class LaserScene:
     shape: tuple[int, int]
     slot: np.ndarray  # (ny, nx) building index of each lattice cell, -1 when empty
     buildings: Buildings
+    valley: Valley | None = None  # relief; its buildings stand level on the ground at their centre
+    base: np.ndarray | None = None  # (buildings,) ground height at each centre (with a valley)
 
     @classmethod
     def random(
@@ -54,14 +101,27 @@ class LaserScene:
         fill: float = 0.5,
         z0: float = 0.0,
         slope: tuple[float, float] = (0.005, -0.003),
+        valley: Valley | None = None,
+        building_scale: float = 1.0,
+        max_building_slope: float = 0.15,
     ) -> LaserScene:
+        """Buildings on a jittered lattice; with a ``valley`` only where its ground is gentler than
+        ``max_building_slope`` (villages on the floor and the terraces), level on their centre's ground."""
         x0, y0, x1, y1 = bounds
         nx, ny = int(np.ceil((x1 - x0) / spacing)), int(np.ceil((y1 - y0) / spacing))
         take = rng.random((ny, nx)) < fill
+        if valley is not None:
+            cx = x0 + (np.arange(nx) + 0.5) * spacing
+            cy = y0 + (np.arange(ny) + 0.5) * spacing
+            gx_, gy_ = np.meshgrid(cx, cy)
+            h = 5.0
+            grad = np.hypot(valley.height(gx_ + h, gy_) - valley.height(gx_ - h, gy_),
+                            valley.height(gx_, gy_ + h) - valley.height(gx_, gy_ - h)) / (2 * h)
+            take &= grad < max_building_slope
         iy, ix = np.nonzero(take)
         n = ix.size
-        half_l = rng.uniform(10.0, 15.0, n)
-        half_w = rng.uniform(8.0, 11.0, n)
+        half_l = building_scale * rng.uniform(10.0, 15.0, n)
+        half_w = building_scale * rng.uniform(8.0, 11.0, n)
         margin = 0.5 * spacing - np.hypot(half_l, half_w) - 1.0
         jitter = np.maximum(margin, 0.0)[:, None] * rng.uniform(-1, 1, (n, 2))
         azimuth = rng.choice(np.radians([0.0, 90.0, 45.0, 135.0, 20.0]), n)
@@ -78,10 +138,20 @@ class LaserScene:
             eave,
             eave + half_w * np.tan(pitch),
         )
-        return cls(z0, slope[0], slope[1], spacing, (x0, y0), (ny, nx), slot, b)
+        scene = cls(z0, slope[0], slope[1], spacing, (x0, y0), (ny, nx), slot, b, valley)
+        if valley is not None:
+            scene.base = scene.ground(b.x, b.y)
+        return scene
 
     def ground(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        return self.z0 + self.gx * x + self.gy * y
+        z = self.z0 + self.gx * x + self.gy * y
+        return z if self.valley is None else z + self.valley.height(x, y)
+
+    def slope_at(self, x: np.ndarray, y: np.ndarray, h: float = 5.0) -> np.ndarray:
+        """Gradient magnitude of the ground (tangent of its slope)."""
+        x, y = np.asarray(x, float), np.asarray(y, float)
+        gx = self.ground(x + h, y) - self.ground(x - h, y)
+        return np.hypot(gx, self.ground(x, y + h) - self.ground(x, y - h)) / (2 * h)
 
     def building_at(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Index of the building over each point (-1: none) and its coordinates along/across the ridge."""
@@ -107,7 +177,10 @@ class LaserScene:
         b = self.buildings
         kb = k[on]
         roof = b.ridge[kb] - (b.ridge[kb] - b.eave[kb]) * np.abs(v[on]) / b.half_width[kb]
-        z[on] += roof
+        if self.base is None:
+            z[on] += roof
+        else:
+            z[on] = self.base[kb] + roof
         return z
 
     def roof_face(self, k: int, side: int) -> tuple[np.ndarray, np.ndarray]:
@@ -129,6 +202,9 @@ class LaserScene:
         o, d = np.asarray(origin, float), np.asarray(direction, float)
         z = self.ground(o[:, 0], o[:, 1])
         lam = (z - o[:, 2]) / d[:, 2]
+        for _ in range(0 if self.valley is None else 40):  # onto the relief first (ground alone)
+            p = o + lam[:, None] * d
+            lam = (self.ground(p[:, 0], p[:, 1]) - o[:, 2]) / d[:, 2]
         for _ in range(iterations):
             p = o + lam[:, None] * d
             z = self.height(p[:, 0], p[:, 1])

@@ -1,0 +1,103 @@
+"""The ``montafon`` preset (issue 24): a block in the image of Kager's Montafon, two missions over an
+alpine valley. CI runs it reduced (11 strips); ``SCANGEO_SCALE=full`` runs the preset's 76 strips
+(docs/lidar.md section 6.5a has the full run's figures)."""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+
+import numpy as np
+import pytest
+
+from scangeo.adjustment.keys import Boresight
+from scangeo.errors import ProjectFileError
+from scangeo.lidar.adjust import LaserOptions, build, run
+from scangeo.lidar.evaluation import apply, evaluate
+from scangeo.lidar.project import LaserProject
+from scangeo.orientation.models import Correction
+from scangeo.resources import preset_file
+from scangeo.simulate.laser import load_laser_config, simulate_laser
+from scangeo.simulate.laser_plan import plans, valley_of
+from scangeo.simulate.laser_scene import LaserScene
+from tests.lidar.test_lidar_adjust import truth_values
+
+FULL = os.environ.get("SCANGEO_SCALE", "").lower() == "full"
+#: the reduced block of CI: 3 + 6 parallel strips and one cross strip per mission on a 300 m stretch
+#: of the valley floor and its lower slopes, 6 kHz; 2 moved roofs
+REDUCED = {
+    "mission_strips": [3, 6], "mission_cross_strips": [1, 1], "strip_length": 300.0, "limits": [650.0, 160.0],
+    "pulse_rate_hz": 6000.0, "control_patches": 12, "check_patches": 3, "height_patches": 4, "moved_roofs": 2,
+}
+
+
+def test_the_preset_is_the_papers_block():
+    """76 strips in two missions (20 + 4 cross, 49 + 3 cross), 880-2875 m of relief, strips clipped at
+    the project limits so that some parallel strips miss some cross strips."""
+    cfg = load_laser_config(preset_file("montafon"))
+    rng = np.random.default_rng(0)
+    scene = LaserScene.random((-3500.0, -600.0, 3500.0, 600.0), rng, 70.0, 0.5, valley=valley_of(cfg))
+    flights = plans(cfg, scene)
+    missions = [p.mission for p in flights]
+    assert len(flights) == 76 and (missions.count("A"), missions.count("B")) == (24, 52)
+    x = np.linspace(-3300.0, 3300.0, 661)
+    z = scene.ground(x, np.zeros_like(x))
+    assert z.min() == pytest.approx(880.0, abs=1.0) and 2800.0 < z.max() < 2950.0
+    cross = [p for p in flights if abs(np.sin(p.heading)) > 0.5]
+    parallel = [p for p in flights if abs(np.sin(p.heading)) < 0.5]
+    assert (len(cross), len(parallel)) == (7, 69)
+
+    def span(p):
+        end = p.start + p.duration * cfg.speed * np.array([np.sin(p.heading), np.cos(p.heading)])
+        return np.sort([p.start, end], axis=0)
+
+    misses = sum(1 for a in parallel for c in cross
+                 if not (span(c)[0, 0] <= a.start[0] <= span(c)[1, 0] and span(a)[0, 1] <= c.start[1] <= span(a)[1, 1]))
+    assert misses > 10  # the outer strips are short and the outer cross strips end early
+    lengths = [p.duration * cfg.speed for p in parallel]
+    assert min(lengths) < 0.7 * max(lengths)
+
+
+def test_mission_keys_of_the_wrong_length_are_named(tmp_path):
+    path = tmp_path / "m.toml"
+    path.write_text(preset_file("montafon").read_text())
+    with pytest.raises(ProjectFileError, match=r"laser.mission_spacing.*2 values"):
+        load_laser_config(path, {"mission_spacing": [300.0]})
+
+
+@pytest.fixture(scope="module")
+def montafon(tmp_path_factory):
+    root = tmp_path_factory.mktemp("montafon")
+    simulate_laser(root, load_laser_config(preset_file("montafon"), {} if FULL else REDUCED))
+    logging.getLogger("scangeo.lsq.solver").setLevel(logging.ERROR)
+    project = LaserProject.load(root)
+    block = build(project, LaserOptions.from_table(project.adjustment, str(root / "project.toml")), root / "ground.csv")
+    return root, block, run(block)
+
+
+@pytest.mark.scale
+def test_montafon_recovers_the_truth_and_finds_the_moved_roofs(montafon):
+    root, block, result = montafon
+    truth = json.loads((root / "truth.json").read_text())["truth"]
+    assert set(truth["missions"]) == {"A", "B"}
+    # patches the paper describes: tie patches in many strips (reduced: 11 strips in all)
+    in_strips = np.array([len(t.members) for t in block.ties])
+    assert in_strips.max() >= (10 if FULL else 8) and np.sum(in_strips >= 5) > 0.2 * in_strips.size
+    # every injected strip parameter (the mission's shift and misalignment included) and the boresight
+    true = truth_values(block, truth)
+    values, stats = result.parameters.values(), result.statistics
+    keys = [Boresight()] + [Correction(s) for s in truth["strips"] if Correction(s) in values]
+    z = np.concatenate([(values[k] - true[k]) / stats.sigmas(k) for k in keys])
+    assert np.all(np.abs(z) < 3.0), np.abs(z).max()
+    # the strip differences within 20 % of the noise floor (the same evaluation with the true parameters)
+    ev = evaluate(block, result, apply(block, values))
+    noise = evaluate(block, result, apply(block, true))
+    assert ev.before.rms(True) > 5 * ev.after.rms(True)
+    assert ev.after.rms(True) < 1.2 * noise.after.rms(True)
+    # each moved roof: its strip's patch there is rejected by data snooping
+    centre = dict(zip(block.frames.ids, block.frames.c0))
+    for moved in truth["moved_roofs"]:
+        hits = [r for r in result.rejections if r.group == f"anchors {moved['strip']}"
+                and np.hypot(centre[r.id][0] - moved["x"], centre[r.id][1] - moved["y"]) < 25.0]
+        assert hits and max(r.w for r in hits) > 10.0, moved
