@@ -18,7 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from scangeo.lidar.lasio import StripCloud
-from scangeo.lidar.planes import Planes, fit_planes
+from scangeo.lidar.plane_kernel import fit_planes
+from scangeo.lidar.planes import Planes
 
 OFFSET = 1 << 30
 

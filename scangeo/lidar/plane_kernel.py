@@ -1,11 +1,15 @@
-"""Planes of many groups of returns with data snooping, compiled (numba): the patch search's hot loop.
+"""Planes of many groups of returns with data snooping, compiled (numba): the one plane fit of the
+laser adjustment (grid cells, row buffer, seeded pass, control patches).
 
-The same fit and the same snooping rule as :func:`scangeo.lidar.planes.fit_planes` (the tests hold
-the two to 1e-9), in loops over the returns instead of ``np.bincount`` passes: moments are summed
-about the first return of each group (coordinates of any size stay precise), and after the first
-round only the groups whose plane changed are visited again. ``fit_planes`` needs about 0.5 s per
-million returns; this kernel about a tenth of that (``tests/benchmarks/lidar_adjust.py``), which is
-what lets the patch search keep up with a strip read from disk.
+Each group's plane is the total least-squares plane (normal = eigenvector of the smallest eigenvalue
+of its points' covariance), its a posteriori sigma ``sqrt(lambda_min n / (n - 3))``. Data snooping
+(Baarda): the normal distance of each point over the a priori sigma is its w (the redundancy numbers
+of a plane fit to many points are ~1); in every round the point with the largest |w| of each group is
+removed if |w| exceeds the critical value, and the planes are fitted again. Moments are summed about
+the first return of each group (coordinates of any size stay precise), in loops over the returns, and
+after the first round only the groups whose plane changed are visited again: about a tenth of the
+0.5 s per million returns of the ``np.bincount`` version it replaced (``tests/benchmarks/lidar_adjust.py``),
+which is what lets the patch search keep up with a strip read from disk.
 """
 
 from __future__ import annotations
@@ -130,7 +134,7 @@ def _totals(group, m):
     return out
 
 
-def fit_planes_fast(
+def fit_planes(
     xyz: np.ndarray,
     group: np.ndarray,
     m: int,
@@ -139,9 +143,11 @@ def fit_planes_fast(
     critical_value: float = 3.29,
     rounds: int = 5,
 ) -> Planes:
-    """:func:`scangeo.lidar.planes.fit_planes` (same arguments, same result), compiled.
+    """Fit a plane to each of the ``m`` groups of points ``xyz`` (n, 3); ``group`` (n,) in 0..m-1.
 
-    ``xyz`` (n, 3) may be absolute map or project coordinates; centroids come back in the same frame.
+    ``xyz`` may be absolute map or project coordinates (metres or map units); centroids come back in
+    the same frame. ``prior_sigma``: a priori normal-distance sigma (same unit) for snooping;
+    ``time`` (n,) gives each plane's mean time and its gradient along the in-plane axes.
     """
     xyz = np.ascontiguousarray(xyz, float)
     group = np.ascontiguousarray(group, np.int64)

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from scangeo.lidar.patches import PatchOptions
-from scangeo.lidar.plane_kernel import fit_planes_fast
+from scangeo.lidar.plane_kernel import fit_planes
 from scangeo.lidar.planes import Planes
 
 
@@ -244,7 +244,7 @@ class RowBuffer:
             remap[big] = np.arange(int(big.sum()))
             gg = remap[key]
             sel = gg >= 0
-            planes = fit_planes_fast(xyz[sel], gg[sel], int(big.sum()), self.prior, t[sel], o.critical_value)
+            planes = fit_planes(xyz[sel], gg[sel], int(big.sum()), self.prior, t[sel], o.critical_value)
             self._planes.append(planes.take(accepted(planes, o)))
 
     def finish(self) -> Candidates:

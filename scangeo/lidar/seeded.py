@@ -24,7 +24,7 @@ import numba
 import numpy as np
 
 from scangeo.lidar.patches import PatchOptions, StripPatches
-from scangeo.lidar.plane_kernel import fit_planes_fast
+from scangeo.lidar.plane_kernel import fit_planes
 from scangeo.lidar.planes import Planes
 from scangeo.lidar.rowbuffer import Candidates, accepted, concat_planes
 
@@ -175,7 +175,7 @@ def fit_seeds(
         remap = np.zeros(m, np.int64)
         remap[ids] = np.arange(ids.size)
         g = remap[buf_seed[sel]]
-        planes = fit_planes_fast(buf_xyz[sel], g, ids.size, prior_sigma, buf_t[sel], options.critical_value)
+        planes = fit_planes(buf_xyz[sel], g, ids.size, prior_sigma, buf_t[sel], options.critical_value)
         ok = accepted(planes, options) & _compatible(planes, seeds, rows[ids], options)
         parts_seed.append(rows[ids[ok]])
         parts_planes.append(planes.take(ok))
