@@ -1,13 +1,15 @@
-"""Strip neighbourhoods of a block's unknowns, for the local external reliability.
+"""Strip neighbourhoods of a block's unknowns: the observations whose blunders the external
+reliability evaluates for a strip.
 
 A strip's unknowns are the columns its own observation groups (its GPS/IMU samples and image
 measurements) touch: its spline knots, the corrections of its GPS/IMU models, the ground points it
 measures. Two strips are neighbours when they share such a column that is not **global**: a column
-that more than ``GLOBAL_STRIPS`` strips touch (a boresight, a block-wide GPS/IMU model) belongs to
-every neighbourhood's domain but links no two strips. The neighbourhood of strip ``s`` at radius
-``r`` (:class:`~scangeo.lsq.probe_effects.Neighbourhood`): ``near`` the columns of the strips at most
-``r`` steps away (their observations are evaluated), ``domain`` those of the strips at most ``r + 1``
-steps away and the global columns (solved for; the others held fixed).
+that more than ``GLOBAL_STRIPS`` strips touch (a boresight, a block-wide GPS/IMU model) links no two
+strips. The neighbourhood of strip ``s`` at radius ``r``
+(:class:`~scangeo.lsq.probe_effects.Neighbourhood`): ``near``, the non-global columns of the strips at
+most ``r`` steps away; the observations that touch them are evaluated for the strip's probe.
+Strips of one window (a strip and the strips within ``core`` steps not yet served) share one
+neighbourhood, and so one solve.
 """
 from __future__ import annotations
 
@@ -22,9 +24,7 @@ from scangeo.lsq.solver import Solution
 GLOBAL_STRIPS = 4
 #: Default radius (strip steps around a window) of the rows evaluated for its strips' probes.
 RADIUS = 2
-#: Default margin (strip steps beyond the evaluated rows) of the unknowns solved for.
-MARGIN = 3
-#: Default half width (strip steps) of a window of strips that share one factorisation.
+#: Default half width (strip steps) of a window of strips that share one solve.
 CORE = 2
 
 
@@ -56,16 +56,15 @@ def _distances(adjacent: dict[str, set[str]], start: set[str], limit: int) -> di
     return dist
 
 
-def strip_neighbourhoods(solution: Solution, radius: int = RADIUS, margin: int = MARGIN,
-                         core: int = CORE) -> dict[str, Neighbourhood]:
+def strip_neighbourhoods(solution: Solution, radius: int = RADIUS, core: int = CORE) -> dict[str, Neighbourhood]:
     """Per strip, its :class:`Neighbourhood` (see the module docstring); strips of one window share
-    the same object (one factorisation)."""
+    the same object. A window whose neighbourhood holds every strip gets none (every row is
+    evaluated)."""
     cols = strip_columns(solution)
     count = np.zeros(solution.layout.n, dtype=np.int64)
     for c in cols.values():
         count[c] += 1
     is_global = count > GLOBAL_STRIPS
-    glob = np.flatnonzero(is_global)
     owners: dict[int, list[str]] = {}
     for sid, c in cols.items():
         for col in c[~is_global[c] & (count[c] > 1)]:
@@ -75,18 +74,20 @@ def strip_neighbourhoods(solution: Solution, radius: int = RADIUS, margin: int =
         for a in sids:
             adjacent[a].update(b for b in sids if b != a)
     out: dict[str, Neighbourhood] = {}
-    order = list(cols)
-    for sid in order:   # windows: a strip not yet served and the unserved strips within `core` steps
-        if sid in out:
+    served: set[str] = set()
+    for sid in cols:   # windows: a strip not yet served and the unserved strips within `core` steps
+        if sid in served:
             continue
-        window = {t for t in _distances(adjacent, {sid}, core) if t not in out}
-        dist = _distances(adjacent, window, radius + margin)
-        near = np.unique(np.concatenate([cols[t] for t, d in dist.items() if d <= radius]))
-        domain = np.unique(np.concatenate([cols[t] for t in dist] + [glob]))
-        hood = Neighbourhood(near[~is_global[near]], domain)
+        window = {t for t in _distances(adjacent, {sid}, core) if t not in served}
+        served |= window
+        dist = _distances(adjacent, window, radius)
+        if len(dist) == len(cols):
+            continue
+        near = np.unique(np.concatenate([cols[t] for t in dist]))
+        hood = Neighbourhood(near[~is_global[near]])
         for t in window:
             out[t] = hood
     return out
 
 
-__all__ = ["CORE", "GLOBAL_STRIPS", "MARGIN", "RADIUS", "strip_columns", "strip_neighbourhoods"]
+__all__ = ["CORE", "GLOBAL_STRIPS", "RADIUS", "strip_columns", "strip_neighbourhoods"]

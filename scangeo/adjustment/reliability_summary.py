@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections import ChainMap
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,10 +32,10 @@ import scipy.sparse as sp
 
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Ground
-from scangeo.adjustment.neighbourhoods import MARGIN, RADIUS, strip_neighbourhoods
+from scangeo.adjustment.neighbourhoods import RADIUS, strip_neighbourhoods
 from scangeo.adjustment.results import VariantResult
 from scangeo.atomic import write_csv, write_text
-from scangeo.lsq.parameters import Layout
+from scangeo.lsq.parameters import JacobianPart, Layout, Parameters
 from scangeo.lsq.reliability import OrientationProbe, Reliability, compute_reliability, delta0
 from scangeo.lsq.statistics import MIN_REDUNDANCY
 
@@ -57,16 +58,16 @@ class VariantReliability:
 
 
 def strip_probes(result: VariantResult, grid: tuple[int, int] = PROBE_GRID,
-                 radius: int | None = RADIUS, margin: int = MARGIN) -> list[OrientationProbe]:
+                 radius: int | None = RADIUS) -> list[OrientationProbe]:
     """Per strip, how the unknowns move its ground positions at a grid of image positions (adjusted
     geometry, on the DTM): ``dG_xy = -(dimage/dG_xy)^-1 dimage/dx`` (see ``OrientationProbe``).
 
-    ``radius``, ``margin``: the probe's neighbourhood (strip steps, :mod:`scangeo.adjustment.neighbourhoods`)
-    for the local external reliability where it is smaller than the block; None: every probe exact.
+    ``radius``: the probe's neighbourhood (strip steps, :mod:`scangeo.adjustment.neighbourhoods`): the
+    observations evaluated for it, where it is smaller than the block; None: every observation.
     """
     sol = result.adjustment.solution
-    hoods = strip_neighbourhoods(sol, radius, margin) if radius is not None else {}
-    values = sol.parameters.values()
+    hoods = strip_neighbourhoods(sol, radius) if radius is not None else {}
+    values = sol.parameters.values()     # once: per strip only its probe points are added (linear)
     project = result.block.project
     out = []
     for sid, strip in result.block.strips.items():
@@ -81,26 +82,44 @@ def strip_probes(result: VariantResult, grid: tuple[int, int] = PROBE_GRID,
         probe = ImageObservations(sid, project.sensor.model, strip.spline, project.timing(sid), ids,
                                   L.ravel()[ok], X.ravel()[ok], 1.0, name=f"probe {sid}")
         keys = [Ground(i) for i in ids]
-        vals = dict(values)
-        vals.update({k: p for k, p in zip(keys, p_P[ok])})
-        lin = probe.linearise(vals)
-        # columns of the adjustment (probe points fixed), and of the probe points alone
-        ext = sol.parameters.copy()
-        for k, p in zip(keys, p_P[ok]):
-            ext.add(k, p, free=False)
-        J_x = Layout.of(ext).matrix(lin.parts, probe.n_rows).tocsr()
-        only = ext.copy()
-        for b in only:
-            b.free = np.zeros(b.size, bool) if b.key not in keys else np.array([True, True, False])
-        J_g = Layout.of(only).matrix(lin.parts, probe.n_rows).toarray()   # (2k, 2k): d(line, pixel)/d(x, y)
+        lin = probe.linearise(ChainMap(dict(zip(keys, p_P[ok])), values))
+        # columns of the adjustment (probe points fixed), and of the probe points alone (x, y free)
+        inside, outside = _split_parts(lin.parts, set(keys))
+        J_x = sol.layout.matrix(outside, probe.n_rows).tocsr()
+        J_g = _probe_layout(keys, p_P[ok]).matrix(inside, probe.n_rows).toarray()   # d(line, pixel)/d(x, y)
         n = len(ids)
         blocks = [np.linalg.inv(J_g[2 * i:2 * i + 2, 2 * i:2 * i + 2]) for i in range(n)]
         M = -(sp.block_diag(blocks, format="csr") @ J_x)
         x, y, _ = project.map_frame.project_to_map(p_P[ok])
-        hood = hoods.get(sid)
-        local = hood if hood is not None and hood.domain.size < sol.layout.n else None
-        out.append(OrientationProbe(sid, M.tocsr(), np.column_stack([x, y]), local))
+        out.append(OrientationProbe(sid, M.tocsr(), np.column_stack([x, y]), hoods.get(sid)))
     return out
+
+
+def _probe_layout(keys: list[Ground], p_P: np.ndarray) -> Layout:
+    """The columns of the probe points alone: x, y free, z fixed (positions on the DTM)."""
+    params = Parameters()
+    for k, p in zip(keys, p_P):
+        params.add(k, p, free=np.array([True, True, False]))
+    return Layout.of(params)
+
+
+def _split_parts(parts, keys: set) -> tuple[list[JacobianPart], list[JacobianPart]]:
+    """The Jacobian parts' entries with respect to ``keys`` and those with respect to any other key."""
+    inside: list[JacobianPart] = []
+    outside: list[JacobianPart] = []
+    for part in parts:
+        if part.block is None:
+            (inside if part.keys[0] in keys else outside).append(part)
+            continue
+        r, c, v, b = (np.ravel(a) for a in np.broadcast_arrays(part.rows, part.cols, part.values, part.block))
+        is_key = np.array([k in keys for k in part.keys], dtype=bool)
+        for side, sel in ((inside, is_key[b]), (outside, ~is_key[b])):
+            own = np.flatnonzero(is_key == (side is inside))   # the part's keys on this side, renumbered
+            number = np.full(len(part.keys), -1, dtype=np.int64)
+            number[own] = np.arange(own.size)
+            if own.size:
+                side.append(JacobianPart([part.keys[k] for k in own], r[sel], c[sel], v[sel], number[b[sel]]))
+    return inside, outside
 
 
 def _kinds(result: VariantResult, groups) -> list[np.ndarray]:

@@ -1,4 +1,5 @@
-"""The effect of single blunders on a probe (a linear map of the unknowns), exactly or locally.
+"""The effect of single blunders on a probe (a linear map of the unknowns): over every row, or over
+the rows near the probe.
 
 A probe ``P`` (k x n) maps a change of the unknowns to quantities a user cares about, e.g. the ground
 positions of one strip. An undetected blunder of ``size_i`` whitened units in row ``i`` (whitened,
@@ -6,27 +7,23 @@ scaled Jacobian row ``j_i``) moves them by
 
     P N^-1 j_i^T size_i                                 (N the scaled normal matrix)
 
-**Exact** (:func:`exact_probe_effects`): ``W = N^-1 P^T`` by one solve with the whole factor, then every
-row. Per probe that costs a solve over all ``n`` unknowns and a product with all ``m`` rows: with one
-probe per strip, quadratic in the number of strips (96 strips: 20 minutes, 4.8 GB).
+**Every row** (:func:`exact_probe_effects`): ``W = N^-1 P^T`` by one solve with the whole factor, then
+every row. Per probe that costs a solve over all ``n`` unknowns and a product with all ``m`` rows: with
+one probe per strip, quadratic in the number of strips (96 strips: 20 minutes, 4.8 GB).
 
-**Local** (:func:`local_probe_effects`), when the probe names a neighbourhood: ``near`` columns (the
-rows that touch them are evaluated) inside a ``domain`` of columns (the unknowns solved for; it holds
-``near``, the probe's own columns, and every column of a row that touches ``near``). Then
+**The rows near the probe** (:func:`near_probe_effects`), when the probe names a neighbourhood: only
+the rows that touch its ``near`` columns are evaluated, and of ``W = N^-1 P^T`` only the entries
+those rows need (their columns ``T``), by a solve with the whole factor restricted to the entries
+that reach them (:class:`~scangeo.lsq.partial_solve.PartialSolver`: the ancestors of ``P``'s columns
+and of ``T`` in the elimination tree). The figures of the rows evaluated are those of the exact
+route (the same arithmetic; they agree to rounding). The approximation, stated: a row that touches no
+``near`` column is not evaluated for this probe, i.e. its effect on the probe is taken to be below the
+largest effect of the rows that are (on a block of strips the effect of a blunder decays by about ten
+times per strip of distance). Cost per probe: about that of its neighbourhood's columns of the factor,
+so linear in the number of probes.
 
-    W_D = N[D, D]^-1 P[:, D]^T,      effect_i = j_i[D] W_D size_i      (rows touching ``near``)
-
-by one sparse factorisation of the domain's normal matrix. The approximation, stated: the unknowns
-outside the domain are held fixed, i.e. the information they pass in through the domain's edge
-counts as exact: ``N[D, D]`` misses the Schur complement ``N_DB N_BB^-1 N_BD`` of the outside. The
-difference decays with the margin between ``near`` and the edge of the domain (on a chain of strips
-by about ten times per strip of margin) and is zero when the domain holds every unknown coupled to
-it. Rows that touch no ``near`` column are not evaluated for this probe (their effect on it is taken
-as below the largest).
-Cost per probe: that of its neighbourhood, so linear in the number of probes. Parallel: CHOLMOD's
-supernodal factorisation and solves use the BLAS's threads; ``workers`` threads over the windows
-overlap only what releases the GIL (scikit-sparse 0.4 holds it during CHOLMOD's calls, so the
-default is one).
+Parallel: the partial solves are compiled and release the GIL; ``workers`` threads run the probes'
+solves side by side (the products with the rows hold it in part).
 """
 from __future__ import annotations
 
@@ -37,16 +34,15 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from scangeo.lsq.factor import Factor, Factorizer
+from scangeo.lsq.factor import Factor
+from scangeo.lsq.partial_solve import PartialSolver
 
 
 @dataclass(frozen=True)
 class Neighbourhood:
-    """Columns (the layout's) of a probe's neighbourhood: rows that touch ``near`` are evaluated,
-    the unknowns ``domain`` (a superset of ``near``) are solved for, the others held fixed."""
+    """Columns (the layout's) of a probe's neighbourhood: the rows that touch ``near`` are evaluated."""
 
     near: np.ndarray
-    domain: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -73,42 +69,45 @@ def exact_probe_effects(factor: Factor, Js: sp.csr_matrix, size: np.ndarray, Ps:
     return ProbeEffect(np.arange(Js.shape[0]), length)
 
 
-def local_probe_effects(normal: sp.csc_matrix, Js_csc: sp.csc_matrix, Js: sp.csr_matrix, size: np.ndarray,
-                        probes: Sequence[sp.csr_matrix], hood: Neighbourhood) -> list[ProbeEffect]:
+def near_probe_effects(solver: PartialSolver, Js_csc: sp.csc_matrix, Js: sp.csr_matrix, size: np.ndarray,
+                       probes: Sequence[sp.csr_matrix], hood: Neighbourhood) -> list[ProbeEffect]:
     """The effects of the rows that touch ``hood.near`` on each of ``probes`` (sharing the
-    neighbourhood: one factorisation), with the unknowns outside ``hood.domain`` held fixed (see the
-    module's docstring). ``normal`` the scaled normal matrix (n x n), ``Js_csc`` the same rows as
-    ``Js`` in CSC (for finding the rows of a column)."""
-    D = np.unique(hood.domain)
+    neighbourhood: one partial solve for all their right-hand sides), exact for those rows (see the
+    module's docstring). ``Js_csc`` the same rows as ``Js`` in CSC (for finding the rows of a column)."""
     near = np.unique(hood.near)
     rows = np.unique(Js_csc[:, near].indices) if near.size else np.zeros(0, np.int64)
     if not rows.size:
         return [ProbeEffect(rows, np.zeros((0, P.shape[0] // 2))) for P in probes]
-    factor = Factorizer().factorize(normal[:, D][D, :])
-    J = Js[rows][:, D]
-    out = []
-    for P in probes:   # one probe at a time: memory (domain x 2 positions) stays that of one probe
-        W = np.asarray(factor.solve(P[:, D].T.toarray())).reshape(D.size, P.shape[0])
-        out.append(ProbeEffect(rows, _lengths((J @ W) * size[rows, None])))
+    J = Js[rows]
+    T = np.unique(J.indices)
+    support = np.unique(np.concatenate([P.indices for P in probes]))
+    B = np.hstack([P[:, support].T.toarray() for P in probes])
+    W = solver.solve(support, B, T)                     # (N^-1 P^T)[T], every probe's columns side by side
+    shifts = (J[:, T] @ W) * size[rows, None]
+    out, a = [], 0
+    for P in probes:
+        out.append(ProbeEffect(rows, _lengths(shifts[:, a:a + P.shape[0]])))
+        a += P.shape[0]
     return out
 
 
-def probe_effects(factor: Factor, normal: sp.csc_matrix, Js: sp.csr_matrix, size: np.ndarray,
+def probe_effects(factor: Factor, solver: PartialSolver | None, Js: sp.csr_matrix, size: np.ndarray,
                   probes: Sequence[sp.csr_matrix], hoods: Sequence[Neighbourhood | None],
                   workers: int = 1) -> list[ProbeEffect]:
-    """:func:`local_probe_effects` for the probes with a neighbourhood (probes that share one
-    ``Neighbourhood`` object share its factorisation), :func:`exact_probe_effects` for the others;
-    ``workers`` threads over the neighbourhoods."""
-    Js_csc = Js.tocsc() if any(h is not None for h in hoods) else None
+    """:func:`near_probe_effects` for the probes with a neighbourhood (probes that share one
+    ``Neighbourhood`` object share its solve; ``solver`` from the same factor), :func:`exact_probe_effects`
+    for the others; ``workers`` threads over the neighbourhoods."""
+    near = solver is not None and any(h is not None for h in hoods)
+    Js_csc = Js.tocsc() if near else None
     tasks: dict[int, list[int]] = {}
     for k, hood in enumerate(hoods):
-        tasks.setdefault(id(hood) if hood is not None else -1 - k, []).append(k)
+        tasks.setdefault(id(hood) if hood is not None and near else -1 - k, []).append(k)
 
     def one(ks: list[int]) -> list[ProbeEffect]:
         hood = hoods[ks[0]]
-        if hood is None or Js_csc is None:
+        if hood is None or solver is None or Js_csc is None:
             return [exact_probe_effects(factor, Js, size, probes[k]) for k in ks]
-        return local_probe_effects(normal, Js_csc, Js, size, [probes[k] for k in ks], hood)
+        return near_probe_effects(solver, Js_csc, Js, size, [probes[k] for k in ks], hood)
 
     groups = list(tasks.values())
     if workers <= 1 or len(groups) < 2:
@@ -123,4 +122,4 @@ def probe_effects(factor: Factor, normal: sp.csc_matrix, Js: sp.csr_matrix, size
     return [r for r in out if r is not None]
 
 
-__all__ = ["Neighbourhood", "ProbeEffect", "exact_probe_effects", "local_probe_effects", "probe_effects"]
+__all__ = ["Neighbourhood", "ProbeEffect", "exact_probe_effects", "near_probe_effects", "probe_effects"]

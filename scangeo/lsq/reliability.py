@@ -23,8 +23,9 @@ With whitened rows (residual / sigma, Jacobian / sigma), ``N = J^T J`` and the r
 Everything comes from the factor of the last solution and its selected inverse: the effects on the
 ground points from the selected inverse (the unknowns of one observation share its pattern), the
 effects on the strips' ground positions by one solve per probe position and axis, never a dense
-inverse: with the whole factor over every row, or (a probe with a neighbourhood) with the factor of
-its neighbourhood over the rows near it, linear in the size of a block (:mod:`scangeo.lsq.probe_effects`).
+inverse: over every row, or (a probe with a neighbourhood) over the rows near it, solved with the
+whole factor restricted to the entries those rows need, linear in the size of a block
+(:mod:`scangeo.lsq.probe_effects`, :mod:`scangeo.lsq.partial_solve`).
 Rejected rows and pseudo-observations get NaN.
 """
 from __future__ import annotations
@@ -65,8 +66,8 @@ class OrientationProbe:
     matrix: sp.csr_matrix
     #: (k, 2) map x, y of the k positions (for maps), or None
     xy: np.ndarray | None = None
-    #: the unknowns whose observations count and the unknowns solved for (see
-    #: :mod:`scangeo.lsq.probe_effects`); None: every row, with the whole factor (exact)
+    #: the unknowns whose observations are evaluated (see :mod:`scangeo.lsq.probe_effects`); None:
+    #: every row
     neighbourhood: Neighbourhood | None = None
 
 
@@ -170,10 +171,11 @@ def compute_reliability(solution: Solution, statistics: Statistics, probes: Sequ
         ext_p[gi][local[sel]] = point[sel]
         ext_o[gi][local[sel]] = np.nan if not probes else 0.0
     tested = np.array([groups[gi].snooped for gi in owner_group], dtype=bool)
-    # the strips' ground positions: N^-1 P^T per probe, over the probe's neighbourhood when it has one
+    # the strips' ground positions: N^-1 P^T per probe, at the rows near it when it has a neighbourhood
     scaled = [(probe.matrix @ sp.diags(1.0 / scale)).tocsr() for probe in probes]
-    effects = probe_effects(solution.factor, solution.system.normal, Js, size, scaled,
-                            [probe.neighbourhood for probe in probes], workers)
+    hoods = [probe.neighbourhood for probe in probes]
+    solver = statistics.inverse.partial_solver() if any(h is not None for h in hoods) else None
+    effects = probe_effects(solution.factor, solver, Js, size, scaled, hoods, workers)
     per_row_all = np.zeros(glob.size)
     for probe, effect in zip(probes, effects):
         length = effect.length                                      # (evaluated rows, K) metres

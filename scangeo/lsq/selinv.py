@@ -17,6 +17,7 @@ import numba
 import numpy as np
 
 from scangeo.lsq.factor import LDL
+from scangeo.lsq.partial_solve import PartialSolver
 
 
 @numba.njit(cache=True)
@@ -96,11 +97,18 @@ class SparseInverse:
         n = L.shape[0]
         self._Lp = L.indptr.astype(np.int64)
         self._Li = L.indices.astype(np.int64)
+        self._Lx = np.ascontiguousarray(L.data, dtype=float)
+        self._d = np.ascontiguousarray(ldl.d, dtype=float)
         self._Zx = np.empty(L.nnz)
         self._Zd = np.empty(n)
-        _takahashi(n, self._Lp, self._Li, L.data.astype(float), np.asarray(ldl.d, float), self._Zx, self._Zd)
+        _takahashi(n, self._Lp, self._Li, self._Lx, self._d, self._Zx, self._Zd)
         self._pos = np.empty(n, dtype=np.int64)
         self._pos[ldl.perm] = np.arange(n)
+
+    def partial_solver(self) -> PartialSolver:
+        """Solves with the same factor restricted to the entries that reach the result (the arrays
+        are shared): :class:`~scangeo.lsq.partial_solve.PartialSolver`."""
+        return PartialSolver(self._Lp, self._Li, self._Lx, self._d, self._pos)
 
     def diagonal(self) -> np.ndarray:
         """``diag(A^-1)`` in the original numbering."""
