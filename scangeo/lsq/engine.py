@@ -85,6 +85,9 @@ class Adjustment:
     snooping_rounds: int = 0
     #: full solutions (factorisation and selected inversion), the first included
     full_solutions: int = 1
+    #: sigma0 of the first full solution, with every observation (before data snooping removed any): the
+    #: same as an adjustment without snooping gives, without a second adjustment
+    sigma0_first: float = float("nan")
 
     @property
     def parameters(self) -> Parameters:
@@ -139,6 +142,7 @@ def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
     solver = Solver(parameters, groups, solver_options, scaled(callback, 0.0, 0.7))
     solution = solver.solve()
     stats = Statistics(solution)
+    sigma0_first = float(stats.sigma0)
     full = 1
     update: RemovalUpdate | None = None    # removals since the last full solution, by low-rank update
     rejections: list[Rejection] = []
@@ -201,4 +205,4 @@ def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
     solution.regularisation = [replace(n, reason=f"every measurement of the point removed ({NOTE})")
                                if n.key in hidden else n
                                for n in solution.regularisation]
-    return Adjustment(solution, stats, rejections, rounds, full)
+    return Adjustment(solution, stats, rejections, rounds, full, sigma0_first)

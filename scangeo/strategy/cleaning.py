@@ -233,17 +233,17 @@ def clean(project: Project | Path | str, options: CleaningOptions = CleaningOpti
     for g in block.groups:
         if isinstance(g, DtmHeights) and options.dtm_sigma_factor != 1.0:
             g.sigma = g.sigma * options.dtm_sigma_factor
-    first = adjust_block(block, snooping=False, callback=scaled(progress, 0.05, 0.3))
     n_image = sum(g.n_rows // 2 for g in block.groups if isinstance(g, ImageObservations))
     max_rejections = max(1, int(options.max_fraction * n_image))
-    adj = adjust_block(block, snooping=True, callback=scaled(progress, 0.3, 1.0), max_rejections=max_rejections)
+    # sigma0 before the cleaning is that of the adjustment's first solution, before snooping removed anything
+    adj = adjust_block(block, snooping=True, callback=scaled(progress, 0.05, 1.0), max_rejections=max_rejections)
     rejected, dtm, mdb = _rejected(block, adj, cleaning_ground)
     notes = list(block.notes)
     if len(adj.rejections) >= max_rejections:
         notes.append(f"data snooping stopped at {max_rejections} rejections ({100 * options.max_fraction:g} "
                      "% of the image measurements): the model, the sigmas or the data need a look")
     n_ground = sum(len(g.points) for g in block.groups if isinstance(g, GroundControl))
-    result = Cleaning(str(project.root), tuple(rejected), float(first.statistics.sigma0),
+    result = Cleaning(str(project.root), tuple(rejected), adj.sigma0_first,
                       float(adj.statistics.sigma0), variant.description, n_image, n_ground,
                       options, tuple(dtm), tuple(notes), mdb)
     write_cleaning(result)

@@ -52,6 +52,11 @@ def test_snooping_critical_value_is_configurable():
     lax = adjust(levelling_parameters(truth), [group], snooping=SnoopingOptions(critical_value=1e3))
     assert group.ids[5] in {r.id for r in strict.rejections}
     assert lax.rejections == []
+    # sigma0 of the first solution, before any rejection, is that of an adjustment without snooping
+    plain = adjust(levelling_parameters(truth), [group], snooping=NO_SNOOPING)
+    assert strict.sigma0_first == pytest.approx(plain.statistics.sigma0, rel=1e-12)
+    assert strict.sigma0_first > 1.5 * strict.statistics.sigma0  # the blunder was in it, and is gone
+    assert lax.sigma0_first == pytest.approx(lax.statistics.sigma0, rel=1e-12)
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
