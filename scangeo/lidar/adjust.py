@@ -31,7 +31,6 @@ from scangeo.lidar.control import GivenPatches, read_patch_ground
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, georeference, recover
 from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors
 from scangeo.lidar.keys import RangeOffset
-from scangeo.lidar.lasio import StripCloud, read_strip
 from scangeo.lidar.options import LaserOptions
 from scangeo.lidar.patches import TiePatch, grid_name, homologous
 from scangeo.lidar.planes import ANCHORS, anchors
@@ -365,9 +364,4 @@ def anchor_points(block: LaserBlock, strip: str, values) -> np.ndarray:
     return a["work"] + c[:, :3]
 
 
-def read_cloud(block: LaserBlock, strip: str) -> StripCloud:
-    s = next(s for s in block.project.strips if s.id == strip)
-    return read_strip(s.id, s.las, s.point_source_id, block.project.crs)
-
-
-__all__ = ["LaserOptions", "LaserBlock", "build", "run", "corrector", "anchor_points", "read_cloud", "Polar"]
+__all__ = ["LaserOptions", "LaserBlock", "build", "run", "corrector", "anchor_points", "Polar"]

@@ -1,7 +1,8 @@
 """Apply an adjusted laser block: corrected strips, strip differences, check patches, tie discrepancies.
 
-:func:`apply` corrects every strip's returns (streamed; written as LAS/LAZ through ``scangeo.atomic``
-when ``out`` is given) and finds the planar cells of the corrected strips for the strip differences.
+:func:`apply` corrects every strip's returns (streamed chunk by chunk; written as LAS/LAZ through
+``scangeo.atomic`` when ``out`` is given) and finds the planar cells of the corrected strips for the
+strip differences from the same chunks (memory: a chunk and the open cells, not the strip).
 :func:`evaluate` gathers everything the report shows.
 """
 
@@ -12,11 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from scangeo.lidar.adjust import LaserBlock, anchor_points, corrector, map_unit, read_cloud
+from scangeo.lidar.adjust import LaserBlock, anchor_points, corrector, map_unit
+from scangeo.lidar.cells import GridCellStream
 from scangeo.lidar.differences import Differences, common_rows, strip_differences
 from scangeo.lidar.keys import Plane
-from scangeo.lidar.lasio import StripCloud, write_corrected
-from scangeo.lidar.patches import StripPatches, find_strip_patches
+from scangeo.lidar.lasio import iter_returns, write_corrected
+from scangeo.lidar.patches import StripPatches
 from scangeo.lidar.planes import ANCHORS
 from scangeo.lsq.engine import Adjustment
 from scangeo.progress import ProgressCallback, no_progress
@@ -38,28 +40,28 @@ def block_unit(block: LaserBlock) -> float:
 def apply(
     block: LaserBlock, values, out: Path | None = None, callback: ProgressCallback = no_progress
 ) -> dict[str, StripPatches]:
-    """Correct every strip under ``values``; write them to ``out/strips`` when given; planar cells after."""
+    """Correct every strip under ``values``, streamed chunk by chunk (written to ``out/strips`` when
+    given); the planar grid cells of the corrected strips (:class:`~scangeo.lidar.cells.GridCellStream`)."""
     popt, prior = _options(block)
     found = {}
     for k, strip in enumerate(block.project.strips):
         correct = corrector(block, strip.id, values)
+        grid = GridCellStream(strip.id, popt, prior)
         if out is not None:
             (out / "strips").mkdir(parents=True, exist_ok=True)
-            parts: list[tuple[np.ndarray, np.ndarray]] = []
 
-            def keep(xyz, t, correct=correct, parts=parts):
+            def keep(xyz, t, correct=correct, grid=grid):
                 new = correct(xyz, t)
-                parts.append((new, t))
+                grid.feed(new, t)
                 return new
 
             write_corrected(
                 strip.las, strip.point_source_id, out / "strips" / f"{strip.id}{strip.las[0].suffix.lower()}", keep
             )
-            cloud = StripCloud(strip.id, np.concatenate([p for p, _ in parts]), np.concatenate([t for _, t in parts]))
         else:
-            cloud = read_cloud(block, strip.id)
-            cloud = StripCloud(strip.id, correct(cloud.xyz, cloud.time), cloud.time)
-        found[strip.id] = find_strip_patches(cloud, popt, prior)
+            for xyz, t, _ in iter_returns(strip.las, strip.point_source_id, block.project.crs):
+                grid.feed(correct(xyz, t), t)
+        found[strip.id] = grid.finish()
         callback(k + 1, len(block.project.strips), f"corrected strip {strip.id}")
     return found
 

@@ -80,21 +80,30 @@ def fit_groups(
     return planes, ok
 
 
-def find_strip_patches(cloud: StripCloud, options: PatchOptions, prior_sigma: float) -> StripPatches:
-    """The accepted planar cells of one strip."""
-    keys = cell_keys(cloud.xyz, options.size)
+def fit_cells(
+    xyz: np.ndarray, t: np.ndarray, keys: np.ndarray, options: PatchOptions, prior_sigma: float
+) -> tuple[np.ndarray, Planes]:
+    """The accepted planar cells among returns ``xyz`` (n, 3) with times ``t`` in the grid cells ``keys``
+    (:func:`cell_keys`): their keys (sorted) and planes."""
     uniq, inv, counts = np.unique(keys, return_inverse=True, return_counts=True)
     cand = counts >= options.min_points
     remap = np.full(uniq.size, -1, np.int64)
     remap[cand] = np.arange(int(cand.sum()))
-    g = remap[inv]
+    g = remap[inv.ravel()]
     sel = g >= 0
     uniq = uniq[cand]
     ref = np.column_stack([cell_centres(uniq, options.size), np.zeros(uniq.size)])
-    z = cloud.xyz[sel, 2]
+    z = xyz[sel, 2]
     ref[:, 2] = np.bincount(g[sel], z, uniq.size) / np.maximum(np.bincount(g[sel], minlength=uniq.size), 1)
-    planes, ok = fit_groups(cloud.xyz[sel], cloud.time[sel], g[sel], uniq.size, ref, options, prior_sigma)
-    return StripPatches(cloud.id, uniq[ok], planes.take(ok))
+    planes, ok = fit_groups(xyz[sel], t[sel], g[sel], uniq.size, ref, options, prior_sigma)
+    return uniq[ok], planes.take(ok)
+
+
+def find_strip_patches(cloud: StripCloud, options: PatchOptions, prior_sigma: float) -> StripPatches:
+    """The accepted planar cells of a strip held in memory (a stream of chunks:
+    :class:`scangeo.lidar.cells.GridCellStream`)."""
+    cells, planes = fit_cells(cloud.xyz, cloud.time, cell_keys(cloud.xyz, options.size), options, prior_sigma)
+    return StripPatches(cloud.id, cells, planes)
 
 
 def grid_name(cell: int) -> str:
@@ -169,27 +178,20 @@ def homologous(
     return out
 
 
-def fit_given_patches(
-    cloud: StripCloud,
-    centres: np.ndarray,
-    axes: np.ndarray,
-    half: np.ndarray,
-    options: PatchOptions,
-    prior_sigma: float,
-) -> tuple[Planes, np.ndarray]:
-    """Planes of the strip's returns inside each given box (centre, unit axes (2, 2), half extents)."""
-    m = centres.shape[0]
-    groups, pts = [], []
-    for k in range(m):
+def box_members(
+    xyz: np.ndarray, centres: np.ndarray, axes: np.ndarray, half: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Which returns lie in which given box (centre, unit axes (2, 2), half extents): box index and row
+    of every (box, return) pair."""
+    groups, rows = [], []
+    for k in range(centres.shape[0]):
         r = float(np.hypot(*half[k]))
         lo, hi = centres[k] - r, centres[k] + r
-        box = np.flatnonzero(np.all((cloud.xyz[:, :2] >= lo) & (cloud.xyz[:, :2] <= hi), axis=1))
-        local = (cloud.xyz[box, :2] - centres[k]) @ axes[k].T
+        box = np.flatnonzero(np.all((xyz[:, :2] >= lo) & (xyz[:, :2] <= hi), axis=1))
+        local = (xyz[box, :2] - centres[k]) @ axes[k].T
         inside = box[np.all(np.abs(local) <= half[k], axis=1)]
         groups.append(np.full(inside.size, k))
-        pts.append(inside)
-    g, sel = np.concatenate(groups), np.concatenate(pts)
-    ref = np.column_stack([centres, np.zeros(m)])
-    if sel.size:
-        ref[:, 2] = np.bincount(g, cloud.xyz[sel, 2], m) / np.maximum(np.bincount(g, minlength=m), 1)
-    return fit_groups(cloud.xyz[sel], cloud.time[sel], g, m, ref, options, prior_sigma)
+        rows.append(inside)
+    if not rows:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return np.concatenate(groups).astype(np.int64), np.concatenate(rows)

@@ -34,6 +34,11 @@ class Planes:
     def take(self, index) -> Planes:
         return Planes(*(getattr(self, f)[index] for f in self.__dataclass_fields__))
 
+    @classmethod
+    def concat(cls, parts: list[Planes]) -> Planes:
+        """The planes of several fits, one after the other."""
+        return cls(*(np.concatenate([getattr(p, f) for p in parts]) for f in cls.__dataclass_fields__))
+
 
 #: anchors per patch and strip (the paper's four; see :func:`anchors`)
 ANCHORS = 4

@@ -24,9 +24,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from scangeo.errors import InputFileError
+from scangeo.lidar.cells import BoxStream, GridCellStream
 from scangeo.lidar.control import GivenPatches
-from scangeo.lidar.lasio import StripCloud, iter_returns
-from scangeo.lidar.patches import PatchOptions, StripPatches, find_strip_patches, fit_given_patches
+from scangeo.lidar.lasio import iter_returns
+from scangeo.lidar.patches import PatchOptions, StripPatches
 from scangeo.lidar.planes import Planes
 from scangeo.lidar.project import LaserProject, LaserStrip
 from scangeo.lidar.rowbuffer import Candidates, RowBuffer
@@ -58,27 +59,28 @@ class StripFound:
 
 
 def _pass1(args) -> StripFound:
+    """One strip streamed once: the row buffer's candidates, the planar grid cells (strip differences)
+    and the given patches' planes, holding a chunk and the open cells, never the strip."""
     strip, crs, options, prior, given, method = args
     buffer = RowBuffer(strip.id, options, prior) if method == "rows" else None
-    xyz, t = [], []
+    grid = GridCellStream(strip.id, options, prior)
+    boxes = BoxStream(given.centre, given.axes, given.half, options, prior) if given is not None else None
+    count, t0, t1 = 0, np.inf, -np.inf
     for part, time, angle in iter_returns(strip.las, strip.point_source_id, crs):
-        xyz.append(part)
-        t.append(time)
+        count += time.size
+        t0, t1 = min(t0, float(time.min())), max(t1, float(time.max()))
+        grid.feed(part, time)
+        if boxes is not None:
+            boxes.feed(part, time)
         if buffer is not None:
             buffer.feed(part, time, angle)
-    if not t:
+    if not count:
         which = "" if strip.point_source_id is None else f" with point_source_id {strip.point_source_id}"
         raise InputFileError(f"{', '.join(map(str, strip.las))}: no returns{which} for strip {strip.id}")
-    cloud = StripCloud(strip.id, np.concatenate(xyz), np.concatenate(t))
-    cells = find_strip_patches(cloud, options, prior)
-    planes, ok = (
-        fit_given_patches(cloud, given.centre, given.axes, given.half, options, prior)
-        if given is not None
-        else (None, None)
-    )
+    cells = grid.finish()
+    planes, ok = boxes.finish() if boxes is not None else (None, None)
     candidates = buffer.finish() if buffer is not None else None
-    t0, t1 = float(cloud.time.min()), float(cloud.time.max())
-    return StripFound(strip.id, cloud.size, t0, t1, cells, cells, planes, ok, candidates)
+    return StripFound(strip.id, count, t0, t1, cells, cells, planes, ok, candidates)
 
 
 def _pass2(args):

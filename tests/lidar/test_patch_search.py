@@ -10,8 +10,11 @@ import numpy as np
 import pytest
 
 from scangeo.lidar.adjust import LaserOptions, build, run
+from scangeo.lidar.cells import BoxStream, GridCellStream
+from scangeo.lidar.control import read_patch_ground
 from scangeo.lidar.evaluation import apply, evaluate
-from scangeo.lidar.patches import PatchOptions
+from scangeo.lidar.lasio import StripCloud, iter_returns
+from scangeo.lidar.patches import PatchOptions, find_strip_patches
 from scangeo.lidar.plane_kernel import fit_planes
 from scangeo.lidar.project import LaserProject
 from scangeo.lidar.rowbuffer import RowBuffer, search_strip
@@ -167,3 +170,31 @@ def test_dask_route_gives_the_same_patches(laser_block):  # noqa: F811
         assert np.array_equal(remote[sid].patches.cells, f.patches.cells)
         assert np.allclose(remote[sid].patches.planes.centroid, f.patches.planes.centroid, rtol=0, atol=1e-9)
         assert remote[sid].candidates.size == f.candidates.size
+
+
+def test_streamed_cells_and_boxes_equal_the_whole_strip(laser_block):  # noqa: F811
+    """Grid cells and control boxes fitted from chunks of 4000 returns, cells let go 1 s after the strip
+    left them, are the fits of the whole strip at once; the stream never held half the strip."""
+    project = LaserProject.load(laser_block)
+    strip = project.strips[0]
+    options = LaserOptions().patches
+    given = read_patch_ground(laser_block / "ground.csv")
+    chunks = list(iter_returns(strip.las, strip.point_source_id, project.crs, 4000))
+    cloud = StripCloud(strip.id, np.concatenate([c[0] for c in chunks]), np.concatenate([c[1] for c in chunks]))
+    whole = find_strip_patches(cloud, options, 0.02)
+    grid = GridCellStream(strip.id, options, 0.02, close_after=1.0)
+    boxes = BoxStream(given.centre, given.axes, given.half, options, 0.02)
+    for xyz, t, _ in chunks:
+        grid.feed(xyz, t)
+        boxes.feed(xyz, t)
+    streamed = grid.finish()
+    assert whole.cells.size > 100 and np.array_equal(streamed.cells, whole.cells)
+    for name in ("count", "rejected", "centroid", "normal", "sigma", "time"):
+        assert np.allclose(getattr(streamed.planes, name), getattr(whole.planes, name), rtol=0, atol=1e-9), name
+    assert grid.peak_pending < 0.5 * cloud.size
+    planes, ok = boxes.finish()
+    one = BoxStream(given.centre, given.axes, given.half, options, 0.02)
+    one.feed(cloud.xyz, cloud.time)
+    planes_whole, ok_whole = one.finish()
+    assert ok.sum() >= 4 and np.array_equal(ok, ok_whole)
+    assert np.allclose(planes.normal[ok], planes_whole.normal[ok], atol=1e-12)
