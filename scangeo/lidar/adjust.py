@@ -133,37 +133,18 @@ def map_unit(crs) -> float:
     return float(info[0].unit_conversion_factor) if info else 1.0
 
 
-def build(
-    project: LaserProject,
-    options: LaserOptions,
-    ground: Path | None = None,
-    callback: ProgressCallback = no_progress,
-    found: dict[str, StripFound] | None = None,
-) -> LaserBlock:
-    """Find patches (or reuse ``found`` of an earlier set-up), set up unknowns and observation groups."""
+def _mode(project: LaserProject, options: LaserOptions) -> str:
     mode = options.mode
     if mode == "auto":
         mode = "trajectory" if project.has_trajectories else "points"
     if mode == "trajectory" and not project.has_trajectories:
         missing = [s.id for s in project.strips if s.trajectory is None]
         raise LidarError(f"mode trajectory: strip {missing[0]} has no trajectory in project.toml")
-    unit = 1.0 if mode == "trajectory" else map_unit(project.crs)
-    popt = replace(
-        options.patches,
-        size=options.patch_size / unit,
-        max_sigma=options.max_patch_sigma / unit,
-        max_offset=options.max_offset / unit,
-        thin_cell=options.thin_cell / unit,
-    )
-    prior = project.sensor.range_sigma_m / unit
-    given = read_patch_ground(ground) if ground is not None and Path(ground).exists() else None
-    if found is None:
-        found = find_all(project, popt, prior, given, options.workers, callback, options.patch_search,
-                         options.scheduler)
-    seeded = any(f.candidates is not None for f in found.values())
-    ties = homologous({s: f.patches for s, f in found.items()}, popt, name=seed_name(found) if seeded else grid_name)
+    return mode
+
+
+def _search_notes(found: dict[str, StripFound], ties: list[TiePatch], options: LaserOptions, seeded: bool) -> list[str]:
     what = "candidates" if seeded else "planar cells"
-    fallback = options.patch_search == "rows" and not seeded
     notes = [
         f"{len(ties)} tie patches in {len(found)} strips ("
         + ", ".join(
@@ -172,12 +153,15 @@ def build(
         )
         + ")"
     ]
-    if fallback:
+    if options.patch_search == "rows" and not seeded:
         notes.append(f"patch_search rows: fewer than {MIN_RETURNS_PER_LINE} returns per scan line in a strip "
                      "(a thinned or resampled cloud): the grid cells are the patches")
-    strips = {s.id: s for s in project.strips}
-    samplers = {sid: _sampler(project, strips[sid], f) for sid, f in found.items()} if mode == "trajectory" else {}
-    nominal = project.sensor.calibration()
+    return notes
+
+
+def _patches(ties: list[TiePatch], given: GivenPatches | None, found: dict[str, StripFound], notes: list[str]):
+    """Every patch of the adjustment: ids, kinds (tie, control, height, check) and members
+    ``[(strip, "cells" | "given", row)]``."""
     ids, kinds, members = [], [], []
     for tie in ties:
         ids.append(tie.id)
@@ -197,38 +181,20 @@ def build(
             "no tie patch found: the strips do not overlap on planar surfaces (check patch_size and "
             "max_patch_sigma, and that the strips overlap)"
         )
-    all_xyz = np.vstack([f.cells.planes.centroid for f in found.values()])
-    reference = np.round(np.median(all_xyz, axis=0), -1 if unit == 1.0 else 0)
-    # anchors of every member, per strip
-    per_strip: dict[str, list] = {s: [] for s in found}
+    return ids, kinds, members
+
+
+def _anchors(block: LaserBlock, members: list, prior: float) -> None:
+    """The four anchors of every member, per strip (``block.anchors``), in map and work coordinates."""
+    per_strip: dict[str, list] = {s: [] for s in block.found}
     for p, mem in enumerate(members):
         for sid, src, i in mem:
             per_strip[sid].append((p, src, i))
-    anchor_data: dict[str, dict] = {}
-    # frames, models and parameters are set below, once the anchors are known
-    block = LaserBlock(
-        project,
-        options,
-        mode,
-        found,
-        ties,
-        given,
-        PatchFrames.from_points([], np.zeros((0, 3)), np.zeros((0, 3))),
-        kinds,
-        ModelSet([]),
-        Parameters(),
-        [],
-        samplers,
-        nominal,
-        reference,
-        anchor_data,
-        notes,
-    )
     for sid, items in per_strip.items():
         if not items:
-            notes.append(f"strip {sid} has no patch shared with another strip or control")
+            block.notes.append(f"strip {sid} has no patch shared with another strip or control")
             continue
-        f = found[sid]
+        f = block.found[sid]
         rows_cells = np.array([i for _, src, i in items if src == "cells"], int)
         rows_given = np.array([i for _, src, i in items if src == "given"], int)
         pts, times, sig = [], [], []
@@ -240,14 +206,17 @@ def build(
                 sig.append(np.maximum(s, 0.25 * prior * 2.0 / np.sqrt(planes.count[rows])))
         patch = np.array([p for p, src, _ in items if src == "cells"] + [p for p, src, _ in items if src == "given"])
         a_map = np.concatenate(pts).reshape(-1, 3)
-        anchor_data[sid] = {
+        block.anchors[sid] = {
             "patch": np.repeat(patch, ANCHORS),
             "map": a_map,
             "work": block.to_work(a_map),
             "time": np.concatenate(times).ravel(),
             "sigma": np.repeat(np.concatenate(sig), ANCHORS),
         }
-    # patch frames from the best member's anchors
+
+
+def _frames(ids: list[str], anchor_data: dict[str, dict]) -> PatchFrames:
+    """Patch frames (reference point and normal) from the most precise member's anchors."""
     centre = np.zeros((len(ids), 3))
     normal = np.zeros((len(ids), 3))
     best = np.full(len(ids), np.inf)
@@ -260,8 +229,12 @@ def build(
         for k, p in enumerate(pat):
             if s[k] < best[p]:
                 best[p], centre[p], normal[p] = s[k], w[k].mean(axis=0), n[k]
-    block.frames = PatchFrames.from_points(ids, centre, normal)
-    block.models = _models(found, options, mode, {st.id: st.mission for st in project.strips})
+    return PatchFrames.from_points(ids, centre, normal)
+
+
+def _parameters(block: LaserBlock, unit: float) -> Parameters:
+    """Correction coefficients (with their priors), calibration blocks and the patch planes."""
+    options, nominal, mode = block.options, block.nominal, block.mode
     params = Parameters()
     _priors(params, block.models, options, unit, mode)
     cal = set(options.calibrate) if mode == "trajectory" else set()
@@ -277,34 +250,78 @@ def build(
     params.add(
         ScanIndex(), [nominal.scan_index], "scan_index" in cal, regularisation_sigma=np.radians(0.01), names=["index"]
     )
-    for key, kind in zip(block.frames.keys, kinds):
+    for key, kind in zip(block.frames.keys, block.kinds):
         if kind == "check":
             continue
         params.add(key, np.zeros(3), True, regularisation_sigma=[0.01, 0.01, 1.0 / unit], names=["u", "v", "d"])
-    block.parameters = params
+    return params
+
+
+def _groups(block: LaserBlock, ids: list[str], unit: float) -> list[ObservationGroup]:
+    """The anchors of every strip and the surveyed points of the control and height patches."""
     groups: list[ObservationGroup] = []
-    for sid, adata in anchor_data.items():
+    kinds, given = block.kinds, block.given
+    for sid, adata in block.anchors.items():
         use = np.array([kinds[p] != "check" for p in adata["patch"]])
         if not use.any():
             continue
         patch, work, t, sig = adata["patch"][use], adata["work"][use], adata["time"][use], adata["sigma"][use]
-        polar = recover(work, t, samplers[sid], nominal, solve_time=True) if mode == "trajectory" else None
-        groups.append(
-            StripAnchors(sid, patch, patch, sig, block.frames, block.models, work, t, polar, samplers.get(sid))
-        )
-    if given is not None:
-        used = [k for k, pid in enumerate(given.ids) if given.role[k] != "check" and pid in ids]
-        for role, vertical in (("control", False), ("height", True)):
-            sel = np.flatnonzero(np.isin(given.point_patch, used) & (given.point_role == role))
-            if sel.size:
-                patch = np.array([ids.index(given.ids[given.point_patch[i]]) for i in sel])
-                groups.append(ControlPatchPoints(given.point_ids[sel], patch, block.to_work(given.xyz[sel]),
-                                                 given.sigma[sel] / unit, block.frames, vertical))
-        if not used:
-            notes.append("no control patch in the adjustment: the datum comes from the GPS/IMU and the priors alone")
-    else:
-        notes.append("no ground.csv: no control patches; the datum comes from the GPS/IMU and the priors alone")
-    block.groups = groups
+        sampler = block.samplers.get(sid)
+        polar = recover(work, t, sampler, block.nominal, solve_time=True) if sampler is not None else None
+        groups.append(StripAnchors(sid, patch, patch, sig, block.frames, block.models, work, t, polar, sampler))
+    if given is None:
+        block.notes.append("no ground.csv: no control patches; the datum comes from the GPS/IMU and the priors alone")
+        return groups
+    used = [k for k, pid in enumerate(given.ids) if given.role[k] != "check" and pid in ids]
+    for role, vertical in (("control", False), ("height", True)):
+        sel = np.flatnonzero(np.isin(given.point_patch, used) & (given.point_role == role))
+        if sel.size:
+            patch = np.array([ids.index(given.ids[given.point_patch[i]]) for i in sel])
+            groups.append(ControlPatchPoints(given.point_ids[sel], patch, block.to_work(given.xyz[sel]),
+                                             given.sigma[sel] / unit, block.frames, vertical))
+    if not used:
+        block.notes.append("no control patch in the adjustment: the datum comes from the GPS/IMU and the priors alone")
+    return groups
+
+
+def build(
+    project: LaserProject,
+    options: LaserOptions,
+    ground: Path | None = None,
+    callback: ProgressCallback = no_progress,
+    found: dict[str, StripFound] | None = None,
+) -> LaserBlock:
+    """Find patches (or reuse ``found`` of an earlier set-up), set up unknowns and observation groups."""
+    mode = _mode(project, options)
+    unit = 1.0 if mode == "trajectory" else map_unit(project.crs)
+    popt = replace(
+        options.patches,
+        size=options.patch_size / unit,
+        max_sigma=options.max_patch_sigma / unit,
+        max_offset=options.max_offset / unit,
+        thin_cell=options.thin_cell / unit,
+    )
+    prior = project.sensor.range_sigma_m / unit
+    given = read_patch_ground(ground) if ground is not None and Path(ground).exists() else None
+    if found is None:
+        found = find_all(project, popt, prior, given, options.workers, callback, options.patch_search,
+                         options.scheduler)
+    seeded = any(f.candidates is not None for f in found.values())
+    ties = homologous({s: f.patches for s, f in found.items()}, popt, name=seed_name(found) if seeded else grid_name)
+    notes = _search_notes(found, ties, options, seeded)
+    strips = {s.id: s for s in project.strips}
+    samplers = {sid: _sampler(project, strips[sid], f) for sid, f in found.items()} if mode == "trajectory" else {}
+    ids, kinds, members = _patches(ties, given, found, notes)
+    all_xyz = np.vstack([f.cells.planes.centroid for f in found.values()])
+    reference = np.round(np.median(all_xyz, axis=0), -1 if unit == 1.0 else 0)
+    block = LaserBlock(project, options, mode, found, ties, given, PatchFrames.from_points([], np.zeros((0, 3)),
+                       np.zeros((0, 3))), kinds, ModelSet([]), Parameters(), [], samplers,
+                       project.sensor.calibration(), reference, {}, notes)
+    _anchors(block, members, prior)
+    block.frames = _frames(ids, block.anchors)
+    block.models = _models(found, options, mode, {st.id: st.mission for st in project.strips})
+    block.parameters = _parameters(block, unit)
+    block.groups = _groups(block, ids, unit)
     for note in notes:
         log.info("%s", note)
     return block
