@@ -95,6 +95,13 @@ class StripGeometry:
         self.mounting = mounting or Mounting()
         self.strip_id = strip_id
 
+    def release_tables(self) -> None:
+        """Free the ground -> image tables (sensor poses at line-spaced epochs and the interpolation
+        tables, about 5 MB per 7,000-line strip); the next ``ground_to_image`` rebuilds them (tens
+        of milliseconds). For callers that hold many strips and use a few at a time."""
+        for name in ("_coarse", "_whiskbroom_tables"):
+            self.__dict__.pop(name, None)
+
     # --- poses ----------------------------------------------------------------------------------
     def _mount_args(self) -> tuple[float, float, np.ndarray, np.ndarray, np.ndarray, float]:
         m = self.mounting

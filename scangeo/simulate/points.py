@@ -56,10 +56,36 @@ class PointSet:
     blunder: np.ndarray
 
 
+class RecentStrips:
+    """The strips' geometries, of which only the last ``keep`` used hold their ground -> image
+    tables (about 5 MB per 7,000-line strip: held for every strip of a 96-strip block they were
+    0.5 GB); an older strip's are released and rebuilt when it is used again (tens of ms). The
+    placement visits the strips in order, phase by phase, so each strip's tables are built once
+    per phase."""
+
+    def __init__(self, geometries: list[StripGeometry], keep: int = 2) -> None:
+        self.geometries = geometries
+        self.keep = keep
+        self.recent: list[int] = []
+
+    def __getitem__(self, k: int) -> StripGeometry:
+        if k in self.recent:
+            self.recent.remove(k)
+        self.recent.append(k)
+        while len(self.recent) > self.keep:
+            self.geometries[self.recent.pop(0)].release_tables()
+        return self.geometries[k]
+
+    def release(self) -> None:
+        for k in self.recent:
+            self.geometries[k].release_tables()
+        self.recent.clear()
+
+
 class _Placer:
     """Draws candidate points in map rectangles and keeps those visible and on open ground."""
 
-    def __init__(self, geometries, plan: FlightPlan, map_frame: MapFrame, terrain: Terrain, scene,
+    def __init__(self, geometries: RecentStrips, plan: FlightPlan, map_frame: MapFrame, terrain: Terrain, scene,
                  margin_px: float, rng: np.random.Generator) -> None:
         self.geometries = geometries
         self.plan = plan
@@ -115,7 +141,8 @@ def place_points(config: PointsConfig, plan: FlightPlan, geometries: list[StripG
                  terrain: Terrain, scene, rng: np.random.Generator, problem_strip: int = 0,
                  breaks_lines: tuple = ()) -> tuple[list[str], list[str], np.ndarray, np.ndarray]:
     """Ids, kinds and true map x, y of all points of the block."""
-    placer = _Placer(geometries, plan, map_frame, terrain, scene, config.edge_margin_px, rng)
+    recent = RecentStrips(geometries)
+    placer = _Placer(recent, plan, map_frame, terrain, scene, config.edge_margin_px, rng)
     n = len(plan.strips)
     half = plan.spacing_m / 2.0
     swath_half = plan.swath_m / 2.0
@@ -148,6 +175,7 @@ def place_points(config: PointsConfig, plan: FlightPlan, geometries: list[StripG
         overlap = plan.swath_m - plan.spacing_m
         xr = (centre - 0.4 * overlap, centre + 0.4 * overlap)
         groups.append(("T", *placer.draw(config.tie_per_overlap, xr, (y_lo, y_hi), [k, k + 1])))
+    recent.release()
 
     ids, kinds, xs, ys = [], [], [], []
     counters: dict[str, int] = {}
@@ -173,6 +201,7 @@ def measure_points(ids, kinds, x, y, geometries: list[StripGeometry], map_frame:
     margin = config.edge_margin_px
     for k, g in enumerate(geometries):
         line, pixel, status = g.ground_to_image(p_P)
+        g.release_tables()  # each strip is used once here; a 96-strip block held 0.5 GB of them
         ok = ((status == 0) & (line >= margin) & (line <= g.n_lines - 1 - margin)
               & (pixel >= margin) & (pixel <= g.sensor.pixels - 1 - margin))
         idx = np.flatnonzero(ok)

@@ -29,16 +29,19 @@ def write_raster(path: Path, grid: RasterGrid, dtype: str = "float32", nodata: f
                  description: str = "") -> None:
     """A single-band georeferenced GeoTIFF (tiled, compressed) of a RasterGrid, atomically."""
     import rasterio
+    from rasterio.windows import Window
 
-    values = grid.values
-    if nodata is not None:
-        values = np.where(np.isfinite(values), values, nodata)
-    rows, cols = values.shape
+    rows, cols = grid.values.shape
     profile = dict(driver="GTiff", width=cols, height=rows, count=1, dtype=dtype, crs=grid.crs,
                    transform=grid.transform, nodata=nodata, tiled=True, blockxsize=256, blockysize=256,
                    compress="deflate")
     with atomic_path(path) as tmp, rasterio.open(tmp, "w", **profile) as dst:
-        dst.write(values.astype(dtype), 1)
+        # in bands of tile rows: whole-raster copies were 0.25 GB at once for a 96-strip block's terrain
+        for r0 in range(0, rows, 256):
+            values = grid.values[r0:r0 + 256]
+            if nodata is not None:
+                values = np.where(np.isfinite(values), values, nodata)
+            dst.write(values.astype(dtype), 1, window=Window(0, r0, cols, values.shape[0]))
         if description:
             dst.set_band_description(1, description)
 
