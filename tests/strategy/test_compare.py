@@ -121,10 +121,13 @@ def test_a_failing_variant_is_reported_not_raised(problem_small, tmp_path):
         compare_project(root, tmp_path / "missing.toml")
 
 
-def test_compare_command(problem_small, tmp_path, capsys):
+def test_compare_command_on_a_project_without_truth(problem_small, tmp_path, capsys):
+    # a real project has no truth/: the tables and the report leave the true error out
     root = tmp_path / "p"
     shutil.copytree(problem_small, root)
-    assert main(["compare", str(root), "--only", "DG", "SE", "S2", "--no-report", "--no-progress"]) == 0
+    shutil.rmtree(root / "truth")
+    assert main(["compare", str(root), "--only", "DG", "SE", "S2", "--folds", "2", "--no-report",
+                 "--no-progress"]) == 0
     out = capsys.readouterr().out
     assert "reference SE; best (lowest check-point rms): S2" in out
     assert (root / "variants.toml").exists() and (root / "results" / "comparison.json").exists()
@@ -132,24 +135,11 @@ def test_compare_command(problem_small, tmp_path, capsys):
     c = read_comparison(root / "results")
     assert [v.name for v in c.variants] == ["DG", "SE", "S2"]
     assert np.isfinite(c.variant("S2").sigma0)
+    assert not c.truth and all("true" not in e for v in c.variants for e in v.strips.values())
+    assert "True error" not in (root / "results" / "comparison.md").read_text()
     assert main(["report", str(root), "--no-progress"]) == 0
     assert (root / "results" / "report.html").exists() and (root / "results" / "residuals.gpkg").exists()
-
-
-def test_a_project_without_truth(problem_small, tmp_path):
-    from scangeo.reports.report import write_report
-    from scangeo.reports.tables import write_comparison
-
-    root = tmp_path / "p"
-    shutil.copytree(problem_small, root)
-    shutil.rmtree(root / "truth")
-    c = compare_project(root, names=["SE", "S2"], problem_strip="02", breaks_lines=(200.0, 400.0))
-    assert not c.truth and all("true" not in e for v in c.variants for e in v.strips.values())
-    write_comparison(c)
-    assert "True error" not in (root / "results" / "comparison.md").read_text()
-    files = write_report(root, geopackage=False)
-    assert files.geopackage is None and not (root / "results" / "residuals.gpkg").exists()
-    text = files.html.read_text()
+    text = (root / "results" / "report.html").read_text()
     assert 'id="fig-height-02"' in text and 'id="true-error-table"' not in text
 
 
