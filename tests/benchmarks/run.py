@@ -5,8 +5,9 @@ simulated project: `scangeo info`, `clean`, `diagnose`, `compare --no-report`, `
 RECOMMENDED --mosaic`, `report`. Against it: `scangeo run` in one process on another fresh copy (the
 same stages; match is left out by both, the simulated project has tie points). The two alternate,
 `--reps` times each, and the script prints every time and the ratio run / separate (target: at most
-1.10). It also checks that both chose the same variant. Then a second `scangeo run` on the run's copy:
-the time of a run with nothing to do.
+1.10), in wall seconds and in CPU seconds (user + system of the child processes: on a shared machine the
+CPU ratio is the one other jobs disturb least). It also checks that both chose the same variant. Then a
+second `scangeo run` on the run's copy: the time of a run with nothing to do.
 
 Run:  python tests/benchmarks/run.py [--cache DIR] [--preset vienna2000] [--reps 1]
 """
@@ -15,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -40,11 +42,20 @@ def fresh(source: Path, target: Path) -> Path:
     return target
 
 
+CPU: list[float] = []  # CPU seconds of every command run, in order
+
+
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def scangeo(*args: str) -> float:
-    """Run one scangeo command in its own process; its wall time in seconds."""
-    t = time.perf_counter()
+    """Run one scangeo command in its own process; its wall time in seconds (its CPU seconds go to ``CPU``)."""
+    t, c = time.perf_counter(), _children_cpu()
     subprocess.run([sys.executable, "-m", "scangeo", *args, "--no-progress"], check=True, capture_output=True,
                    env={**os.environ, "PYTHONWARNINGS": "ignore"})
+    CPU.append(_children_cpu() - c)
     return time.perf_counter() - t
 
 
@@ -73,21 +84,24 @@ def main() -> None:
     ratios = []
     for rep in range(args.reps):
         a = fresh(source, cache / "separate")
+        n = len(CPU)
         steps, chosen = separate(a)
-        total = sum(steps.values())
-        print(f"rep {rep + 1}: separate commands {total:7.1f} s  ("
+        total, cpu_separate = sum(steps.values()), sum(CPU[n:])
+        print(f"rep {rep + 1}: separate commands {total:7.1f} s, {cpu_separate:7.1f} CPU s  ("
               + ", ".join(f"{k} {v:.1f}" for k, v in steps.items()) + f"); rectified {chosen}", flush=True)
         b = fresh(source, cache / "run")
         t_run = scangeo("run", str(b))
+        cpu_run = CPU[-1]
         m = json.loads((b / "results" / "run.json").read_text(encoding="utf-8"))
         stages = {k: r.get("seconds", 0.0) for k, r in m["stages"].items()}
-        print(f"rep {rep + 1}: scangeo run       {t_run:7.1f} s  ("
+        print(f"rep {rep + 1}: scangeo run       {t_run:7.1f} s, {cpu_run:7.1f} CPU s  ("
               + ", ".join(f"{k} {v:.1f}" for k, v in stages.items()) + f"); rectified {m['recommended']['variant']}",
               flush=True)
         if m["recommended"]["variant"] != chosen:
             print(f"  note: the two chose different variants ({chosen} / {m['recommended']['variant']})")
         ratios.append(t_run / total)
-        print(f"rep {rep + 1}: run / separate = {ratios[-1]:.3f}", flush=True)
+        print(f"rep {rep + 1}: run / separate = {ratios[-1]:.3f} wall, {cpu_run / cpu_separate:.3f} CPU "
+              f"(load now {os.getloadavg()[0]:.1f})", flush=True)
         t_again = scangeo("run", str(b))
         print(f"rep {rep + 1}: second scangeo run (nothing to do) {t_again:.1f} s", flush=True)
     print(f"load after: {os.getloadavg()[0]:.1f}")
