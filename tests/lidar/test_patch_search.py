@@ -135,23 +135,28 @@ def test_seeded_pass_ties_the_strips_on_the_same_footprint():
 
 
 def test_rows_and_grid_side_by_side_on_the_laser_block(laser_block):  # noqa: F811
+    """The strip differences after either search, on all planar cells and on the cells that are not the
+    grid route's own tie patches (there the grid route adjusts the very cells it is measured on)."""
     logging.getLogger("scangeo.lsq.solver").setLevel(logging.ERROR)
     project = LaserProject.load(laser_block)
     truth = json.loads((laser_block / "truth.json").read_text())["truth"]
-    after, noise = {}, None
+    after, independent, noise, tie_cells = {}, {}, None, set()
     for method in ("grid", "rows"):
         block = build(project, LaserOptions(patch_search=method), laser_block / "ground.csv")
         result = run(block)
         ev = evaluate(block, result, apply(block, result.parameters.values()))
         if noise is None:
             noise = evaluate(block, result, apply(block, truth_values(block, truth))).after.rms(True)
+            tie_cells = {int(block.found[s].patches.cells[i]) for t in block.ties for s, i in t.members}
         assert ev.before.rms(True) > 2.5 * noise
         after[method] = ev.after.rms(True)
-    # measured (docs/lidar.md 6.2): grid 0.707 cm, rows 0.721 cm, noise floor 0.691 cm on these 2 strips, where
-    # the boresight pitch is barely determined (sigma 0.05 deg) and decides the difference; on the 4 strips of
-    # the laser preset at 500 m rows 0.690 cm, grid 0.698 cm, noise 0.685 cm
+        out = ev.after.flat & ~np.isin(ev.after.cell, list(tie_cells))
+        independent[method] = float(np.sqrt(np.mean(ev.after.dz[out] ** 2)))
+    # measured (docs/lidar.md 6.2): all cells grid 0.707 cm, rows 0.721 cm, noise floor 0.691 cm; on the 323
+    # cells that are not grid tie patches grid 0.7173 cm, rows 0.7169 cm (on its 23 tie cells the grid route
+    # has 0.548 cm, in-sample; the noise there 0.566 cm)
     assert after["grid"] < 1.05 * noise and after["rows"] < 1.05 * noise
-    assert after["rows"] < 1.03 * after["grid"]
+    assert independent["rows"] <= 1.002 * independent["grid"]
 
 
 def test_dask_route_gives_the_same_patches(laser_block):  # noqa: F811
