@@ -19,8 +19,9 @@ as a user would run it:
   (1 thread each; ``local``) or the given scheduler, through ``--scheduler ADDRESS``.
 
 ``--sizes 24 48 96`` (issue 23) instead measures how every stage grows with the block: for each
-number of strips a block24 project with that many strips (``--lines`` lines each) is simulated by
-``scangeo simulate --preset block24 --set flight.strips=N`` (``--no-images`` unless ``--images``),
+number of strips a block24 project with that many strips (``--lines`` lines each; the preset's
+line-valued keys scaled, :func:`scaled_preset`) is simulated by ``scangeo simulate --preset FILE``
+(``--no-images`` unless ``--images``),
 then ``adjust --variant SE`` (with the reliability), ``diagnose``, ``compare --only SE S2``,
 ``report`` and, with images, ``match`` and ``rectify --variant SE --mosaic``, each as its own process;
 printed: seconds and peak memory per stage and size, and their ratios to the smallest size (linear
@@ -146,15 +147,44 @@ def run_stage(label: str, args: list[str], log: list) -> tuple[float, float]:
     return dt, rss
 
 
+def scaled_preset(lines: int, strips: int, folder: Path) -> Path:
+    """block24's preset file with ``strips`` strips of ``lines`` lines: every line-valued key
+    (breaks, excursions, control and break bands) scaled with the lines, and the problem strip
+    moved to the middle when the block has fewer strips than its number."""
+    import re
+
+    from scangeo.resources import preset_file
+
+    text = preset_file("block24").read_text(encoding="utf-8")
+    f = lines / float(tomllib.loads(text)["flight"]["lines"])
+
+    def scale(m: re.Match) -> str:
+        value = tomllib.loads(f"v = {m.group(2)}")["v"]
+        value = [v * f for v in value] if isinstance(value, list) else value * f
+        return f"{m.group(1)} = {value!r}"
+
+    text = re.sub(r"^(\w+_lines) = (.+)$", scale, text, flags=re.M)
+    text = re.sub(r"^lines = .+$", f"lines = {lines}", text, flags=re.M)
+    text = re.sub(r"^strips = .+$", f"strips = {strips}", text, flags=re.M)
+    problem = int(tomllib.loads(text)["gpsimu_errors"]["problem_strip"])
+    if problem > strips:
+        middle = strips // 2 + 1
+        text = re.sub(rf"^(problem_strip|strip) = {problem}$", rf"\1 = {middle}", text, flags=re.M)
+    path = folder / f"block24_{strips}x{lines}.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
 def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path) -> None:
     """Every stage at each block size (strips): seconds and peak MiB, ratios to the smallest."""
     table: dict[tuple[str, int], tuple[float, float]] = {}
     stages: list[str] = []
+    work.mkdir(parents=True, exist_ok=True)
     for n in sizes:
         root = work / f"block{n}"
         shutil.rmtree(root, ignore_errors=True)
-        sim = ["simulate", str(root), "--preset", "block24", "--set", f"flight.strips={n}",
-               "--set", f"flight.lines={lines}", "--no-progress"] + ([] if images else ["--no-images"])
+        preset = scaled_preset(lines, n, work)
+        sim = ["simulate", str(root), "--preset", str(preset), "--no-progress"] + ([] if images else ["--no-images"])
         plan = [("simulate", sim)]
         if images:
             plan.append(("match", ["match", str(root), "--no-progress"]))
