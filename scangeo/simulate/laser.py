@@ -185,13 +185,12 @@ def _lift(scene: LaserScene, moved: list[tuple[int, float]], sign: float) -> Non
 
 
 def _moved_roofs(cfg: LaserBlockConfig, scene: LaserScene, flights) -> list[tuple[str, int, float]]:
-    """``moved_roofs`` buildings well inside the block, each moved in the parallel strip flying
-    closest over it among those of the mission flown lowest (the densest: the roof is surely a patch);
-    a random stream of its own, so the rest of the block stays as without them."""
-    rng = np.random.default_rng(cfg.seed + 7919)
+    """The ``moved_roofs`` buildings with the widest roof faces well inside the block (a patch fits
+    on them), each moved in the parallel strip flying closest over it among those of the mission
+    flown lowest (the densest)."""
     b = scene.buildings
     inside = np.flatnonzero(inside_limits(cfg, b.x, b.y, 100.0))
-    chosen = rng.choice(inside, min(cfg.moved_roofs, inside.size), replace=False)
+    chosen = inside[np.argsort(-b.half_width[inside], kind="stable")[: cfg.moved_roofs]]
     parallel = [p for p in flights if abs(np.sin(p.heading)) < 0.5]
     if cfg.mission_clearance:
         lowest = chr(ord("A") + int(np.argmin(cfg.mission_clearance)))

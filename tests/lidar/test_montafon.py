@@ -43,7 +43,7 @@ def test_the_preset_is_the_papers_block():
     assert len(flights) == 76 and (missions.count("A"), missions.count("B")) == (24, 52)
     x = np.linspace(-3300.0, 3300.0, 661)
     z = scene.ground(x, np.zeros_like(x))
-    assert z.min() == pytest.approx(880.0, abs=1.0) and 2800.0 < z.max() < 2950.0
+    assert 880.0 <= z.min() < 890.0 and 2800.0 < z.max() < 2900.0  # some 1970 m of relief
     cross = [p for p in flights if abs(np.sin(p.heading)) > 0.5]
     parallel = [p for p in flights if abs(np.sin(p.heading)) < 0.5]
     assert (len(cross), len(parallel)) == (7, 69)
