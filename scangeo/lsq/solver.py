@@ -293,7 +293,11 @@ class Solver:
         size = float(np.max(np.abs(step), initial=0.0))
         # dx^T N dx: the step's squared length in standard deviations of the unknowns
         predicted = float(step @ -system.gradient)
-        if size < opts.step_tolerance or predicted < opts.chi2_tolerance:  # converged: no trial needed
+        # the chi^2 tolerance is in units of the variance factor when that is above 1 (blunders, sigmas too
+        # small): a decrease that is negligible against sigma0^2 is negligible, however large sigma0 is
+        rows = sum(int(np.count_nonzero(a)) for a in active)
+        variance = max(1.0, cost / max(rows - self.layout.n, 1))
+        if size < opts.step_tolerance or predicted < opts.chi2_tolerance * variance:  # converged: no trial needed
             return _Outcome(self.layout.add_step(values, step / system.scale), cost, size, done=True,
                             converged=True, keep_system=True), system, factor
         new_values = self.layout.add_step(values, step / system.scale)

@@ -163,3 +163,24 @@ def test_progress_callback_reports_each_iteration():
     iteration_calls = [c for c in calls if c[2].startswith("iteration")]
     assert len(iteration_calls) == len(solution.iterations) >= 3
     assert calls[-1][0] == calls[-1][1]
+
+
+def test_convergence_does_not_depend_on_the_scale_of_the_a_priori_sigmas():
+    # A large-residual, strongly non-linear problem (distances of a few metres with 3 m noise: Gauss-Newton
+    # converges linearly). Sigmas 10 times too small (sigma0 about 16, as before blunders are removed) must
+    # give the same path: the chi^2 convergence test is in units of the variance factor above 1 (with the bare
+    # tolerance this run took 10 iterations instead of 8 and ended 5 mm elsewhere)
+    rng = np.random.default_rng(4)
+    stations = rng.uniform(-10.0, 10.0, (30, 2))
+    d = np.abs(np.hypot(*(np.array([1.0, 2.0]) - stations).T) + 3.0 * rng.standard_normal(30))
+    runs = {}
+    for sigma in (2.0, 0.2):
+        params = Parameters()
+        params.add(Unknown("P"), [6.0, -5.0])
+        runs[sigma] = adjust(params, [Distances(stations, d, sigma)], SolverOptions(), NO_SNOOPING)
+    right, small = runs[2.0], runs[0.2]
+    assert right.statistics.sigma0 > 1.0 and right.solution.converged and small.solution.converged
+    assert small.statistics.sigma0 == pytest.approx(10.0 * right.statistics.sigma0, rel=1e-9)
+    assert len(small.solution.iterations) == len(right.solution.iterations) >= 6
+    np.testing.assert_allclose(small.parameters[Unknown("P")].values, right.parameters[Unknown("P")].values,
+                               rtol=0.0, atol=1e-9)
