@@ -175,8 +175,10 @@ def scaled_preset(lines: int, strips: int, folder: Path) -> Path:
     return path
 
 
-def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path) -> None:
-    """Every stage at each block size (strips): seconds and peak MiB, ratios to the smallest."""
+def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path, only: list[str] | None = None) -> None:
+    """Every stage (or those whose name starts with one of ``only``; the simulation always runs) at
+    each block size (strips): seconds and peak MiB, ratios to the smallest. A stage that fails is
+    reported and the next one runs."""
     table: dict[tuple[str, int], tuple[float, float]] = {}
     stages: list[str] = []
     work.mkdir(parents=True, exist_ok=True)
@@ -197,9 +199,14 @@ def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path) -> Non
             plan.append(("rectify SE + mosaic", ["rectify", r, "--variant", "SE", "--mosaic", "--no-progress"]))
         log: list = []
         for name, args in plan:
+            if only and name != "simulate" and not any(name.startswith(o) for o in only):
+                continue
             if name not in stages:
                 stages.append(name)
-            table[name, n] = run_stage(f"{n} strips: {name}", args, log)
+            try:
+                table[name, n] = run_stage(f"{n} strips: {name}", args, log)
+            except SystemExit as exc:  # a failed stage: say so, measure the others
+                print(f"  FAILED: {exc}", flush=True)
         shutil.rmtree(root, ignore_errors=True)
     base = sizes[0]
     print(f"\nstage scaling ({lines} lines per strip; ratios to {base} strips; linear = "
@@ -207,7 +214,7 @@ def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path) -> Non
     for name in stages:
         cells = []
         for n in sizes:
-            if (name, n) not in table:
+            if (name, n) not in table or (name, base) not in table:
                 continue
             dt, rss = table[name, n]
             b_dt, b_rss = table[name, base]
@@ -229,12 +236,14 @@ def main() -> None:
     ap.add_argument("--sizes", type=int, nargs="+", default=None,
                     help="stage scaling: block sizes in strips (e.g. 24 48 96); see the docstring")
     ap.add_argument("--images", action="store_true", help="with --sizes: render images, then match and rectify")
+    ap.add_argument("--stages", nargs="+", default=None,
+                    help="with --sizes: only the stages whose names start with these (e.g. adjust diagnose)")
     args = ap.parse_args()
     if args.sizes:
         print(f"cores {os.cpu_count()}, load average {os.getloadavg()[0]:.1f}")
         work = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="scangeo-bench-sizes-"))
         try:
-            stage_scaling(args.sizes, args.lines, args.images, work)
+            stage_scaling(args.sizes, args.lines, args.images, work, args.stages)
         finally:
             if not args.keep:
                 shutil.rmtree(work, ignore_errors=True)
