@@ -22,10 +22,11 @@ as a user would run it:
 number of strips a block24 project with that many strips (``--lines`` lines each; the preset's
 line-valued keys scaled, :func:`scaled_preset`) is simulated by ``scangeo simulate --preset FILE``
 (``--no-images`` unless ``--images``),
-then ``adjust --variant SE`` (with the reliability), ``diagnose``, ``compare --only SE S2``,
-``report`` and, with images, ``match`` and ``rectify --variant SE --mosaic``, each as its own process;
-printed: seconds and peak memory per stage and size, and their ratios to the smallest size (linear
-cost: the ratio of the sizes). Run: python tests/benchmarks/block.py --sizes 24 48 96 --lines 7000
+then ``adjust --variant SE`` (with the reliability), ``diagnose``, ``compare`` (every default
+variant), ``report`` and, with images, ``match`` and ``rectify --variant SE --mosaic``, each as its own
+process (``--stages`` for a subset); printed: wall and CPU seconds and peak memory per stage and size,
+and their ratios to the smallest size (linear cost: the ratio of the sizes).
+Run: python tests/benchmarks/block.py --sizes 24 48 96 --lines 7000 [--stages adjust diagnose]
 
 Figures: wall seconds per stage, seconds per strip, and the peak resident memory of each stage's
 process (``ru_maxrss`` of the process and its largest child; beside it the peak of the whole
@@ -124,9 +125,13 @@ def tree_rss_mib(root: int) -> float:
 def run_stage(label: str, args: list[str], log: list) -> tuple[float, float]:
     """Run ``scangeo ARGS`` in its own process; (wall seconds, peak RSS MiB of the largest single
     process), printing also the peak of the whole process tree (worker processes summed, sampled
-    every 0.25 s)."""
+    every 0.25 s) and its CPU seconds (user + system of the process and the children it waited for:
+    the figure to compare on a loaded machine)."""
+    import resource
+
     with tempfile.NamedTemporaryFile(suffix=".rss", delete=False) as f:
         rss_file = f.name
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.Popen([sys.executable, "-c", STAGE, rss_file, *args], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
@@ -136,13 +141,15 @@ def run_stage(label: str, args: list[str], log: list) -> tuple[float, float]:
         time.sleep(0.25)
     out, err = proc.communicate()
     dt = time.perf_counter() - t0
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime
     rss = float(Path(rss_file).read_text() or "nan")
     os.unlink(rss_file)
     if proc.returncode:
         print(out[-2000:], err[-4000:])
         raise SystemExit(f"{label}: scangeo {' '.join(args)} failed ({proc.returncode})")
-    log.append((label, dt, max(rss, tree_peak), os.getloadavg()[0]))
-    print(f"{label:<46}{dt:>9.1f} s{rss:>9.0f} MiB (all processes {tree_peak:.0f} MiB)   "
+    log.append((label, dt, max(rss, tree_peak), os.getloadavg()[0], cpu))
+    print(f"{label:<46}{dt:>9.1f} s{cpu:>8.1f} CPU s{rss:>9.0f} MiB (all processes {tree_peak:.0f} MiB)   "
           f"load {os.getloadavg()[0]:.1f}", flush=True)
     return dt, rss
 
@@ -179,7 +186,7 @@ def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path, only: 
     """Every stage (or those whose name starts with one of ``only``; the simulation always runs) at
     each block size (strips): seconds and peak MiB, ratios to the smallest. A stage that fails is
     reported and the next one runs."""
-    table: dict[tuple[str, int], tuple[float, float]] = {}
+    table: dict[tuple[str, int], tuple[float, float, float]] = {}
     stages: list[str] = []
     work.mkdir(parents=True, exist_ok=True)
     for n in sizes:
@@ -204,7 +211,8 @@ def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path, only: 
             if name not in stages:
                 stages.append(name)
             try:
-                table[name, n] = run_stage(f"{n} strips: {name}", args, log)
+                dt, rss = run_stage(f"{n} strips: {name}", args, log)
+                table[name, n] = (dt, log[-1][4], rss)
             except SystemExit as exc:  # a failed stage: say so, measure the others
                 print(f"  FAILED: {exc}", flush=True)
         shutil.rmtree(root, ignore_errors=True)
@@ -216,10 +224,10 @@ def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path, only: 
         for n in sizes:
             if (name, n) not in table or (name, base) not in table:
                 continue
-            dt, rss = table[name, n]
-            b_dt, b_rss = table[name, base]
-            cells.append(f"{n}: {dt:.1f} s {rss:.0f} MiB" + ("" if n == base else
-                                                                 f" ({dt / b_dt:.2f}x, {rss / b_rss:.2f}x)"))
+            dt, cpu, rss = table[name, n]
+            b_dt, b_cpu, b_rss = table[name, base]
+            cells.append(f"{n}: {dt:.1f} s, {cpu:.1f} CPU s, {rss:.0f} MiB" + (
+                "" if n == base else f" ({dt / b_dt:.2f}x, CPU {cpu / b_cpu:.2f}x, {rss / b_rss:.2f}x)"))
         print(f"  {name:<30} " + "; ".join(cells))
 
 
