@@ -125,6 +125,23 @@ class SuperLUFactor(Factor):
         return LDL(np.argsort(self._q).astype(np.int64), _strict_lower(self._lu.L), self._lu.U.diagonal().copy())
 
 
+def _embed(A: sp.csc_matrix, indptr: np.ndarray, indices: np.ndarray) -> sp.csc_matrix | None:
+    """``A`` on the larger pattern ``(indptr, indices)`` (explicit zeros where ``A`` has no entry), or
+    None when ``A`` has an entry outside it. Data snooping's removals only thin the normal matrix's
+    pattern: the symbolic analysis (the ordering, a large part of a factorisation) is kept."""
+    n = A.shape[1]
+    if indptr.size != n + 1 or A.nnz > indices.size:
+        return None
+    old = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr)) * A.shape[0] + indices
+    new = np.repeat(np.arange(n, dtype=np.int64), np.diff(A.indptr)) * A.shape[0] + A.indices
+    at = np.searchsorted(old, new)
+    if np.any(at >= old.size) or not np.array_equal(old[np.minimum(at, old.size - 1)], new):
+        return None
+    data = np.zeros(indices.size)
+    data[at] = A.data
+    return sp.csc_matrix((data, indices.copy(), indptr.copy()), shape=A.shape)
+
+
 class Factorizer:
     """Factorises a sequence of matrices of one sparsity pattern, reusing the symbolic analysis."""
 
@@ -153,6 +170,10 @@ class Factorizer:
     def _cholmod(self, A: sp.csc_matrix) -> Factor:
         same = (self._pattern is not None and self._pattern[0].shape == A.indptr.shape
                 and np.array_equal(self._pattern[0], A.indptr) and np.array_equal(self._pattern[1], A.indices))
+        if not same and self._pattern is not None:
+            embedded = _embed(A, *self._pattern)   # rows removed: a pattern inside the analysed one
+            if embedded is not None:
+                A, same = embedded, True
         if not same:
             self._symbolic = _cholmod_analyze(A, mode="supernodal", ordering_method="amd")
             self._pattern = (A.indptr.copy(), A.indices.copy())

@@ -117,13 +117,16 @@ class Statistics:
                 h[sl][~act] = self._solved_quadratic_forms(J)
         return h
 
-    def _solved_quadratic_forms(self, J: sp.csr_matrix, chunk: int = 64) -> np.ndarray:
-        """``diag(J N^-1 J^T)`` by solves (for rows whose couplings may be outside the pattern)."""
+    def _solved_quadratic_forms(self, J: sp.csr_matrix) -> np.ndarray:
+        """``diag(J N^-1 J^T)`` by solves (for rows whose couplings may be outside the pattern), each
+        restricted to the row's own unknowns (:class:`~scangeo.lsq.partial_solve.PartialSolver`: exact,
+        the work of the columns of the factor that reach them, not of a whole solve)."""
+        solver = self.inverse.partial_solver()
         out = np.empty(J.shape[0])
-        for start in range(0, J.shape[0], chunk):
-            B = J[start:start + chunk].toarray().T
-            X = self.solution.factor.solve(B)
-            out[start:start + chunk] = np.einsum("ij,ij->j", B, X.reshape(B.shape))
+        for i in range(J.shape[0]):
+            a, b = J.indptr[i], J.indptr[i + 1]
+            cols, vals = J.indices[a:b], J.data[a:b]
+            out[i] = float(vals @ solver.solve(cols, vals[:, None], cols)[:, 0]) if b > a else 0.0
         return out
 
     def redundancy_numbers(self) -> list[np.ndarray]:
