@@ -20,9 +20,16 @@ the removal leaves some unknown undetermined). Every removal since the last full
   last full solution (same linearisation), so the redundancy numbers ``1 - h'_i`` and the w-tests
   are those of the reduced adjustment.
 
+An unknown that no active row observes any more (a point whose every measurement was removed as a
+non-separable blunder) gets, in the update, the pseudo-observation the solver's next full solution
+will give it (``x = current value`` with the block's regularisation sigma): rows ``R`` added with
+``N' = N - A^T A + R^T R``, i.e. ``V = [A; R]`` with signs ``C = diag(-1, +1)``,
+``N'^-1 = N^-1 + U S^-1 U^T``, ``U = N^-1 V^T``, ``S = -C - V U``. So such a removal needs no
+factorisation either (before, each was a full solution: the number of those grew with the block).
+
 The update declines (the caller then refactorises) when ``S`` is nearly singular (the removal leaves
-an unknown undetermined, which needs the solver's regularisation), when a step does not lower the
-cost, or when the chord iteration has not converged in a few steps.
+an unknown undetermined otherwise, which needs the solver's regularisation by pivots), when a step
+does not lower the cost, or when the chord iteration has not converged in a few steps.
 """
 from __future__ import annotations
 
@@ -66,6 +73,9 @@ class RemovalUpdate:
         self.active = [a.copy() for a in solution.active]
         self.values = solution.parameters.values()
         self.removed = np.zeros(0, dtype=np.int64)
+        self._V = sp.csr_matrix((0, solver.layout.n))      # removed rows and added regularisation rows
+        self._sign = np.zeros(0)                             # -1 removed, +1 added
+        self._Js_csc: sp.csc_matrix | None = None
         self._U = np.zeros((solver.layout.n, 0))
         self._S_inv = np.zeros((0, 0))
         self._residuals = system.residuals
@@ -87,17 +97,44 @@ class RemovalUpdate:
         if max_rows is not None and self.removed.size + rows.size > max_rows:
             return False
         A = self._Js[rows]
-        U_new = np.asarray(self.solution.factor.solve(A.T.toarray())).reshape(self._U.shape[0], rows.size)
+        R = self._regularisation(A)
+        V_new = sp.vstack([A, R], format="csr")
+        U_new = np.asarray(self.solution.factor.solve(V_new.T.toarray())).reshape(self._U.shape[0], V_new.shape[0])
         self.removed = np.concatenate([self.removed, rows])
+        self._V = sp.vstack([self._V, V_new], format="csr")
+        self._sign = np.concatenate([self._sign, -np.ones(rows.size), np.ones(R.shape[0])])
         self._U = np.hstack([self._U, U_new])
-        AU = self._Js[self.removed] @ self._U
-        S = np.eye(self.removed.size) - 0.5 * (AU + AU.T)
-        smallest = float(np.linalg.eigvalsh(S)[0])
+        VU = self._V @ self._U
+        S = -np.diag(self._sign) - 0.5 * (VU + VU.T)
+        smallest = float(np.min(np.abs(np.linalg.eigvalsh(S))))
         if smallest < MIN_EIGENVALUE:
             log.info("removal leaves unknowns undetermined (redundancy eigenvalue %.3g): refactorising", smallest)
             return False
         self._S_inv = np.linalg.inv(S)
         return self._solve()
+
+    def _regularisation(self, A: sp.csr_matrix) -> sp.csr_matrix:
+        """Scaled rows of the pseudo-observations ``x = current value`` (the block's regularisation
+        sigma, as the solver adds them) of the columns of ``A`` that no active row observes any more
+        (a point whose every measurement was removed): with them the update stays regular, as the
+        next full solution regularises those unknowns."""
+        if self._Js_csc is None:
+            self._Js_csc = self._Js.tocsc()
+        Jc, active = self._Js_csc, np.concatenate(self.active)
+
+        def observed(c: int) -> bool:
+            a, b = Jc.indptr[c], Jc.indptr[c + 1]
+            return bool(active[Jc.indices[a:b][Jc.data[a:b] != 0]].any())
+
+        orphans = [int(c) for c in np.unique(A.indices) if not observed(int(c))]
+        values = []
+        for c in orphans:
+            key, i = self.solver.layout.locate(c)
+            reg = self.solver.parameters[key].regularisation_sigma
+            values.append(1.0 / ((float(reg[i]) if reg is not None else 1.0) * self.scale[c]))
+        k = len(orphans)
+        return sp.csr_matrix((np.array(values), (np.arange(k), np.array(orphans, dtype=np.int64))),
+                             shape=(k, self._Js.shape[1]))
 
     @property
     def scaled_jacobian(self) -> sp.csr_matrix:
