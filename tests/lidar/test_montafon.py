@@ -10,6 +10,7 @@ import os
 
 import numpy as np
 import pytest
+from scipy.stats import norm
 
 from scangeo.adjustment.keys import Boresight
 from scangeo.errors import ProjectFileError
@@ -88,8 +89,11 @@ def test_montafon_recovers_the_truth_and_finds_the_moved_roofs(montafon):
     true = truth_values(block, truth)
     values, stats = result.parameters.values(), result.statistics
     keys = [Boresight()] + [Correction(s) for s in truth["strips"] if Correction(s) in values]
-    z = np.concatenate([(values[k] - true[k]) / stats.sigmas(k) for k in keys])
-    assert np.all(np.abs(z) < 3.0), np.abs(z).max()
+    z = np.abs(np.concatenate([(values[k] - true[k]) / stats.sigmas(k) for k in keys]))
+    if FULL:  # 915 unknowns: a perfect model has 2.5 of them beyond 3 sigma; the family-wise 5 % bound
+        assert z.max() < norm.isf(0.025 / z.size) and np.sum(z > 3.0) <= 0.01 * z.size, (z.max(), np.sum(z > 3))
+    else:
+        assert np.all(z < 3.0), z.max()
     # the strip differences within 20 % of the noise floor (the same evaluation with the true parameters)
     ev = evaluate(block, result, apply(block, values))
     noise = evaluate(block, result, apply(block, true))
