@@ -116,7 +116,12 @@ class PartialSolver:
         """``(A^-1 b)[targets]`` for the ``m`` columns ``b`` of a matrix that is zero but on ``rows``,
         where it is ``B`` (``rows.size x m``); returns ``targets.size x m``. Original numbering;
         ``rows`` and ``targets`` without repeats."""
-        B = np.ascontiguousarray(np.asarray(B, dtype=float).reshape(np.size(rows), -1))
+        B = np.asarray(B, dtype=float)
+        B = np.ascontiguousarray(B[:, None] if B.ndim == 1 else B)
+        if B.shape[0] != np.size(rows):
+            raise ValueError(f"{B.shape[0]} rows of right-hand sides for {np.size(rows)} unknowns")
+        if B.shape[0] == 0 or np.size(targets) == 0:   # nothing to solve (e.g. a probe of fixed unknowns)
+            return np.zeros((np.size(targets), B.shape[1]))
         return _solve(self._Lp, self._Li, self._Lx, self._d, self._parent,
                       self._pos[np.asarray(rows, dtype=np.int64)], B,
                       self._pos[np.asarray(targets, dtype=np.int64)])

@@ -57,6 +57,9 @@ def test_partial_solve_equals_the_full_solve_at_the_rows_asked_for(seven):
     expected = np.asarray(sol.factor.solve(full)).reshape(n, 3)[targets]
     got = st.inverse.partial_solver().solve(rows, B, targets)
     np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-12 * np.abs(expected).max())
+    # a right-hand side on no unknown (a probe whose unknowns are all fixed, e.g. DG): zeros
+    np.testing.assert_array_equal(st.inverse.partial_solver().solve(np.zeros(0, int), np.zeros((0, 90)), targets),
+                                  np.zeros((targets.size, 90)))
     ldl = sol.factor.ldl()
     again = PartialSolver.from_ldl(ldl.perm, ldl.L, ldl.d).solve(rows, B, targets)
     np.testing.assert_allclose(again, got, rtol=1e-12)
