@@ -160,20 +160,14 @@ def test_killed_run_leaves_nothing_finished_looking_and_a_rerun_matches_an_unint
     same(outputs(folder), outputs(whole / "results" / "DG" / "ortho"))
 
 
-def test_workers_and_dask_give_the_same_outputs(project, tmp_path):
-    from dask.distributed import LocalCluster
-
+def test_workers_give_the_same_outputs(project, tmp_path):
     serial = fresh_copy(project, tmp_path, "serial")
     rectify_project(serial, "DG", options=OPTS)
     pool = fresh_copy(project, tmp_path, "pool")
     r = rectify_project(pool, "DG", options=OPTS, workers=2)
     assert [s["status"] for s in r.strips.values()] == ["done", "done"]
     same(outputs(pool / "results/DG/ortho"), outputs(serial / "results/DG/ortho"))
-    cluster_copy = fresh_copy(project, tmp_path, "dask")
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster:
-        r = rectify_project(cluster_copy, "DG", options=OPTS, scheduler=cluster.scheduler_address)
-    assert [s["status"] for s in r.strips.values()] == ["done", "done"]
-    same(outputs(cluster_copy / "results/DG/ortho"), outputs(serial / "results/DG/ortho"))
+    # the Dask route (a LocalCluster of worker processes, rectify and match): tests/test_parallel.py
 
 
 def test_mosaic_takes_each_cell_from_the_strip_closest_to_nadir(project, tmp_path):
