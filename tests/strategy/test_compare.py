@@ -126,8 +126,9 @@ def test_compare_command_on_a_project_without_truth(problem_small, tmp_path, cap
     root = tmp_path / "p"
     shutil.copytree(problem_small, root)
     shutil.rmtree(root / "truth")
-    assert main(["compare", str(root), "--only", "DG", "SE", "S2", "--folds", "2", "--no-report",
-                 "--no-progress"]) == 0
+    # the problem strip and breaks given (the diagnosis behind a compare without them: compared_small, physics)
+    assert main(["compare", str(root), "--only", "DG", "SE", "S2", "--problem-strip", "02", "--breaks-lines", "200",
+                 "400", "--folds", "2", "--no-report", "--no-progress"]) == 0
     out = capsys.readouterr().out
     assert "reference SE; best (lowest check-point rms): S2" in out
     assert (root / "variants.toml").exists() and (root / "results" / "comparison.json").exists()
