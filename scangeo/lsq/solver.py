@@ -140,7 +140,9 @@ class _Outcome:
     keep_system: bool = False
 
 
-#: Why an unknown is regularised when every observation that determined it was removed (data snooping).
+#: Why an unknown is regularised when no observation determines it, and when every observation that
+#: determined it was removed (data snooping: expected, said at INFO).
+UNOBSERVED = "no observation determines it"
 REMOVED = "every observation that determined it was removed"
 
 
@@ -218,7 +220,7 @@ class Solver:
             raw_diag = np.asarray((system.jacobian.multiply(system.jacobian)).sum(axis=0)).ravel()
             empty = np.flatnonzero(raw_diag <= 0.0)
             self._observed |= raw_diag > 0.0
-            reason = "no observation determines it"
+            reason = UNOBSERVED
             if empty.size == 0:
                 try:
                     factor = self.factorizer.factorize(system.normal)
@@ -242,7 +244,7 @@ class Solver:
                 if rounds > 4:
                     raise NotPositiveDefinite("regularisation did not make the normal equations regular", pivots)
                 fresh, tighten = empty, 100.0**rounds
-            removed = self._observed[fresh] if reason == "no observation determines it" else None
+            removed = self._observed[fresh] if reason == UNOBSERVED else None
             group = self._regularise(values, fresh, reason, tighten, removed)
             self.groups.append(group)
             active = active + [np.ones(group.n_rows, bool)]
