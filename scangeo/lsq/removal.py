@@ -129,9 +129,7 @@ class RemovalUpdate:
         orphans = [int(c) for c in np.unique(A.indices) if not observed(int(c))]
         values = []
         for c in orphans:
-            key, i = self.solver.layout.locate(c)
-            reg = self.solver.parameters[key].regularisation_sigma
-            values.append(1.0 / ((float(reg[i]) if reg is not None else 1.0) * self.scale[c]))
+            values.append(1.0 / (self.solver.regularisation_sigma(c)[2] * self.scale[c]))
         k = len(orphans)
         return sp.csr_matrix((np.array(values), (np.arange(k), np.array(orphans, dtype=np.int64))),
                              shape=(k, self._Js.shape[1]))

@@ -191,16 +191,21 @@ class Solver:
         N.data /= scale[N.indices] * np.repeat(scale, np.diff(N.indptr))
         return System(r, J, scale, N, (J.T @ r) / scale, slices)
 
+    def regularisation_sigma(self, column: int) -> tuple[Key, int, float]:
+        """The key, component and regularisation sigma (1 when the block sets none) of a column."""
+        key, i = self.layout.locate(column)
+        reg = self.parameters[key].regularisation_sigma
+        return key, i, float(reg[i]) if reg is not None else 1.0
+
     def _regularise(self, values, columns: np.ndarray, reason: str, tighten: float = 1.0,
                     removed: np.ndarray | None = None) -> PseudoObservations:
         """Pseudo-observations holding ``columns`` at their values; ``removed`` marks those whose observations
         were all taken out (data snooping): expected, logged at INFO instead of WARNING."""
         keys, comps, vals, sig, names = [], [], [], [], []
         for k, col in enumerate(columns):
-            key, i = self.layout.locate(int(col))
+            key, i, sigma = self.regularisation_sigma(int(col))
             block = self.parameters[key]
-            reg = block.regularisation_sigma
-            sigma = (float(reg[i]) if reg is not None else 1.0) / tighten
+            sigma /= tighten
             keys.append(key)
             comps.append(i)
             vals.append(values[key][i])
