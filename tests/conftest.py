@@ -18,6 +18,28 @@ pytest_plugins = ["tests.session_projects"]  # session-scoped simulated projects
 
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
+#: Session fixtures too costly to build once per worker process (pytest-xdist): every test file that
+#: uses one runs in that fixture's group, on one worker.
+COSTLY_SESSION_FIXTURES = ("compared_small",)
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own hook, which reads the groups
+def pytest_collection_modifyitems(config, items):
+    """One pytest-xdist group per test file (``--dist loadgroup`` in pyproject.toml).
+
+    A worker then runs a whole file, so a module-scoped fixture (a simulated block, an adjustment) is
+    built once, as without workers; files sharing a costly session fixture share one group.
+    """
+    files: dict[Path, str] = {}
+    for item in items:
+        files.setdefault(item.path, item.path.name)
+        for name in COSTLY_SESSION_FIXTURES:
+            if name in getattr(item, "fixturenames", ()):
+                files[item.path] = name
+    for item in items:
+        if item.get_closest_marker("xdist_group") is None:
+            item.add_marker(pytest.mark.xdist_group(files[item.path]))
+
 
 def shared_file(relative: str) -> Path:
     """A file of ../shared/data, or skip the test when it is not there (a user's machine)."""
