@@ -93,13 +93,40 @@ def find_overlaps(strips: dict[str, MatchStrip], res: float, per_overlap: int, p
             if both.sum() < 4:
                 continue
             x, y = x[both], y[both]
-            cells = []
-            for k, c in enumerate(_cells(x, y, step, math.ceil(per_overlap / per_cell))):
-                cx, cy = np.array([0.5 * (c[0] + c[2])]), np.array([0.5 * (c[1] + c[3])])
-                others = tuple(s for s in ids if s not in (a, b) and strips[s].sees(cx, cy, margin_px)[0])
-                cells.append(Cell(k, *c, others=others))
-            out.append(Overlap(a, b, float(x.size * step * step), tuple(cells)))
+            boxes_ab = _cells(x, y, step, math.ceil(per_overlap / per_cell))
+            seen = _seen_by_others(strips, footprint, (a, b), boxes_ab, margin_px)
+            cells = tuple(Cell(k, *c, others=tuple(s for s, v in seen.items() if v[k]))
+                          for k, c in enumerate(boxes_ab))
+            out.append(Overlap(a, b, float(x.size * step * step), cells))
     return out, footprint
+
+
+def _seen_by_others(strips: dict[str, MatchStrip], footprint: dict, pair: tuple[str, str],
+                    cells: list[tuple[float, float, float, float]], margin_px: float) -> dict[str, np.ndarray]:
+    """For every strip but the pair's that sees one of the cells' centres: which centres it sees.
+
+    Only strips whose footprint box (widened by a tenth of its size on every side: the box comes
+    from border samples) holds a centre are projected, all their centres at once, so the work per
+    overlap does not grow with the block.
+    """
+    if not cells:
+        return {}
+    c = np.asarray(cells, float)
+    cx, cy = 0.5 * (c[:, 0] + c[:, 2]), 0.5 * (c[:, 1] + c[:, 3])
+    out = {}
+    for s, strip in strips.items():
+        if s in pair:
+            continue
+        x0, y0, x1, y1 = footprint[s]
+        px, py = 0.1 * (x1 - x0), 0.1 * (y1 - y0)
+        near = (cx >= x0 - px) & (cx <= x1 + px) & (cy >= y0 - py) & (cy <= y1 + py)
+        if not near.any():
+            continue
+        seen = np.zeros(cx.size, bool)
+        seen[near] = strip.sees(cx[near], cy[near], margin_px)
+        if seen.any():
+            out[s] = seen
+    return out
 
 
 def strip_cells(strip: MatchStrip, box, res: float, count: int, margin_px: float) -> list[Cell]:

@@ -182,10 +182,12 @@ def scaled_preset(lines: int, strips: int, folder: Path) -> Path:
     return path
 
 
-def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path, only: list[str] | None = None) -> None:
+def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path, only: list[str] | None = None,
+                  keep: bool = False) -> None:
     """Every stage (or those whose name starts with one of ``only``; the simulation always runs) at
     each block size (strips): seconds and peak MiB, ratios to the smallest. A stage that fails is
-    reported and the next one runs."""
+    reported and the next one runs. ``keep``: leave each size's project in ``work`` (to profile a
+    stage on it afterwards)."""
     table: dict[tuple[str, int], tuple[float, float, float]] = {}
     stages: list[str] = []
     work.mkdir(parents=True, exist_ok=True)
@@ -215,7 +217,8 @@ def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path, only: 
                 table[name, n] = (dt, log[-1][4], rss)
             except SystemExit as exc:  # a failed stage: say so, measure the others
                 print(f"  FAILED: {exc}", flush=True)
-        shutil.rmtree(root, ignore_errors=True)
+        if not keep:
+            shutil.rmtree(root, ignore_errors=True)
     base = sizes[0]
     print(f"\nstage scaling ({lines} lines per strip; ratios to {base} strips; linear = "
           + ", ".join(f"{n / base:.0f}x" for n in sizes[1:]) + "):")
@@ -251,7 +254,7 @@ def main() -> None:
         print(f"cores {os.cpu_count()}, load average {os.getloadavg()[0]:.1f}")
         work = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="scangeo-bench-sizes-"))
         try:
-            stage_scaling(args.sizes, args.lines, args.images, work, args.stages)
+            stage_scaling(args.sizes, args.lines, args.images, work, args.stages, keep=bool(args.keep))
         finally:
             if not args.keep:
                 shutil.rmtree(work, ignore_errors=True)
