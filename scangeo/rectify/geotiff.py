@@ -198,18 +198,27 @@ def describe(dst, bands: list[BandInfo], tags: dict[str, object]) -> None:
     dst.update_tags(**{k: str(v) for k, v in tags.items()})
 
 
-def finalise(working: Path, final: Path, profile: GeoTiffProfile, dtype) -> None:
-    """Copy the working file into the final layout under a hidden name, then rename it."""
+def overviews_of(profile: GeoTiffProfile, width: int, height: int) -> list[int]:
+    """The overview factors an output of ``width`` x ``height`` cells gets (none: [])."""
+    factors = overview_factors(width, height, profile.blocksize)
+    return factors if profile.wants_overviews(width, height) else []
+
+
+def finalise(working: Path, final: Path, profile: GeoTiffProfile, dtype, levels_made: bool = False) -> None:
+    """Copy the working file into the final layout under a hidden name, then rename it.
+
+    ``levels_made``: the overview levels are beside ``working`` already
+    (:class:`scangeo.rectify.overviews.LevelTiles` wrote them with the tiles)."""
     final = Path(final)
     tmp = partial_path(final, ".tif")
     driver = "COG" if profile.cog else "GTiff"
     with rasterio.open(working) as src:
-        factors = overview_factors(src.width, src.height, profile.blocksize)
-        overviews = profile.wants_overviews(src.width, src.height) and bool(factors)
+        factors = overviews_of(profile, src.width, src.height)
     # the overviews, averaged by scangeo beside the working file, reach GDAL through a VRT
     made: list[Path] = []
+    overviews = bool(factors)
     try:
-        made = with_overviews(Path(working), factors) if overviews else []
+        made = with_overviews(Path(working), factors, made=levels_made) if overviews else []
         source = made[0] if made else Path(working)
         rasterio.shutil.copy(str(source), str(tmp), driver=driver, **profile.creation_options(dtype, overviews))
         commit(tmp, final)

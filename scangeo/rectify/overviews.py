@@ -12,6 +12,11 @@ GTiff: ``COPY_SRC_OVERVIEWS=YES``); only compression remains for GDAL.
 
 Level ``k`` (factor ``2**k``) has ``ceil(size / 2**k)`` cells per side, as GDAL's own; an
 odd last row or column averages the cells it has. Integer types are rounded half up.
+
+When the tiles of the resampling pass are aligned on the coarsest level (every tile's size a
+multiple of its factor), :class:`LevelTiles` computes the levels from each tile as it is written,
+so the working file is not read back for them (the same values: every 2 x 2 block of every level
+lies inside one tile).
 """
 from __future__ import annotations
 
@@ -98,16 +103,65 @@ def write_level(finer: Path, coarser: Path) -> None:
                 dst.write(halve(data, src.nodata), window=Window(0, r0 // 2, width, (n + 1) // 2))
 
 
-def with_overviews(working: Path, factors: list[int]) -> list[Path]:
+def level_path(working: Path, factor: int) -> Path:
+    """The file of the overview level ``factor`` beside ``working``."""
+    return working.with_name(f"{working.stem}.ovr{factor}.tif")
+
+
+class LevelTiles:
+    """The overview levels ``factors`` (2, 4, 8 ...) of a raster being written tile by tile, each
+    tile's levels written as the tile is (:meth:`write`, the signature of a rasterio dataset's):
+    the working file is not read back for them.
+
+    Every tile's offsets and size (but at the raster's last row and column) must be multiples of
+    the largest factor (:meth:`aligned`), so that every 2 x 2 block of every level lies inside one
+    tile; the levels are then those :func:`write_level` computes from the whole raster.
+    """
+
+    def __init__(self, working: Path, profile: dict, factors: list[int]) -> None:
+        self.paths = [level_path(Path(working), f) for f in factors]
+        self.nodata = profile.get("nodata")
+        self._dst = []
+        width, height, transform = profile["width"], profile["height"], profile["transform"]
+        try:
+            for path in self.paths:
+                width, height, transform = (width + 1) // 2, (height + 1) // 2, transform @ Affine.scale(2.0)
+                self._dst.append(rasterio.open(path, "w", **{**profile, "width": width, "height": height,
+                                                             "transform": transform}))
+        except BaseException:
+            self.close()
+            raise
+
+    @staticmethod
+    def aligned(tile_size: int, factors: list[int]) -> bool:
+        return bool(factors) and tile_size % max(factors) == 0
+
+    def write(self, data: np.ndarray, window: Window) -> None:
+        """The levels of the tile ``data`` (bands, rows, cols) at ``window`` of the full raster."""
+        row, col = int(window.row_off), int(window.col_off)
+        for dst in self._dst:
+            data = halve(data, self.nodata)
+            row, col = row // 2, col // 2
+            dst.write(data, window=Window(col, row, data.shape[2], data.shape[1]))
+
+    def close(self) -> None:
+        for dst in self._dst:
+            dst.close()
+        self._dst = []
+
+
+def with_overviews(working: Path, factors: list[int], made: bool = False) -> list[Path]:
     """A VRT of ``working`` whose bands carry the overview levels ``factors`` (2, 4, 8 ...),
-    each computed from the one before and written beside ``working``; returns the VRT's path
-    followed by the level files (the caller removes them all after the copy)."""
+    each computed from the one before and written beside ``working`` (``made``: they are there
+    already, :class:`LevelTiles` wrote them); returns the VRT's path followed by the level files
+    (the caller removes them all after the copy)."""
     working = Path(working)
     levels: list[Path] = []
     finer = working
     for factor in factors:
-        coarser = working.with_name(f"{working.stem}.ovr{factor}.tif")
-        write_level(finer, coarser)
+        coarser = level_path(working, factor)
+        if not made:
+            write_level(finer, coarser)
         levels.append(coarser)
         finer = coarser
     vrt = working.with_suffix(".vrt")

@@ -36,9 +36,18 @@ from scangeo.rectify.cell_map import map_cells
 from scangeo.rectify.cell_values import resample_tile, time_origin
 from scangeo.rectify.geolocation import GltWriter
 from scangeo.rectify.geometry import MapStripGeometry
-from scangeo.rectify.geotiff import BandInfo, bands_of, describe, finalise, remove_partials, working_profile
+from scangeo.rectify.geotiff import (
+    BandInfo,
+    bands_of,
+    describe,
+    finalise,
+    overviews_of,
+    remove_partials,
+    working_profile,
+)
 from scangeo.rectify.options import RectifyOptions
 from scangeo.rectify.output_grid import OutputGrid
+from scangeo.rectify.overviews import LevelTiles
 from scangeo.rectify.strip_run import StripResult, StripRun, gdal_cache, start_run, strip_grid, tile_slices
 from scangeo.version import __version__
 
@@ -77,6 +86,19 @@ class Resampled:
     glt: GltWriter | None
     tags: dict[str, object]
     dtype: np.dtype
+    #: the image's overview levels were written beside it with the tiles (LevelTiles)
+    levels_made: bool = False
+
+
+class _Tee:
+    """Pass 2's destination that writes each tile into the working file and its overview levels."""
+
+    def __init__(self, dst, levels: LevelTiles) -> None:
+        self.dst, self.levels = dst, levels
+
+    def write(self, data: np.ndarray, window: Window) -> None:
+        self.dst.write(data, window=window)
+        self.levels.write(data, window)
 
 
 def resample(run: StripRun, bands: list[BandInfo], tags: Mapping[str, object] | None = None,
@@ -92,13 +114,21 @@ def resample(run: StripRun, bands: list[BandInfo], tags: Mapping[str, object] | 
     )
     windows = run.windows
     with contextlib.ExitStack() as stack:
-        dst = stack.enter_context(rasterio.open(out.image, "w", **working_profile(grid, src.count, dtype, run.nodata)))
+        profile = working_profile(grid, src.count, dtype, run.nodata)
+        dst = stack.enter_context(rasterio.open(out.image, "w", **profile))
+        tiles = dst
+        factors = overviews_of(run.options.geotiff, grid.width, grid.height)
+        if LevelTiles.aligned(run.result.tile_size, factors):
+            # the overview levels from the tiles as they are written: no second read of the file
+            levels = LevelTiles(out.image, profile, factors)
+            stack.callback(levels.close)
+            tiles, out.levels_made = _Tee(dst, levels), True
         lay = None
         if out.layers is not None:
             profile = working_profile(grid, len(layers), np.float32, math.nan)
             lay = stack.enter_context(rasterio.open(out.layers, "w", **profile))
         for i, w in enumerate(windows):
-            resample_tile(run, w, dst, lay, out.glt)
+            resample_tile(run, w, tiles, lay, out.glt)
             progress(len(windows) + i + 1, 2 * len(windows), f"resample {run.result.path.stem}")
         describe(dst, bands, out.tags)
     return out
@@ -132,7 +162,7 @@ def write_outputs(run: StripRun, resampled: Resampled) -> None:
         finalise(resampled.layers, result.layers_path, options.geotiff, np.float32)
     if resampled.glt is not None:
         result.glt_path = resampled.glt.commit(output.with_suffix(".glt"))
-    finalise(resampled.image, output, options.geotiff, resampled.dtype)
+    finalise(resampled.image, output, options.geotiff, resampled.dtype, resampled.levels_made)
 
 
 @contextlib.contextmanager

@@ -122,3 +122,42 @@ def test_the_final_file_carries_every_level_in_chunks_with_its_metadata(tmp_path
             read = src.read(1, out_shape=level.shape[1:])  # GDAL picks the level of that size
             assert np.array_equal(read, level[0]), factor
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.tif", "w.tif"]
+
+
+@pytest.mark.parametrize("dtype, nodata", [("uint16", 0), ("float32", None)])
+def test_levels_from_the_tiles_equal_the_levels_from_the_file(tmp_path, dtype, nodata):
+    """LevelTiles (levels written with each tile of pass 2) gives the levels write_level reads back
+    from the whole working file, odd last rows and columns and empty blocks included."""
+    from rasterio.windows import Window
+
+    from scangeo.rectify.overviews import LevelTiles, level_path, write_level
+
+    rng = np.random.default_rng(7)
+    height, width, tile, factors = 301, 203, 64, [2, 4, 8]
+    data = rng.integers(1, 3000, size=(2, height, width)).astype(dtype)
+    data[:, rng.random((height, width)) < 0.2] = np.nan if nodata is None else nodata
+    data[:, 64:80, :] = np.nan if nodata is None else nodata
+    profile = {"driver": "GTiff", "width": width, "height": height, "count": 2, "dtype": dtype, "nodata": nodata,
+               "crs": "EPSG:32633", "transform": from_origin(500000, 5300000, 2.5, 2.5), "tiled": True,
+               "blockxsize": 64, "blockysize": 64}
+    assert LevelTiles.aligned(tile, factors) and not LevelTiles.aligned(36, factors)
+    tiled = tmp_path / "tiled" / "w.tif"
+    tiled.parent.mkdir()
+    levels = LevelTiles(tiled, profile, factors)
+    with rasterio.open(tmp_path / "w.tif", "w", **profile) as dst:
+        dst.write(data)
+    for r in range(0, height, tile):
+        for c in range(0, width, tile):
+            h, w = min(tile, height - r), min(tile, width - c)
+            levels.write(data[:, r:r + h, c:c + w], Window(c, r, w, h))
+    levels.close()
+    finer = tmp_path / "w.tif"
+    for factor, made in zip(factors, levels.paths):
+        assert made == level_path(tiled, factor)
+        coarser = level_path(tmp_path / "w.tif", factor)
+        write_level(finer, coarser)
+        with rasterio.open(made) as a, rasterio.open(coarser) as b:
+            assert (a.width, a.height) == (b.width, b.height) == (-(-width // factor), -(-height // factor))
+            assert a.transform == b.transform
+            assert np.array_equal(a.read(), b.read(), equal_nan=True), factor
+        finer = coarser
