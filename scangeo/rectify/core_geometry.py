@@ -26,6 +26,8 @@ from scangeo.threading_layer import choose_threading_layer
 
 #: points per call into the core (bounds the temporary arrays of the conversions)
 CHUNK = 262_144
+#: the earth's smallest radius of curvature, metres (a bound on the tilt of the vertical)
+EARTH_RADIUS = 6_335_000.0
 #: height margin of the local map's box beyond the DTM's range, metres (levels, check points)
 HEIGHT_MARGIN = 100.0
 
@@ -161,6 +163,18 @@ class CoreStripGeometry:
         line[~seen] = np.nan
         pixel[~seen] = np.nan
         return line, pixel, status, steps
+
+    def largest_view_zenith(self) -> float:
+        """The largest angle between a ray and the local vertical over the strip, radians: the rays
+        of the first and last pixel of every line (at a fixed attitude a scan line's view zenith is
+        largest at one of its ends), against the project frame's vertical, plus the tilt of the
+        local vertical from it at the sensor (its distance from the frame's origin over the earth's
+        radius)."""
+        lines = np.repeat(np.arange(self.lines, dtype=float), 2)
+        pixels = np.tile([0.0, self.pixels - 1.0], self.lines)
+        origin, direction = self.core.rays(lines, pixels)
+        zenith = np.arccos(np.clip(-direction[:, 2], -1.0, 1.0)) + np.hypot(origin[:, 0], origin[:, 1]) / EARTH_RADIUS
+        return float(zenith.max())
 
     def height_on_lattice(self, xs, ys) -> np.ndarray:
         """DTM heights (len(ys), len(xs)) on the lattice of map points (xs[j], ys[i])."""

@@ -15,14 +15,30 @@ Two tests, both from the inverse map of the output grid:
 The z-buffer covers the whole image (lines x pixels float32, 29 MB for a 10,000-line Daedalus
 strip) and is filled from every tile before any tile is resampled, so occluders in a neighbouring
 tile count.
+
+Both tests are skipped for a strip whose terrain cannot hide anything (:func:`could_hide`): ground
+is hidden or folded only where the terrain rises towards the sensor more steeply than the ray,
+so when the DTM's steepest slope over the output grid is below the ray's elevation at the strip's
+largest view zenith angle (plus a margin), every cell is visible; on the benchmark strip of
+docs/performance.md (slopes up to 52 degrees, view zenith up to about 25) that saves the fold test,
+the z-buffer and the visibility test, about 0.35 CPU s of 7.
 """
 from __future__ import annotations
+
+import math
+from typing import Protocol, runtime_checkable
 
 import numba
 import numpy as np
 
+from scangeo.dtm import DTM
+from scangeo.rectify.geometry import MapStripGeometry
 from scangeo.threading_layer import choose_threading_layer
 
+#: margin added to the strip's largest view zenith angle before comparing it with the terrain's
+#: slope (:func:`could_hide`), radians: covers the rays between the sampled ones, the earth's
+#: curvature across the strip and the tilt of the map's vertical (about 0.1 degree each)
+ZENITH_MARGIN = np.radians(2.0)
 #: largest half-extent of a cell footprint in image pixels that is splatted (guards degenerate maps)
 MAX_HALF_EXTENT = 16.0
 #: constant part of the range tolerance, metres
@@ -218,3 +234,65 @@ def visible(rng: np.ndarray, tolerance: np.ndarray, nearest: np.ndarray) -> np.n
     """Cells whose range is within ``tolerance`` of the nearest range at their pixel."""
     with np.errstate(invalid="ignore"):
         return rng <= nearest + tolerance
+
+
+
+@numba.njit(cache=True)
+def _largest_steps(v, r0, r1, c0, c1):  # pragma: no cover - compiled
+    """Largest absolute difference of neighbours along rows and along columns in v[r0:r1, c0:c1]
+    (pairs with a NaN left out)."""
+    dx = 0.0
+    dy = 0.0
+    for i in range(r0, r1):
+        for j in range(c0, c1):
+            a = v[i, j]
+            if j + 1 < c1:
+                d = abs(v[i, j + 1] - a)
+                if d > dx:  # False for NaN
+                    dx = d
+            if i + 1 < r1:
+                d = abs(v[i + 1, j] - a)
+                if d > dy:
+                    dy = d
+    return dx, dy
+
+
+def steepest_slope(dtm: DTM, bounds: tuple[float, float, float, float], margin: float) -> float:
+    """Tangent of the steepest slope of the DTM's bilinear surface within ``bounds`` (map units,
+    widened by ``margin``): inside a DTM cell the gradient is a weighted mean of the cell's edge
+    differences, so it is bounded by the largest difference along rows and along columns."""
+    v, t = dtm.grid.values, dtm.grid.transform
+    xmin, ymin, xmax, ymax = bounds
+    cols, rows = dtm.grid.map_to_index(np.array([xmin - margin, xmax + margin]),
+                                       np.array([ymax + margin, ymin - margin]))
+    c0, c1 = max(int(np.floor(cols.min())) - 1, 0), min(int(np.ceil(cols.max())) + 2, v.shape[1])
+    r0, r1 = max(int(np.floor(rows.min())) - 1, 0), min(int(np.ceil(rows.max())) + 2, v.shape[0])
+    if r1 <= r0 or c1 <= c0:
+        return 0.0
+    dx, dy = _largest_steps(np.asarray(v, dtype=np.float64), r0, r1, c0, c1)
+    return float(np.hypot(dx / abs(t.a), dy / abs(t.e)))
+
+
+@runtime_checkable
+class ViewedFromAbove(Protocol):
+    """A strip geometry that knows its DTM and the largest view zenith angle of its rays
+    (:class:`scangeo.rectify.core_geometry.CoreStripGeometry`)."""
+
+    dtm: DTM
+
+    def largest_view_zenith(self) -> float:
+        """The largest angle between a ray and the local vertical over the strip, radians."""
+        ...
+
+
+def could_hide(geometry: MapStripGeometry, bounds: tuple[float, float, float, float]) -> bool:
+    """Whether terrain within ``bounds`` could hide ground from the strip's sensor (or fold it):
+    False only when the geometry has a DTM whose steepest slope there is below the elevation of
+    every ray (the largest view zenith angle plus :data:`ZENITH_MARGIN`); True when that cannot be
+    shown."""
+    if not isinstance(geometry, ViewedFromAbove):
+        return True
+    zenith = geometry.largest_view_zenith() + ZENITH_MARGIN
+    if not zenith < np.pi / 2:
+        return True
+    return steepest_slope(geometry.dtm, bounds, 2 * geometry.dtm.cell_size()) * math.tan(zenith) >= 1.0

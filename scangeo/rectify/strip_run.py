@@ -6,6 +6,7 @@ The passes (:mod:`scangeo.rectify.cell_map`, :mod:`scangeo.rectify.cell_values`)
 """
 from __future__ import annotations
 
+import logging
 import math
 from concurrent.futures import Future
 from dataclasses import dataclass, field
@@ -21,6 +22,8 @@ from scangeo.rectify.geometry import MapStripGeometry, footprint_bounds, nadir_g
 from scangeo.rectify.inverse_map import InverseMapStats
 from scangeo.rectify.options import RectifyOptions
 from scangeo.rectify.output_grid import OutputGrid, nice_resolution
+
+log = logging.getLogger(__name__)
 
 #: GDAL block cache during rectification, bytes (at most an eighth of the memory budget)
 GDAL_CACHE = 32 * 2**20
@@ -184,6 +187,19 @@ def start_run(geometry: MapStripGeometry, grid: OutputGrid, options: RectifyOpti
     return StripRun(
         geometry, grid, options, src, _output_nodata(options, src), work_dir,
         WorkArrays(work_dir, grid.shape, extra, in_memory),
-        occlusion.ZBuffer(geometry.lines, geometry.pixels) if options.occlusion else None,
+        occlusion.ZBuffer(geometry.lines, geometry.pixels) if _occlusion_test(options, geometry, grid) else None,
         StripResult(output, grid, tile_size=tile),
     )
+
+
+def _occlusion_test(options: RectifyOptions, geometry: MapStripGeometry, grid: OutputGrid) -> bool:
+    """Whether the strip needs the fold test and the z-buffer: asked for, and its terrain could
+    hide ground (:func:`scangeo.rectify.occlusion.could_hide`; when it cannot, every cell is visible
+    and the tests would change nothing)."""
+    if not options.occlusion:
+        return False
+    if occlusion.could_hide(geometry, grid.bounds):
+        return True
+    log.debug("%s: the terrain is less steep than every ray: no ground can be hidden, no occlusion test",
+              geometry)
+    return False
