@@ -17,7 +17,7 @@ import numpy as np
 
 from scangeo.adjustment.block import strip_data
 from scangeo.io.project import Project
-from scangeo.orientation.file import FILE_NAME, Orientation, load_orientation, read_orientation
+from scangeo.orientation.file import FILE_NAME, Orientation, read_orientation
 
 
 @dataclass(frozen=True)
@@ -40,16 +40,21 @@ def _measured(project: Project, strip_id: str):
     return stream.select((stream.time >= t0) & (stream.time <= t1)), t0
 
 
-def correction_series(project: Project, variant: str, strip_id: str) -> Series:
-    """The applied correction of a strip over its image, at the adjustment's GPS/IMU epochs: the
-    adjusted spline minus the GPS/IMU observed there: x, y, z (m, P), roll, pitch, heading (rad)."""
-    adjusted = load_orientation(project, variant).strip(strip_id).spline
+def correction_series(project: Project, orientations: dict[str, Orientation], strip_id: str) -> dict[str, Series]:
+    """The applied correction of a strip over its image in each variant (``orientations``: name ->
+    the variant's :class:`Orientation`, read once for every strip), at the adjustment's GPS/IMU
+    epochs: the adjusted spline minus the GPS/IMU observed there: x, y, z (m, P), roll, pitch,
+    heading (rad)."""
     data = strip_data(project, strip_id)
     t0, t1 = image_window(project, strip_id)
-    sel = (data.epochs >= t0) & (data.epochs <= t1) & adjusted.covers(data.epochs)
-    d = adjusted.evaluate(data.epochs[sel]) - data.gpsimu[sel]
-    d[:, 3:] = (d[:, 3:] + np.pi) % (2 * np.pi) - np.pi
-    return Series(data.epochs[sel] - t0, d)
+    out = {}
+    for name, orientation in orientations.items():
+        adjusted = orientation.strip(strip_id).spline
+        sel = (data.epochs >= t0) & (data.epochs <= t1) & adjusted.covers(data.epochs)
+        d = adjusted.evaluate(data.epochs[sel]) - data.gpsimu[sel]
+        d[:, 3:] = (d[:, 3:] + np.pi) % (2 * np.pi) - np.pi
+        out[name] = Series(data.epochs[sel] - t0, d)
+    return out
 
 
 def gpsimu_series(project: Project, strip_id: str) -> tuple[Series, str]:
@@ -65,29 +70,31 @@ def gpsimu_series(project: Project, strip_id: str) -> tuple[Series, str]:
     return Series(stream.time - t0, values), f"{word} (grid course {course:.1f} deg)"
 
 
-def _written(project: Project, variant: str) -> Orientation | None:
-    path = project.root / "results" / variant / FILE_NAME
-    return read_orientation(path) if path.exists() else None
+def written_orientations(project: Project, variants: list[str]) -> dict[str, Orientation]:
+    """Each variant's written ``results/NAME/orientation.json`` (variants without one left out), read
+    once: the figures of every strip use them (reading them per strip made the report quadratic in strips)."""
+    out = {}
+    for v in variants:
+        path = project.root / "results" / v / FILE_NAME
+        if path.exists():
+            out[v] = read_orientation(path)
+    return out
 
 
-def problem_strips(project: Project, variants: list[str]) -> list[str]:
+def problem_strips(project: Project, orientations: dict[str, Orientation]) -> list[str]:
     """Strips that some variant corrects with a polynomial (degree > 0) or a split model."""
     found: set[str] = set()
-    for v in variants:
-        doc = _written(project, v)
-        for m in doc.models if doc is not None else ():
+    for doc in orientations.values():
+        for m in doc.models:
             if (m.follows or max(m.position_degree, m.attitude_degree) > 0) and len(m.strips) == 1:
                 found.add(m.strips[0])
     return [s.id for s in project.strips if s.id in found]
 
 
-def breaks_of(project: Project, variant: str, strip_id: str) -> list[float]:
-    """Break epochs (s since the strip's first line) of a variant's split models of a strip."""
-    doc = _written(project, variant)
-    if doc is None:
-        return []
+def breaks_of(project: Project, orientations: dict[str, Orientation], strip_id: str) -> list[float]:
+    """Break epochs (s since the strip's first line) of the variants' split models of a strip, sorted."""
     t0, _ = image_window(project, strip_id)
-    return [t - t0 for t in doc.breaks(strip_id)]
+    return sorted({t - t0 for doc in orientations.values() for t in doc.breaks(strip_id)})
 
 
 def true_gps_error(project: Project, strip_id: str) -> Series | None:
@@ -105,4 +112,4 @@ def true_gps_error(project: Project, strip_id: str) -> Series | None:
 
 
 __all__ = ["Series", "breaks_of", "correction_series", "gpsimu_series", "image_window", "problem_strips",
-           "true_gps_error"]
+           "true_gps_error", "written_orientations"]

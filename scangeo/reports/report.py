@@ -34,7 +34,14 @@ from scangeo.orientation.file import FILE_NAME as ORIENTATION_FILE
 from scangeo.orientation.file import read_orientation
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.reports import figures, html
-from scangeo.reports.corrections import breaks_of, correction_series, gpsimu_series, problem_strips, true_gps_error
+from scangeo.reports.corrections import (
+    breaks_of,
+    correction_series,
+    gpsimu_series,
+    problem_strips,
+    true_gps_error,
+    written_orientations,
+)
 from scangeo.reports.diagnosis_section import diagnosis_section
 from scangeo.reports.geopackage import write_geopackage
 from scangeo.reports.matching import match_section
@@ -134,12 +141,13 @@ def _corrections_section(project: Project, c: Comparison) -> html.Section:
             "the image (x east, y north, z up in the project frame; angles w.r.t. the project frame's NED axes)."
         )
     )
-    for sid in problem_strips(project, adjusted):
-        ps = [v.name for v in c.variants if v.name in adjusted and v.strategy in ("P", "S")]
-        series = {n: correction_series(project, n, sid) for n in ps}
+    orientations = written_orientations(project, adjusted)  # once: every strip's figures use them
+    ps = {n: o for n, o in orientations.items() if c.variant(n).strategy in ("P", "S")}
+    for sid in problem_strips(project, orientations):
+        series = correction_series(project, ps, sid)
         height, _ = gpsimu_series(project, sid)
-        breaks = sorted({b for n in ps for b in breaks_of(project, n, sid)})
-        png = figures.height_correction_plot(sid, series, height, true_gps_error(project, sid), breaks, _colours(c))
+        png = figures.height_correction_plot(sid, series, height, true_gps_error(project, sid),
+                                             breaks_of(project, ps, sid), _colours(c))
         sec.parts.append(
             html.figure(
                 png,
@@ -149,12 +157,11 @@ def _corrections_section(project: Project, c: Comparison) -> html.Section:
             )
         )
     for sid in c.strips:
-        series = {n: correction_series(project, n, sid) for n in adjusted}
-        breaks = sorted({b for n in adjusted for b in breaks_of(project, n, sid)})
+        series = correction_series(project, orientations, sid)
         sec.parts.append(
             html.figure(
-                figures.correction_plot(sid, series, breaks, _colours(c)),
-                f"Strip {sid}: corrections of {', '.join(adjusted)} over time",
+                figures.correction_plot(sid, series, breaks_of(project, orientations, sid), _colours(c)),
+                f"Strip {sid}: corrections of {', '.join(orientations)} over time",
                 f"fig-corr-{sid}",
             )
         )

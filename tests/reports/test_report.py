@@ -183,3 +183,29 @@ def test_html_is_self_contained(compared_small):
         assert part in text, part
     for v in c.variants:
         assert f"<h3>{v.name}</h3>" in text
+
+
+def test_corrections_follow_the_injected_gps_error_and_each_orientation_is_read_once(compared_small, monkeypatch):
+    from scangeo.reports import corrections, report
+
+    root, c, _ = compared_small
+    project = Project.load(root)
+    reads = []
+    real = corrections.read_orientation
+    monkeypatch.setattr(corrections, "read_orientation", lambda path: reads.append(path) or real(path))
+    section = report._corrections_section(project, c)
+    adjusted = [v.name for v in c.variants if v.error is None and v.strategy != "DG"]
+    # one read per variant for every strip's figure (it was one per variant and strip: quadratic in strips)
+    assert len(reads) == len(adjusted) == len(set(reads))
+    assert sum('class="report-figure"' in p for p in section.parts) == len(c.strips) + 1  # + the problem strip's
+    # the S variant's height correction on the problem strip undoes the injected GPS height error
+    orientations = corrections.written_orientations(project, adjusted)
+    problem = corrections.problem_strips(project, orientations)
+    assert problem == ["02"]
+    s_name = next(v.name for v in c.variants if v.strategy == "S" and v.error is None)
+    series = corrections.correction_series(project, {s_name: orientations[s_name]}, "02")[s_name]
+    truth = corrections.true_gps_error(project, "02")
+    err_z = np.interp(series.time, truth.time, truth.values[:, 2])
+    assert np.std(err_z) > 3.0  # metres of excursion
+    assert np.sqrt(np.mean((series.values[:, 2] + err_z) ** 2)) < 0.2 * np.std(err_z)
+    assert corrections.breaks_of(project, {s_name: orientations[s_name]}, "02")  # the split's breaks
