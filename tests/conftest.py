@@ -22,23 +22,35 @@ SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 #: uses one runs in that fixture's group, on one worker.
 COSTLY_SESSION_FIXTURES = ("compared_small",)
 
+#: The longest groups (a minute or more on 2 cores), longest first: started first, so that no worker is
+#: left with one of them at the end while the other has nothing to do.
+LONGEST_GROUPS = (
+    "strategy/test_physics.py", "compared_small", "pipeline/test_run.py", "rectify/test_refined_map.py",
+    "badinput/test_project_commands.py", "badinput/test_other_commands.py", "rectify/test_block_scale.py",
+    "match/test_adjustment.py", "test_parallel.py", "rectify/test_batch.py", "rectify/test_strip.py",
+)
+
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own hook, which reads the groups
 def pytest_collection_modifyitems(config, items):
-    """One pytest-xdist group per test file (``--dist loadgroup`` in pyproject.toml).
+    """One pytest-xdist group per test file (``--dist loadgroup`` in pyproject.toml), longest first.
 
     A worker then runs a whole file, so a module-scoped fixture (a simulated block, an adjustment) is
-    built once, as without workers; files sharing a costly session fixture share one group.
+    built once, as without workers; files sharing a costly session fixture share one group. The order
+    of the files changes (``LONGEST_GROUPS`` first), not the order of the tests within a file.
     """
+    tests = Path(__file__).parent
     files: dict[Path, str] = {}
     for item in items:
-        files.setdefault(item.path, item.path.name)
+        files.setdefault(item.path, item.path.relative_to(tests).as_posix())
         for name in COSTLY_SESSION_FIXTURES:
             if name in getattr(item, "fixturenames", ()):
                 files[item.path] = name
     for item in items:
         if item.get_closest_marker("xdist_group") is None:
             item.add_marker(pytest.mark.xdist_group(files[item.path]))
+    rank = {group: i for i, group in enumerate(LONGEST_GROUPS)}
+    items.sort(key=lambda item: rank.get(files[item.path], len(rank)))  # stable: files keep their order
 
 
 def shared_file(relative: str) -> Path:
