@@ -159,7 +159,9 @@ def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
                 break
             # no w above the critical value with the updated statistics: confirm with a full solution
             solver.parameters.set_values(update.values)
-            solution, update = solver.solve(update.active), None
+            active = update.active
+            del solution, stats, update  # the last factor, selected inverse and update go before the next
+            solution, update = solver.solve(active), None
             stats = Statistics(solution)
             full += 1
             continue
@@ -196,6 +198,7 @@ def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
             for a, sl in zip(active, solution.system.row_slices):
                 inside = rows[(rows >= sl.start) & (rows < sl.stop)]
                 a[inside - sl.start] = False
+        del solution, stats  # the last factor and selected inverse go before the next factorisation
         solution = solver.solve(active)
         stats = Statistics(solution)
         full += 1

@@ -20,6 +20,13 @@ the removal leaves some unknown undetermined). Every removal since the last full
   last full solution (same linearisation), so the redundancy numbers ``1 - h'_i`` and the w-tests
   are those of the reduced adjustment.
 
+Memory: ``U`` (unknowns x removed rows, dense) is never kept. What the tests and steps need of it
+is kept instead: ``V U`` (k x k, for ``S``) and ``B = J_t U`` (tested rows x k, for the leverages),
+formed as each removal's columns of ``U`` are solved, a few columns at a time; ``N'^-1 b`` is
+``y + N^-1 V^T S^-1 V y`` with ``y = N^-1 b`` (``U^T b = V N^-1 b``: ``N`` is symmetric), one more solve
+with the existing factor. On 96 strips of block24 ``U`` held 876,489 unknowns x about 80 rows
+(560 MB, and twice that while it grew); the tested rows are about 30,000.
+
 An unknown that no active row observes any more (a point whose every measurement was removed as a
 non-separable blunder) gets, in the update, the pseudo-observation the solver's next full solution
 will give it (``x = current value`` with the block's regularisation sigma): rows ``R`` added with
@@ -48,6 +55,8 @@ log = logging.getLogger(__name__)
 MIN_EIGENVALUE = 1e-8
 #: At most this many chord steps per removal.
 MAX_STEPS = 6
+#: Columns of ``U`` solved at once (each is a dense vector over all unknowns).
+COLUMNS = 8
 
 
 class RemovalUpdate:
@@ -75,9 +84,12 @@ class RemovalUpdate:
         self.removed = np.zeros(0, dtype=np.int64)
         self._V = sp.csr_matrix((0, solver.layout.n))      # removed rows and added regularisation rows
         self._sign = np.zeros(0)                             # -1 removed, +1 added
-        self._Js_csc: sp.csc_matrix | None = None
-        self._U = np.zeros((solver.layout.n, 0))
-        self._S_inv = np.zeros((0, 0))
+        self._VU: np.ndarray = np.zeros((0, 0))             # V N^-1 V^T
+        self._B: np.ndarray = np.zeros((self._tested.size, 0))  # J_tested N^-1 V^T
+        self._S_inv: np.ndarray = np.zeros((0, 0))
+        # per column, the active rows that observe it (an orphaned unknown gets a pseudo-observation)
+        nonzero = self._Js.data != 0
+        self._observers = np.bincount(self._Js.indices[nonzero], minlength=solver.layout.n)
         self._residuals = system.residuals
         self._jacobian = system.jacobian
         self.cost = system.cost
@@ -85,9 +97,13 @@ class RemovalUpdate:
 
     # -- removal --------------------------------------------------------------------------------
     def _deactivate(self, rows: np.ndarray) -> None:
+        rows = np.unique(rows)
+        was = np.concatenate(self.active)[rows]
         for act, sl in zip(self.active, self.solution.system.row_slices):
             inside = rows[(rows >= sl.start) & (rows < sl.stop)]
             act[inside - sl.start] = False
+        gone = self._Js[rows[was]]
+        np.subtract.at(self._observers, gone.indices[gone.data != 0], 1)
 
     def remove(self, rows: np.ndarray, max_rows: int | None = None) -> bool:
         """Remove the (global) rows from ``active`` and update the solution; False when that needs a
@@ -99,12 +115,23 @@ class RemovalUpdate:
         A = self._Js[rows]
         R = self._regularisation(A)
         V_new = sp.vstack([A, R], format="csr")
-        U_new = np.asarray(self.solution.factor.solve(V_new.T.toarray())).reshape(self._U.shape[0], V_new.shape[0])
+        V = sp.vstack([self._V, V_new], format="csr")
+        k_old, k = self._V.shape[0], V.shape[0]
+        VU = np.zeros((k, k))
+        VU[:k_old, :k_old] = self._VU
+        B = np.zeros((self._tested.size, k))
+        B[:, :k_old] = self._B
+        for a in range(0, V_new.shape[0], COLUMNS):  # U's new columns, a few at a time, never kept
+            b = min(a + COLUMNS, V_new.shape[0])
+            rhs = V_new[a:b].T.toarray()
+            U = np.asarray(self.solution.factor.solve(rhs)).reshape(rhs.shape)
+            VU[:, k_old + a:k_old + b] = V @ U
+            B[:, k_old + a:k_old + b] = self._J_tested @ U
+            del rhs, U
+        VU[k_old:, :k_old] = VU[:k_old, k_old:].T
         self.removed = np.concatenate([self.removed, rows])
-        self._V = sp.vstack([self._V, V_new], format="csr")
+        self._V, self._VU, self._B = V, VU, B
         self._sign = np.concatenate([self._sign, -np.ones(rows.size), np.ones(R.shape[0])])
-        self._U = np.hstack([self._U, U_new])
-        VU = self._V @ self._U
         S = -np.diag(self._sign) - 0.5 * (VU + VU.T)
         smallest = float(np.min(np.abs(np.linalg.eigvalsh(S))))
         if smallest < MIN_EIGENVALUE:
@@ -118,15 +145,7 @@ class RemovalUpdate:
         sigma, as the solver adds them) of the columns of ``A`` that no active row observes any more
         (a point whose every measurement was removed): with them the update stays regular, as the
         next full solution regularises those unknowns."""
-        if self._Js_csc is None:
-            self._Js_csc = self._Js.tocsc()
-        Jc, active = self._Js_csc, np.concatenate(self.active)
-
-        def observed(c: int) -> bool:
-            a, b = Jc.indptr[c], Jc.indptr[c + 1]
-            return bool(active[Jc.indices[a:b][Jc.data[a:b] != 0]].any())
-
-        orphans = [int(c) for c in np.unique(A.indices) if not observed(int(c))]
+        orphans = [int(c) for c in np.unique(A.indices) if self._observers[c] <= 0]
         values = []
         for c in orphans:
             values.append(1.0 / (self.solver.regularisation_sigma(c)[2] * self.scale[c]))
@@ -140,15 +159,15 @@ class RemovalUpdate:
         return self._Js
 
     def apply_inverse(self, b: np.ndarray) -> np.ndarray:
-        """``N'^-1 b`` for one or several (n x k) right-hand sides."""
+        """``N'^-1 b`` for one or several (n x k) right-hand sides: ``y + N^-1 V^T S^-1 V y`` with
+        ``y = N^-1 b`` (the scaled normal matrix with the removed rows left out)."""
         b = np.asarray(b, dtype=float)
-        y = np.asarray(self.solution.factor.solve(b)).reshape(b.shape)
-        return y + self._U @ (self._S_inv @ (self._U.T @ b))
-
-    def _apply_inverse(self, b: np.ndarray) -> np.ndarray:
-        """``N'^-1 b`` for the scaled normal matrix with the removed rows left out."""
-        y = np.asarray(self.solution.factor.solve(b)).ravel()
-        return y + self._U @ (self._S_inv @ (self._U.T @ b))
+        factor = self.solution.factor
+        y = np.asarray(factor.solve(b)).reshape(b.shape)
+        if self._V.shape[0] == 0:
+            return y
+        c = self._S_inv @ (self._V @ y)
+        return y + np.asarray(factor.solve(np.asarray(self._V.T @ c))).reshape(b.shape)
 
     def _solve(self) -> bool:
         solver, opts = self.solver, self.solver.options
@@ -156,7 +175,7 @@ class RemovalUpdate:
         values, J, cost = self.values, self._jacobian, float(r @ r)
         for _ in range(MAX_STEPS):
             gradient = (J.T @ r) / self.scale
-            step = self._apply_inverse(-gradient)
+            step = self.apply_inverse(-gradient)
             self.steps += 1
             if float(step @ -gradient) < opts.chi2_tolerance:  # converged (the solver's test)
                 self.values, self._residuals, self._jacobian, self.cost = values, r, J, cost
@@ -179,7 +198,7 @@ class RemovalUpdate:
     # -- tests ----------------------------------------------------------------------------------
     def leverages(self) -> np.ndarray:
         """``h'_i = j_i N'^-1 j_i^T`` of every tested row of the stack (NaN for the others)."""
-        B = self._J_tested @ self._U
+        B = self._B
         h = np.full(self._residuals.size, np.nan)
         h[self._tested] = self._h0 + np.einsum("ik,ik->i", B @ self._S_inv, B)
         return h
