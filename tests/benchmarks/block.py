@@ -23,9 +23,12 @@ number of strips a block24 project with that many strips (``--lines`` lines each
 line-valued keys scaled, :func:`scaled_preset`) is simulated by ``scangeo simulate --preset FILE``
 (``--no-images`` unless ``--images``),
 then ``adjust --variant SE`` (with the reliability), ``diagnose``, ``compare`` (every default
-variant), ``report`` and, with images, ``match`` and ``rectify --variant SE --mosaic``, each as its own
-process (``--stages`` for a subset); printed: wall and CPU seconds and peak memory per stage and size,
-and their ratios to the smallest size (linear cost: the ratio of the sizes).
+variant: the diagnosis, 8 variants, a 4-fold cross-validation of 7; ``--no-report``), ``compare DG SE
+S4`` (the simulated problem strip and breaks given, three variants, 2 folds: the same stage at a
+cost that fits; each compare starts without a variants.toml), ``report`` and, with images,
+``match`` and ``rectify --variant SE --mosaic``, each as its own process (``--stages`` for a
+subset); printed: wall and CPU seconds and peak memory per stage and size, and their ratios to the
+smallest size (linear cost: the ratio of the sizes).
 Run: python tests/benchmarks/block.py --sizes 24 48 96 --lines 7000 [--stages adjust diagnose]
 
 Figures: wall seconds per stage, seconds per strip, and the peak resident memory of each stage's
@@ -200,9 +203,16 @@ def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path, only: 
         if images:
             plan.append(("match", ["match", str(root), "--no-progress"]))
         r = str(root)
+        errors = tomllib.loads(preset.read_text(encoding="utf-8"))["gpsimu_errors"]
+        given = ["--problem-strip", f"{int(errors['problem_strip']):02d}",
+                 "--breaks-lines", *(f"{b:g}" for b in errors["breaks_lines"])]
         plan += [("adjust SE (with reliability)", ["adjust", r, "--variant", "SE", "--no-progress"]),
                  ("diagnose", ["diagnose", r, "--no-progress"]),
-                 ("compare (every variant)", ["compare", r, "--no-progress"]),
+                 ("compare (every variant)", ["compare", r, "--no-report", "--no-progress"]),
+                 # the same stage with the diagnosis's findings given (diagnose is measured above),
+                 # three variants and 2 folds: compare's own work at a cost that fits a session
+                 ("compare DG SE S4, 2 folds", ["compare", r, *given, "--only", "DG", "SE", "S4", "--folds", "2",
+                                                "--no-report", "--no-progress"]),
                  ("report", ["report", r, "--no-progress"])]
         if images:
             plan.append(("rectify SE + mosaic", ["rectify", r, "--variant", "SE", "--mosaic", "--no-progress"]))
@@ -212,6 +222,8 @@ def stage_scaling(sizes: list[int], lines: int, images: bool, work: Path, only: 
                 continue
             if name not in stages:
                 stages.append(name)
+            if name.startswith("compare"):  # each compare fills in its own variants (diagnose writes some)
+                (root / "variants.toml").unlink(missing_ok=True)
             try:
                 dt, rss = run_stage(f"{n} strips: {name}", args, log)
                 table[name, n] = (dt, log[-1][4], rss)
