@@ -292,7 +292,8 @@ def adjust_block(block: Block, snooping: bool | None = None, start: Mapping[Key,
     Parameters
     ----------
     snooping : None: as the variant says (``snooping``, ``critical_value``, ``rejections_per_round``,
-        ``snooping_method``); False: no data snooping (probes, planning); True: on, with the variant's settings.
+        ``independent_rejections``, ``snooping_method``); False: no data snooping (probes, planning); True:
+        on, with the variant's settings.
     start : start values of unknowns by key (e.g. the previous probe's solution); keys the block lacks,
         or whose size differs, are left at the block's start values.
     callback : progress of the adjustment.
@@ -303,7 +304,8 @@ def adjust_block(block: Block, snooping: bool | None = None, start: Mapping[Key,
         if key in block.parameters and block.parameters[key].values.size == np.size(values):
             block.parameters[key].values[:] = values
     options = SnoopingOptions(enabled=v.snooping if snooping is None else snooping, critical_value=v.critical_value,
-                              per_round=max(1, v.rejections_per_round), method=v.snooping_method)
+                              per_round=max(1, v.rejections_per_round), independent=v.independent_rejections,
+                              method=v.snooping_method)
     if max_rejections is not None:
         options = replace(options, max_rejections=max_rejections)
     return adjust(block.parameters, block.groups, SolverOptions(max_iterations=v.max_iterations, backend=v.backend),

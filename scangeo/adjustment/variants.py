@@ -61,7 +61,9 @@ class Variant:
     calibrate: tuple[str, ...] = setting((), choices=CALIBRATION, doc="calibration unknowns")
     snooping: bool = setting(True, doc="data snooping")
     critical_value: float = setting(3.29, gt=0, unit="1", doc="critical value of the normalised residual w")
-    rejections_per_round: int = setting(1, ge=1, unit="1", doc="units removed per re-solution")
+    rejections_per_round: int = setting(32, ge=1, unit="1", doc="units removed per re-solution, at most")
+    independent_rejections: bool = setting(True, doc="only units whose w-tests cannot influence each other "
+                                           "are removed in one round (1 per round: Baarda's)")
     snooping_method: str = setting("update", choices=("update", "resolve"),
                                    doc="re-solution after a removal: low-rank update or full")
     max_iterations: int = setting(20, ge=1, unit="1", doc="Gauss-Newton iterations at most")

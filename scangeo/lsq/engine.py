@@ -31,7 +31,8 @@ from scangeo.lsq.keys import PointKey
 from scangeo.lsq.observations import ObservationGroup
 from scangeo.lsq.parameters import Parameters
 from scangeo.lsq.removal import RemovalUpdate
-from scangeo.lsq.separability import NOTE, examine_unit
+from scangeo.lsq.rounds import CANDIDATES, independent_units
+from scangeo.lsq.separability import NOTE, examine_unit, point_rows, scaled_jacobian
 from scangeo.lsq.solver import Solution, Solver, SolverOptions
 from scangeo.lsq.statistics import Statistics
 from scangeo.progress import ProgressCallback, no_progress, scaled
@@ -49,6 +50,9 @@ class SnoopingOptions:
     critical_value: float = 3.29
     max_rejections: int = 1000
     per_round: int = 1
+    #: with ``per_round`` > 1: only units whose w-tests and those of the units ranked above them cannot
+    #: influence each other go in one round (``rounds.py``); False: the ``per_round`` worst of distinct points
+    independent: bool = False
     method: str = "update"
     #: with ``method = "update"``: at most this many rows removed between full solutions
     max_update_rows: int = 64
@@ -123,6 +127,29 @@ def _worst_units(groups: Sequence[ObservationGroup], active: list[np.ndarray], w
     return out
 
 
+def _independent_units(solution: Solution, stats: Statistics, update: RemovalUpdate | None,
+                       active: list[np.ndarray], w_tests: list[np.ndarray], crit: float,
+                       count: int) -> list[tuple[int, int, float]]:
+    """Up to ``count`` units above ``crit`` that can go in one round (``rounds.independent_units``)."""
+    candidates = _worst_units(solution.groups, active, w_tests, crit, CANDIDATES)
+    if len(candidates) < 2:
+        return candidates
+    groups, slices = solution.groups, solution.system.row_slices
+    act = np.concatenate(active)
+    if update is None:
+        Js, leverage, correction = scaled_jacobian(solution), stats.leverages, None
+    else:
+        Js, leverage, correction = update.scaled_jacobian, update.leverages(), update.coupling_correction
+    w = np.concatenate(w_tests)
+    tested = _tested_rows(solution) & act & np.isfinite(w)
+
+    def rows_of(point: str) -> np.ndarray:
+        return point_rows(groups, slices, tested, point)
+
+    return independent_units(candidates, groups, slices, rows_of, Js, w, leverage,
+                             stats.inverse.partial_solver(), correction, count)
+
+
 def _tested_rows(solution: Solution) -> np.ndarray:
     """Mask of the stacked rows that data snooping tests."""
     return np.concatenate([np.full(g.n_rows, g.kind == "observation" and g.snooped) for g in solution.groups])
@@ -153,7 +180,10 @@ def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
         if len(rejections) < snooping.max_rejections:
             w_tests = stats.w_tests() if update is None else update.w_tests()
             count = min(snooping.per_round, snooping.max_rejections - len(rejections))
-            worst = _worst_units(solution.groups, active, w_tests, snooping.critical_value, count)
+            if snooping.independent and count > 1:
+                worst = _independent_units(solution, stats, update, active, w_tests, snooping.critical_value, count)
+            else:
+                worst = _worst_units(solution.groups, active, w_tests, snooping.critical_value, count)
         if not worst:
             if update is None or update.removed.size == 0:
                 break

@@ -203,6 +203,15 @@ class RemovalUpdate:
         h[self._tested] = self._h0 + np.einsum("ik,ik->i", B @ self._S_inv, B)
         return h
 
+    def coupling_correction(self, rows_a: np.ndarray, rows_b: np.ndarray) -> np.ndarray:
+        """``j_b (N'^-1 - N^-1) j_a^T = B_b S^-1 B_a^T`` for tested (global) rows: what the removals since
+        the last full solution add to the couplings of two sets of rows."""
+        ia, ib = np.searchsorted(self._tested, rows_a), np.searchsorted(self._tested, rows_b)
+        if not (np.array_equal(self._tested[np.minimum(ia, self._tested.size - 1)], rows_a)
+                and np.array_equal(self._tested[np.minimum(ib, self._tested.size - 1)], rows_b)):
+            raise ValueError("couplings of rows that are not tested")
+        return self._B[ib] @ self._S_inv @ self._B[ia].T
+
     def w_tests(self) -> list[np.ndarray]:
         """Per group, Baarda's w of every active tested row (NaN elsewhere), as ``Statistics.w_tests``."""
         h = self.leverages()

@@ -162,7 +162,7 @@ def cleaning_variant(project: Project, options: CleaningOptions) -> Variant:
                    strips=tuple(strips), dtm_heights=options.dtm_heights,
                    dtm_height_points=tuple(options.dtm_height_points),
                    constant_sigma_m=options.constant_sigma_m, snooping=True, critical_value=options.critical_value,
-                   rejections_per_round=options.per_round)
+                   rejections_per_round=options.per_round, independent_rejections=False)
 
 
 def _checks_as_control(ground: GroundPoints) -> GroundPoints:
