@@ -33,7 +33,8 @@ from scangeo.match.output import GROUND_COLUMNS, POINT_COLUMNS, merge_rows, writ
 from scangeo.match.overlaps import find_overlaps, strip_cells
 from scangeo.match.reference import Reference
 from scangeo.match.strips import MatchStrip
-from scangeo.match.tasks import _CACHE, MatchTask, TaskResult, margin_cells, run_task
+from scangeo.match.tasks import MatchTask, TaskResult, clear_caches, margin_cells, run_task
+from scangeo.orientation.file import load_orientation
 from scangeo.parallel import run_tasks
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify.geometry import nadir_ground_pixel
@@ -148,7 +149,8 @@ def match_project(project_path: str | Path, variant: str = "DG", references: Seq
     ids = [s.id for s in project.strips if s.image is not None]
     if not ids:
         raise ProjectFileError(f"{project.root / 'project.toml'}: no strip has an image to match on")
-    strips = {sid: MatchStrip(project, variant, sid, options) for sid in ids}
+    orientation = load_orientation(project, variant)  # once: it holds every strip
+    strips = {sid: MatchStrip(project, variant, sid, options, orientation=orientation) for sid in ids}
     res = options.resolution or nice_resolution(nadir_ground_pixel(strips[ids[0]].geometry))
     refs = [Reference(r, project.crs, options.reference_bands) for r in references]
     result = MatchResult(project.root / "points.csv", project.root / "ground.csv")
@@ -299,7 +301,7 @@ def run_match_tasks(tasks: list[MatchTask], workers: int, scheduler: str | None,
                     ) -> list[TaskResult]:
     """Run tasks in this process, a process pool or on a Dask scheduler (:mod:`scangeo.parallel`);
     results in task order."""
-    _CACHE.clear()  # files may have changed since an earlier run in this process
+    clear_caches()  # files may have changed since an earlier run in this process
     total = len(tasks)
     progress(0, total, "match")
     return run_tasks(run_task, tasks, workers=workers, scheduler=scheduler,

@@ -20,7 +20,7 @@ import rasterio
 from scangeo.errors import InputFileError, ProjectFileError
 from scangeo.io.project import Project
 from scangeo.match.options import DEFAULT_BAND_RANGE_NM, MatchOptions
-from scangeo.orientation.file import load_orientation
+from scangeo.orientation.file import Orientation, load_orientation
 from scangeo.rectify.core_geometry import CoreStripGeometry
 
 log = logging.getLogger(__name__)
@@ -130,10 +130,12 @@ class MatchStrip:
     """One strip for matching: its geometry for a variant and its grey image."""
 
     def __init__(self, project: Project, variant: str, strip_id: str, options: MatchOptions,
-                 image: np.ndarray | None = None) -> None:
+                 image: np.ndarray | None = None, orientation: Orientation | None = None) -> None:
         self.id = strip_id
-        # DG, or the adjusted orientation of a variant (results/NAME/orientation.json)
-        self.geometry = CoreStripGeometry(load_orientation(project, variant).geometry(strip_id), project.dtm)
+        # DG, or the adjusted orientation of a variant (results/NAME/orientation.json); ``orientation``:
+        # that of ``variant`` already read (it holds every strip: reading it per strip grows with the block)
+        orientation = orientation if orientation is not None else load_orientation(project, variant)
+        self.geometry = CoreStripGeometry(orientation.geometry(strip_id), project.dtm)
         self.dtm = project.dtm
         self._image = image
         self._project = project

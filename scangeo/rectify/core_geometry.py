@@ -12,6 +12,7 @@ strip, no convergence) come back as NaN; over-scanned points keep their first ti
 from __future__ import annotations
 
 import copy
+import weakref
 
 import numba
 import numpy as np
@@ -61,8 +62,16 @@ def _apply(local: LocalPolynomialMap, x: np.ndarray, y: np.ndarray, H: np.ndarra
     return out, inside
 
 
+#: the local map of each DTM in use, fitted once for all the strips on it (the fit grows with the
+#: DTM's extent: 0.24 s over 96 strips' DTM against 0.02 s over 24's, once per strip before)
+_LOCAL_MAPS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def _local_map_to_project(map_frame: MapFrame, dtm: DTM) -> LocalPolynomialMap | None:
     """A polynomial (x, y, H) -> p_P over the DTM's extent, or None if none is accurate enough."""
+    cached = _LOCAL_MAPS.get(dtm)
+    if cached is not None and cached[0] is map_frame:
+        return cached[1]
     xmin, ymin, xmax, ymax = dtm.grid.bounds()
     box = [[xmin, xmax], [ymin, ymax], [dtm.h_min - HEIGHT_MARGIN, dtm.h_max + HEIGHT_MARGIN]]
 
@@ -70,9 +79,11 @@ def _local_map_to_project(map_frame: MapFrame, dtm: DTM) -> LocalPolynomialMap |
         return map_frame.map_to_project(q[:, 0], q[:, 1], q[:, 2])
 
     try:
-        return LocalPolynomialMap.fit(exact, box)
+        local: LocalPolynomialMap | None = LocalPolynomialMap.fit(exact, box)
     except ScangeoError:
-        return None
+        local = None
+    _LOCAL_MAPS[dtm] = (map_frame, local)
+    return local
 
 
 def _with_fixed_overscan_window(geometry: CoreGeometry, dtm: DTM) -> CoreGeometry:

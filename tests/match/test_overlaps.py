@@ -55,3 +55,35 @@ def test_work_per_overlap_does_not_grow_with_the_block(rect_boxes):
     # the pair's own lattice (2 calls) and the strips near the overlap; not every strip of the block
     assert calls[24] <= 1.15 * calls[6]
     assert calls[24] < 12
+
+
+def test_tasks_open_the_project_and_orientation_once_and_strips_share_the_local_map(tiny_project):
+    import os
+
+    from scangeo.match.options import MatchOptions
+    from scangeo.match.strips import MatchStrip
+    from scangeo.match.tasks import MatchTask, _orientation, _project, clear_caches
+
+    root = tiny_project.root
+    clear_caches()
+    task = MatchTask("tie", str(root), "DG", ("1", "2"), (), MatchOptions(), 5.0, name="1-2")
+    project = _project(task)
+    assert _project(task) is project and _orientation(project, "DG") is _orientation(project, "DG")
+    a = MatchStrip(project, "DG", "1", MatchOptions(), orientation=_orientation(project, "DG"))
+    b = MatchStrip(project, "DG", "2", MatchOptions())
+    # one polynomial map -> project frame per DTM, and it is the exact conversion to 1 mm
+    assert a.geometry._to_project is not None and a.geometry._to_project is b.geometry._to_project
+    x = tiny_project.x0 + np.array([0.0, 250.0, 500.0])
+    y = tiny_project.y0 + np.array([-800.0, 0.0, 800.0])
+    H = np.full(3, tiny_project.ground_H)
+    exact = project.map_frame.map_to_project(x, y, H)
+    assert np.abs(b.geometry.map_to_project(x, y, H) - exact).max() < 1e-3
+    # the nadir ground point of strip 1 is seen by strip 1 at its centre pixel
+    line, pixel = a.image_of(np.array([tiny_project.x0]), np.array([tiny_project.y0]))
+    assert abs(pixel[0] - (tiny_project.pixels - 1) / 2) < 0.05
+    # a changed project file is read again
+    toml = root / "project.toml"
+    st = toml.stat()
+    os.utime(toml, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))
+    assert _project(task) is not project
+    clear_caches()
