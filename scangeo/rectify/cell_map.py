@@ -87,15 +87,10 @@ def _map_tile(run: StripRun, w: Window, track: tuple[np.ndarray, ...], facing: f
     line, pixel, stats = tile_inverse_map(g, TileGrid(x[0], y[0], grid.resolution), H, run.options.inverse_map,
                                           seed)
     run.result.stats.merge(stats)
-    near = np.isfinite(line) & np.isfinite(pixel)
-    with np.errstate(invalid="ignore"):
-        near &= (line > -2) & (line < g.lines + 1) & (pixel > -2) & (pixel < g.pixels + 1)
-    line[~near] = np.nan
-    pixel[~near] = np.nan
     rng = np.empty(line.shape)
     sH = np.empty(line.shape)
     choose_threading_layer()
-    _ranges(line, x, y, H, track[0], track[1], track[2], rng, sH)
+    _ranges(line, pixel, float(g.lines), float(g.pixels), x, y, H, track[0], track[1], track[2], rng, sH)
     rs, cs = tile_slices(w)
     work = run.work
     if run.zbuf is not None:
@@ -118,16 +113,24 @@ def _map_tile(run: StripRun, w: Window, track: tuple[np.ndarray, ...], facing: f
 
 
 @numba.njit(parallel=True, cache=True)
-def _ranges(line, x, y, H, tx, ty, tH, rng, sH):
+def _ranges(line, pixel, lines, pixels, x, y, H, tx, ty, tH, rng, sH):
     """Range from each cell (x[j], y[i], H) to the projection centre at its line, and the centre's
     height; the track is sampled at lines -1, 0, ..., lines (linear between, constant beyond, as
-    ``np.interp``); NaN where the line is."""
+    ``np.interp``). A cell whose (line, pixel) is not within two pixels of the image is unseen: its
+    line and pixel become NaN (in place), and so do its range and height; NaN where the line is."""
     R, C = line.shape
     n = tx.shape[0]
     for i in numba.prange(R):
         for j in range(C):
-            f = line[i, j] + 1.0
-            if not np.isfinite(f) or not np.isfinite(H[i, j]):
+            ln, px = line[i, j], pixel[i, j]
+            if not (np.isfinite(ln) and np.isfinite(px) and -2 < ln < lines + 1 and -2 < px < pixels + 1):
+                line[i, j] = np.nan
+                pixel[i, j] = np.nan
+                rng[i, j] = np.nan
+                sH[i, j] = np.nan
+                continue
+            f = ln + 1.0
+            if not np.isfinite(H[i, j]):
                 rng[i, j] = np.nan
                 sH[i, j] = np.nan
                 continue

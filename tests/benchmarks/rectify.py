@@ -161,7 +161,9 @@ def main() -> None:
             best[name] = (t, c)
 
     rss_ours = rss_gdal = 0.0
+    gdal = None
     for _ in range(args.repeat):
+        gdal = None  # the previous repetition's warp out of the memory figures
         reset_peak_rss()
         t0, c0 = time.perf_counter(), cpu_seconds()
         result = rectify_strip(geometry, image_path, out, options)
