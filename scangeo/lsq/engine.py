@@ -54,8 +54,9 @@ class SnoopingOptions:
     #: influence each other go in one round (``rounds.py``); False: the ``per_round`` worst of distinct points
     independent: bool = False
     method: str = "update"
-    #: with ``method = "update"``: at most this many rows removed between full solutions
-    max_update_rows: int = 64
+    #: with ``method = "update"``: at most this many rows removed between full solutions (the update keeps
+    #: a column per row for the tested rows only, not for every unknown: 96 strips of block24 remove about 80)
+    max_update_rows: int = 256
     #: a blunder that cannot be told apart from another measurement's (``separability.py``) removes
     #: its whole point with a note instead of blaming one measurement
     separability: bool = True
