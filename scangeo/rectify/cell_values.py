@@ -37,7 +37,8 @@ def resample_tile(run: StripRun, w: Window, dst, lay, glt: GltWriter | None) -> 
         out = remap_bands(data, line, pixel, lw, resampling)
         if src.nodata is not None:
             valid &= ~source_nodata_mask(data, src.nodata, line, pixel, lw, resampling)
-        out[:, ~valid] = run.nodata
+        # by flat index: the unseen cells are few, a boolean mask would visit every cell of every band
+        out.reshape(out.shape[0], -1)[:, np.flatnonzero(~valid)] = run.nodata
     result.valid_cells += int(valid.sum())
     dst.write(out, window=w)
     if lay is not None:

@@ -79,8 +79,7 @@ def remap_bands(
     (the caller masks them).
     """
     flag, _ = RESAMPLING[method]
-    map_x = np.nan_to_num(pixel, nan=-1.0).astype(np.float32)
-    map_y = np.nan_to_num(line - window.start, nan=-1.0).astype(np.float32)
+    map_x, map_y = _maps(line, pixel, window)
     dtype = data.dtype
     work = data if dtype in _REMAP_DTYPES else data.astype(np.float64)
     out = np.empty((data.shape[0],) + line.shape, dtype=dtype)
@@ -88,6 +87,13 @@ def remap_bands(
         band = cv2.remap(work[b], map_x, map_y, flag, borderMode=cv2.BORDER_REPLICATE)
         out[b] = band if band.dtype == dtype else _cast(band, dtype)
     return out
+
+
+def _maps(line: np.ndarray, pixel: np.ndarray, window: LineWindow) -> tuple[np.ndarray, np.ndarray]:
+    """cv2.remap's float32 maps of (pixel, line in the window); NaN (unseen) as -1 (masked later)."""
+    map_x = np.nan_to_num(pixel.astype(np.float32), copy=False, nan=-1.0)
+    map_y = np.nan_to_num((line - window.start).astype(np.float32), copy=False, nan=-1.0)
+    return map_x, map_y
 
 
 def _cast(values: np.ndarray, dtype: np.dtype) -> np.ndarray:
@@ -108,7 +114,6 @@ def source_nodata_mask(
     if method == "cubic":
         bad = cv2.dilate(bad, np.ones((3, 3), np.uint8))
     flag = cv2.INTER_NEAREST if method == "nearest" else cv2.INTER_LINEAR
-    map_x = np.nan_to_num(pixel, nan=-1.0).astype(np.float32)
-    map_y = np.nan_to_num(line - window.start, nan=-1.0).astype(np.float32)
+    map_x, map_y = _maps(line, pixel, window)
     touched = cv2.remap(bad.astype(np.float32), map_x, map_y, flag, borderMode=cv2.BORDER_REPLICATE)
     return touched > 1e-6
