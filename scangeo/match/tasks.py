@@ -13,7 +13,6 @@ from __future__ import annotations
 import logging
 from collections import Counter
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -24,8 +23,7 @@ from scangeo.match.options import MatchOptions
 from scangeo.match.overlaps import Cell
 from scangeo.match.reference import Reference
 from scangeo.match.strips import Chip, ChipGrid, MatchStrip
-from scangeo.orientation.file import FILE_NAME as ORIENTATION_FILE
-from scangeo.orientation.file import Orientation, load_orientation
+from scangeo.orientation import reuse
 
 log = logging.getLogger(__name__)
 
@@ -167,43 +165,12 @@ def _back_project(points: list[Measured], strips: dict[str, MatchStrip]) -> None
 
 #: strips of the last task in this process (a worker runs several tasks of one project)
 _CACHE: dict[tuple, MatchStrip] = {}
-#: the project (its DTM opened once) and the variant's orientation (every strip's) of the tasks run in
-#: this process, under their files' modification times: opening them per task made each task's cost
-#: grow with the block (the DTM and orientation.json cover every strip)
-_PROJECTS: dict[tuple, Project] = {}
-_ORIENTATIONS: dict[tuple, Orientation] = {}
 
 
 def clear_caches() -> None:
     """Forget the strips, projects and orientations of earlier tasks (files may have changed)."""
     _CACHE.clear()
-    _PROJECTS.clear()
-    _ORIENTATIONS.clear()
-
-
-def _stamp(path: Path) -> int | None:
-    try:
-        return path.stat().st_mtime_ns
-    except OSError:
-        return None
-
-
-def _project(task: MatchTask) -> Project:
-    root = Path(task.project)
-    key = (task.project, _stamp(root / "project.toml" if root.is_dir() else root))
-    if key not in _PROJECTS:
-        _PROJECTS.clear()
-        _PROJECTS[key] = Project.load(task.project)
-    return _PROJECTS[key]
-
-
-def _orientation(project: Project, variant: str) -> Orientation:
-    key = (str(project.root), variant, _stamp(project.root / "results" / variant / ORIENTATION_FILE))
-    if key not in _ORIENTATIONS:
-        if len(_ORIENTATIONS) >= 2:
-            _ORIENTATIONS.pop(next(iter(_ORIENTATIONS)))
-        _ORIENTATIONS[key] = load_orientation(project, variant)
-    return _ORIENTATIONS[key]
+    reuse.clear()
 
 
 def _strip(project: Project, task: MatchTask, sid: str) -> MatchStrip:
@@ -212,7 +179,7 @@ def _strip(project: Project, task: MatchTask, sid: str) -> MatchStrip:
         if len(_CACHE) >= 4:
             _CACHE.pop(next(iter(_CACHE)))
         _CACHE[key] = MatchStrip(project, task.variant, sid, task.options,
-                                 orientation=_orientation(project, task.variant))
+                                 orientation=reuse.orientation_of(project, task.variant))
     return _CACHE[key]
 
 
@@ -224,7 +191,7 @@ def _inner(grid: ChipGrid, cell: Cell) -> np.ndarray:
 
 def run_task(task: MatchTask) -> TaskResult:
     """Match one task's cells (in whatever process runs this)."""
-    project = _project(task)
+    project = reuse.project_of(task.project)  # shared by the tasks of this process
     options = task.options
     strips = {sid: _strip(project, task, sid) for sid in task.strips}
     margin = margin_cells(options)

@@ -32,6 +32,7 @@ from rasterio.windows import Window
 from scangeo.atomic import write_text
 from scangeo.errors import ProjectFileError
 from scangeo.io.project import Project
+from scangeo.orientation import reuse
 from scangeo.orientation.file import Orientation, load_orientation, results_folder
 from scangeo.parallel import run_tasks
 from scangeo.progress import ProgressCallback, no_progress
@@ -214,8 +215,9 @@ def start_strip_task(task: StripTask, progress: ProgressCallback = no_progress,
         cv2.setNumThreads(task.threads)
         choose_threading_layer()
         numba.set_num_threads(min(task.threads, numba.config.NUMBA_NUM_THREADS))  # type: ignore[attr-defined]
-    project = Project.load(task.project)
-    source = load_orientation(project, task.variant)
+    # shared by the strips this process rectifies: loading them per strip grew with the block
+    project = reuse.project_of(task.project)
+    source = reuse.orientation_of(project, task.variant)
     geometry = CoreStripGeometry(source.geometry(task.strip), project.dtm)
     cfg = project.strip(task.strip)
     if cfg.image is None:
@@ -272,6 +274,7 @@ def rectify_project(
         worker runs them in this process).
     """
     started = time.perf_counter()
+    reuse.clear()  # the strip tasks of this run read the project's files afresh
     project = Project.load(project_path)
     if strips is None:
         ids = [s.id for s in project.strips if s.image is not None]

@@ -62,14 +62,14 @@ def test_tasks_open_the_project_and_orientation_once_and_strips_share_the_local_
 
     from scangeo.match.options import MatchOptions
     from scangeo.match.strips import MatchStrip
-    from scangeo.match.tasks import MatchTask, _orientation, _project, clear_caches
+    from scangeo.match.tasks import clear_caches
+    from scangeo.orientation.reuse import orientation_of, project_of
 
     root = tiny_project.root
     clear_caches()
-    task = MatchTask("tie", str(root), "DG", ("1", "2"), (), MatchOptions(), 5.0, name="1-2")
-    project = _project(task)
-    assert _project(task) is project and _orientation(project, "DG") is _orientation(project, "DG")
-    a = MatchStrip(project, "DG", "1", MatchOptions(), orientation=_orientation(project, "DG"))
+    project = project_of(str(root))
+    assert project_of(str(root)) is project and orientation_of(project, "DG") is orientation_of(project, "DG")
+    a = MatchStrip(project, "DG", "1", MatchOptions(), orientation=orientation_of(project, "DG"))
     b = MatchStrip(project, "DG", "2", MatchOptions())
     # one polynomial map -> project frame per DTM, and it is the exact conversion to 1 mm
     assert a.geometry._to_project is not None and a.geometry._to_project is b.geometry._to_project
@@ -85,5 +85,5 @@ def test_tasks_open_the_project_and_orientation_once_and_strips_share_the_local_
     toml = root / "project.toml"
     st = toml.stat()
     os.utime(toml, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))
-    assert _project(task) is not project
+    assert project_of(str(root)) is not project
     clear_caches()
