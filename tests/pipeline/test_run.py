@@ -117,7 +117,7 @@ def test_an_edited_control_point_reruns_from_clean_not_match(ran, tmp_path):
 
 
 KILLER = textwrap.dedent("""
-    import os, signal, sys
+    import os, signal, sys, time
     from scangeo.pipeline.run import run
 
     seen = 0
@@ -126,6 +126,11 @@ KILLER = textwrap.dedent("""
         global seen
         seen += message.startswith(sys.argv[3])
         if seen == int(sys.argv[4]):
+            # a file that must be complete first (a strip whose COG the pipeline's background step writes
+            # while the next strip is rectified): waited for, at most two minutes
+            end = time.monotonic() + 120.0
+            while len(sys.argv) > 5 and not os.path.exists(sys.argv[5]) and time.monotonic() < end:
+                time.sleep(0.05)
             os.kill(os.getpid(), signal.SIGKILL)
 
     run(sys.argv[1], from_stage=sys.argv[2], progress=progress)
@@ -166,9 +171,10 @@ def _outputs(root: Path, name: str, roots: list[Path]) -> dict:
 
 def test_a_run_killed_in_every_stage_in_turn_resumes_to_the_same_outputs(ran, tmp_path):
     # One process per stage: ``--from STAGE``, SIGKILLed at the stage's second progress report (rectify: at
-    # strip 02's second, strip 01 complete). The next process must first finish the stage the last one was
-    # killed in ("stopped in it"), then is killed in its own; a last plain run finishes the report. The
-    # outputs are then those of the uninterrupted run, and no partial file is left anywhere.
+    # strip 02's second, once strip 01's COG, written in the background meanwhile, is complete). The next
+    # process must first finish the stage the last one was killed in ("stopped in it"), then is killed in its
+    # own; a last plain run finishes the report. The outputs are then those of the uninterrupted run, and no
+    # partial file is left anywhere.
     name = ran[1].recommended
     root = copy_project(ran[0], tmp_path / "block")
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
@@ -179,7 +185,8 @@ def test_a_run_killed_in_every_stage_in_turn_resumes_to_the_same_outputs(ran, tm
         if stage == "rectify":  # orthoimages complete with the current fingerprint would be skipped
             for sid in ("01", "02"):
                 (root / "results" / name / "ortho" / f"{sid}.tif").unlink()
-        killed = subprocess.run([sys.executable, "-c", KILLER, str(root), stage, prefix, "2"], env=env,
+        first = [str(root / "results" / name / "ortho" / "01.tif")] if stage == "rectify" else []
+        killed = subprocess.run([sys.executable, "-c", KILLER, str(root), stage, prefix, "2", *first], env=env,
                                 capture_output=True, text=True, timeout=600)
         assert killed.returncode == -signal.SIGKILL, (stage, killed.stderr[-2000:])
         record = json.loads((root / "results" / "run.json").read_text(encoding="utf-8"))["stages"]
