@@ -142,6 +142,7 @@ class _Setup:
     roles: dict[str, str] = field(default_factory=dict)
     used: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    _by_strip: tuple[int, dict[str, np.ndarray]] | None = field(default=None, repr=False)
 
     @property
     def given(self) -> dict[str, int]:
@@ -149,9 +150,18 @@ class _Setup:
         return {str(p): i for i, p in enumerate(self.ground.point)}
 
     def measured_in(self, sid: str) -> np.ndarray:
-        """Rows of points.csv of strip ``sid`` whose points enter the adjustment."""
-        pts = self.points
-        return np.flatnonzero((pts.strip.astype(str) == sid) & np.isin(pts.point.astype(str), self.used))
+        """Rows of points.csv of strip ``sid`` whose points enter the adjustment (ascending).
+
+        The rows of every strip are found in one pass over points.csv, on the first call after
+        ``used`` is set, not one pass per strip (quadratic in strips)."""
+        if self._by_strip is None or self._by_strip[0] != len(self.used):
+            pts = self.points
+            rows = np.flatnonzero(np.isin(pts.point.astype(str), self.used))
+            strips = pts.strip.astype(str)[rows]
+            order = np.argsort(strips, kind="stable")  # rows stay ascending within a strip
+            ids, starts = np.unique(strips[order], return_index=True)
+            self._by_strip = (len(self.used), dict(zip(map(str, ids), np.split(rows[order], starts[1:]))))
+        return self._by_strip[1].get(sid, np.empty(0, dtype=np.intp))
 
 
 def build_block(project: Project, variant: Variant, points: ImagePoints, ground: GroundPoints) -> Block:
@@ -210,9 +220,9 @@ def _choose_points(setup: _Setup) -> None:
     """Each point's role (the variant's over ground.csv's; measured only: tie) and the points that
     enter the adjustment (not check or ignored; tie points seen in two strips or more)."""
     v, points, ground = setup.variant, setup.points, setup.ground
-    setup.roles = {str(p): v.role_of(str(p), str(r)) for p, r in zip(ground.point, ground.role)}
-    for p in map(str, points.point):
-        setup.roles.setdefault(p, v.role_of(p, "tie"))
+    setup.roles = v.roles_of(zip(map(str, ground.point), map(str, ground.role)))
+    measured_only = [p for p in dict.fromkeys(map(str, points.point)) if p not in setup.roles]
+    setup.roles.update(v.roles_of((p, "tie") for p in measured_only))
     meas_strips: dict[str, set] = {}
     for p, sid in zip(map(str, points.point), map(str, points.strip)):
         meas_strips.setdefault(p, set()).add(sid)

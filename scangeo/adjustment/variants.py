@@ -7,6 +7,7 @@ carry DTM heights, the sigmas, the regularisation, the calibration unknowns and 
 from __future__ import annotations
 
 import fnmatch
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -71,10 +72,30 @@ class Variant:
 
     def role_of(self, point: str, role: str) -> str:
         """The role of a point in this variant: ground.csv's (or ``tie``), then the patterns in order."""
-        for pattern, new in self.roles:
-            if fnmatch.fnmatchcase(point, pattern):
-                role = new
-        return role
+        return self.roles_of([(point, role)])[point]
+
+    def roles_of(self, points: Iterable[tuple[str, str]]) -> dict[str, str]:
+        """:meth:`role_of` of each (point, ground.csv's role) pair: point -> role.
+
+        The last pattern that matches wins. A pattern without a glob character is a point's name (the
+        cross-validation holds points out by name, one pattern each): looked up, not matched against
+        every point, so the cost is points + patterns, not their product.
+        """
+        names: dict[str, tuple[int, str]] = {}
+        globs: list[tuple[int, str, str]] = []
+        for i, (pattern, new) in enumerate(self.roles):
+            if any(c in pattern for c in "*?["):
+                globs.append((i, pattern, new))
+            else:
+                names[pattern] = (i, new)
+        out: dict[str, str] = {}
+        for point, role in points:
+            last, found = names.get(point, (-1, role))
+            for i, pattern, new in globs:  # in order: a later match than the name's replaces it
+                if i > last and fnmatch.fnmatchcase(point, pattern):
+                    last, found = i, new
+            out[point] = found
+        return out
 
     def strip_models(self, strip: str) -> StripModels:
         for s in self.strips:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import csv
+import fnmatch
 import json
 import shutil
 
@@ -292,3 +293,43 @@ def test_scipy_fallback_gives_the_same_adjustment(shifted):
                                    atol=1e-4)
         np.testing.assert_allclose(slow.adjustment.statistics.sigmas(m.key), fast.adjustment.statistics.sigmas(m.key),
                                    rtol=1e-5)
+
+
+def test_roles_of_names_and_globs_last_pattern_wins():
+    # names (as the cross-validation holds points out) and globs interleaved; the rule written out: every
+    # pattern in order, the last that matches decides
+    roles = (("E*", "check"), ("E01", "control"), ("H?2", "ignore"), ("E01", "ignore"), ("T[0-4]*", "check"),
+             ("T15", "control"), ("*5", "tie"))
+    v = Variant("R", "SE", roles=roles)
+    points = [(f"{k}{i:02d}", r) for k, r in (("E", "control"), ("H", "height"), ("T", "tie")) for i in range(20)]
+
+    def written_out(point, role):
+        for pattern, new in roles:
+            if fnmatch.fnmatchcase(point, pattern):
+                role = new
+        return role
+
+    got = v.roles_of(points)
+    assert got == {p: written_out(p, r) for p, r in points}
+    assert got["E01"] == "ignore" and got["E02"] == "check" and got["T15"] == "tie" and got["T16"] == "check"
+    assert got["H02"] == "ignore" and got["H12"] == "ignore" and got["H03"] == "height"
+    assert v.role_of("T15", "tie") == "tie" and v.role_of("X1", "tie") == "tie"
+
+
+def test_rows_of_each_strip_found_in_one_pass_equal_the_per_strip_selection(small):
+    from scangeo.adjustment.block import _choose_points, _Setup, build_models, strip_data
+
+    project = Project.load(small)
+    points, ground = read_measurements(project)
+    variant = Variant("SOME", "SE", roles=(("E0*", "check"), ("T01*", "ignore")))
+    strips = {s.id: strip_data(project, s.id) for s in project.strips}
+    setup = _Setup(project, variant, points, ground, strips, build_models(project, variant, strips))
+    _choose_points(setup)
+    assert 0 < len(setup.used) < len(set(map(str, points.point)))
+    total = 0
+    for sid in [s.id for s in project.strips] + ["no such strip"]:
+        expected = np.flatnonzero((points.strip.astype(str) == sid) & np.isin(points.point.astype(str), setup.used))
+        got = setup.measured_in(sid)
+        assert np.array_equal(got, expected), sid
+        total += len(got)
+    assert total == np.isin(points.point.astype(str), setup.used).sum() > 0
