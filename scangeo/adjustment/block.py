@@ -131,7 +131,8 @@ def _correction_block(params: Parameters, m: GpsImuModel, v: Variant) -> None:
 @dataclass
 class _Setup:
     """What the steps of :func:`build_block` share: the inputs, the strips and models, each
-    point's role, the points that enter the adjustment, and the notes for the user."""
+    point's role, the points that enter the adjustment (and their rows of points.csv by strip), and
+    the notes for the user."""
 
     project: Project
     variant: Variant
@@ -142,7 +143,7 @@ class _Setup:
     roles: dict[str, str] = field(default_factory=dict)
     used: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
-    _by_strip: tuple[int, dict[str, np.ndarray]] | None = field(default=None, repr=False)
+    rows: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def given(self) -> dict[str, int]:
@@ -150,18 +151,8 @@ class _Setup:
         return {str(p): i for i, p in enumerate(self.ground.point)}
 
     def measured_in(self, sid: str) -> np.ndarray:
-        """Rows of points.csv of strip ``sid`` whose points enter the adjustment (ascending).
-
-        The rows of every strip are found in one pass over points.csv, on the first call after
-        ``used`` is set, not one pass per strip (quadratic in strips)."""
-        if self._by_strip is None or self._by_strip[0] != len(self.used):
-            pts = self.points
-            rows = np.flatnonzero(np.isin(pts.point.astype(str), self.used))
-            strips = pts.strip.astype(str)[rows]
-            order = np.argsort(strips, kind="stable")  # rows stay ascending within a strip
-            ids, starts = np.unique(strips[order], return_index=True)
-            self._by_strip = (len(self.used), dict(zip(map(str, ids), np.split(rows[order], starts[1:]))))
-        return self._by_strip[1].get(sid, np.empty(0, dtype=np.intp))
+        """Rows of points.csv of strip ``sid`` whose points enter the adjustment (ascending)."""
+        return self.rows.get(sid, np.empty(0, dtype=np.intp))
 
 
 def build_block(project: Project, variant: Variant, points: ImagePoints, ground: GroundPoints) -> Block:
@@ -237,6 +228,12 @@ def _choose_points(setup: _Setup) -> None:
         if role in CONTROL_COMPONENTS and p not in given:
             raise AdjustmentError(f"point {p} has role {role} but no coordinates in ground.csv")
         setup.used.append(p)
+    # the rows of every strip in one pass over points.csv (a pass per strip is quadratic in strips)
+    rows = np.flatnonzero(np.isin(points.point.astype(str), setup.used))
+    strips = points.strip.astype(str)[rows]
+    order = np.argsort(strips, kind="stable")  # rows stay ascending within a strip
+    ids, starts = np.unique(strips[order], return_index=True)
+    setup.rows = dict(zip(map(str, ids), np.split(rows[order], starts[1:])))
 
 
 def _ground_unknowns(setup: _Setup, params: Parameters) -> None:
