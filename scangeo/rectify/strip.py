@@ -7,8 +7,12 @@ output (:mod:`scangeo.rectify.strip_run`).
 Pass 2 (:func:`resample`; per tile :func:`~scangeo.rectify.cell_values.resample_tile`): visibility,
 the image lines, ``cv2.remap`` of every band, nodata where nothing is seen; optional layers and the
 GLT, into working GeoTIFFs.
-Then (:func:`write_outputs`) the working GeoTIFF is copied into the final layout (COG) under a
-hidden name and renamed: an interrupted run leaves nothing that looks finished. Given a
+Then (:func:`write_outputs`) the image is written in its final layout (COG) under a hidden name and
+renamed: an interrupted run leaves nothing that looks finished. By default pass 2 hands its tiles to
+a :class:`~scangeo.rectify.cog_writer.CogWriter`, which compresses every block in worker threads
+as it is complete and only assembles the file at the end; otherwise (``[rectify.geotiff]
+writer = "gdal"``, zstd, lzw, floats with a predictor) the tiles go into an uncompressed working
+GeoTIFF that GDAL's COG driver copies. Given a
 :class:`Finaliser`, that last step (compression, overviews) runs in its background thread while the
 caller goes on with the next strip's passes; :meth:`StripResult.wait` waits for it.
 """
@@ -34,6 +38,7 @@ from scangeo.errors import InputFileError
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify.cell_map import map_cells
 from scangeo.rectify.cell_values import resample_tile, time_origin
+from scangeo.rectify.cog_writer import CogWriter
 from scangeo.rectify.geolocation import GltWriter
 from scangeo.rectify.geometry import MapStripGeometry
 from scangeo.rectify.geotiff import (
@@ -88,6 +93,9 @@ class Resampled:
     dtype: np.dtype
     #: the image's overview levels were written beside it with the tiles (LevelTiles)
     levels_made: bool = False
+    #: the image's blocks, encoded as they were written (then ``image`` is not written)
+    cog: CogWriter | None = None
+    bands: list[BandInfo] | None = None
 
 
 class _Tee:
@@ -113,16 +121,29 @@ def resample(run: StripRun, bands: list[BandInfo], tags: Mapping[str, object] | 
         dtype,
     )
     windows = run.windows
+    gp = run.options.geotiff
+    tiles: CogWriter | _Tee | rasterio.io.DatasetWriter
     with contextlib.ExitStack() as stack:
-        profile = working_profile(grid, src.count, dtype, run.nodata)
-        dst = stack.enter_context(rasterio.open(out.image, "w", **profile))
-        tiles = dst
-        factors = overviews_of(run.options.geotiff, grid.width, grid.height)
-        if LevelTiles.aligned(run.result.tile_size, factors):
-            # the overview levels from the tiles as they are written: no second read of the file
-            levels = LevelTiles(out.image, profile, factors)
-            stack.callback(levels.close)
-            tiles, out.levels_made = _Tee(dst, levels), True
+        factors = overviews_of(gp, grid.width, grid.height)
+        aligned = not factors or LevelTiles.aligned(run.result.tile_size, factors)
+        if aligned and gp.scangeo_writes(dtype):
+            out.cog = CogWriter(
+                run.work_dir / "blocks.spool", width=grid.width, height=grid.height, count=src.count, dtype=dtype,
+                nodata=run.nodata, crs=grid.crs, transform=grid.transform, blocksize=gp.blocksize, factors=factors,
+                compress=gp.compress, level=gp.level, predictor=gp.predictor, threads=gp.thread_count(),
+            )
+            stack.push(lambda exc_type, *_: out.cog.close() if exc_type is not None and out.cog else None)
+            tiles, out.bands = out.cog, list(bands)
+        else:
+            profile = working_profile(grid, src.count, dtype, run.nodata)
+            dst = stack.enter_context(rasterio.open(out.image, "w", **profile))
+            stack.callback(describe, dst, bands, out.tags)  # before the file closes
+            tiles = dst
+            if factors and aligned:
+                # the overview levels from the tiles as they are written: no second read of the file
+                levels = LevelTiles(out.image, profile, factors)
+                stack.callback(levels.close)
+                tiles, out.levels_made = _Tee(dst, levels), True
         lay = None
         if out.layers is not None:
             profile = working_profile(grid, len(layers), np.float32, math.nan)
@@ -130,7 +151,6 @@ def resample(run: StripRun, bands: list[BandInfo], tags: Mapping[str, object] | 
         for i, w in enumerate(windows):
             resample_tile(run, w, tiles, lay, out.glt)
             progress(len(windows) + i + 1, 2 * len(windows), f"resample {run.result.path.stem}")
-        describe(dst, bands, out.tags)
     return out
 
 
@@ -151,6 +171,21 @@ def _tags(tags: Mapping[str, object] | None, options: RectifyOptions, result: St
 def write_outputs(run: StripRun, resampled: Resampled) -> None:
     """The working files into their final layout under their final names: the layers, the GLT,
     the orthoimage last (its presence means the strip's outputs are complete)."""
+    output, options = run.result.path, run.options
+    try:
+        _write_side_outputs(run, resampled)
+    except BaseException:
+        if resampled.cog is not None:
+            resampled.cog.close()
+        raise
+    if resampled.cog is not None:
+        resampled.cog.finish(output, resampled.bands, resampled.tags)
+    else:
+        finalise(resampled.image, output, options.geotiff, resampled.dtype, resampled.levels_made)
+
+
+def _write_side_outputs(run: StripRun, resampled: Resampled) -> None:
+    """The layers and the GLT under their final names."""
     output, options, result = run.result.path, run.options, run.result
     if resampled.layers is not None:
         result.layers_path = output.with_name(output.stem + ".layers.tif")
@@ -162,7 +197,6 @@ def write_outputs(run: StripRun, resampled: Resampled) -> None:
         finalise(resampled.layers, result.layers_path, options.geotiff, np.float32)
     if resampled.glt is not None:
         result.glt_path = resampled.glt.commit(output.with_suffix(".glt"))
-    finalise(resampled.image, output, options.geotiff, resampled.dtype, resampled.levels_made)
 
 
 @contextlib.contextmanager

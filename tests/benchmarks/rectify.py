@@ -121,6 +121,9 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=1,
                     help="run the routes this many times, alternating, and keep each one's smallest CPU seconds "
                          "(with that run's wall time): on a shared machine the load moves between routes")
+    ap.add_argument("--gdal-writer", action="store_true",
+                    help="also time the pipelined strips with [rectify.geotiff] writer = \"gdal\" (GDAL's COG driver "
+                         "compressing, the route before scangeo's own COG writer)")
     ap.add_argument("--compress", default="deflate", choices=("deflate", "zstd", "lzw", "none"),
                     help="compression of the orthoimage (default: deflate, the default of [rectify.geotiff])")
     args = ap.parse_args()
@@ -177,6 +180,14 @@ def main() -> None:
                 for i in range(args.pipeline):
                     rectify_strip(geometry, image_path, tmp / f"pipelined{i}.tif", options, finaliser=finaliser)
             keep("pipe", (time.perf_counter() - t0) / args.pipeline, (cpu_seconds() - c0) / args.pipeline)
+            if args.gdal_writer:
+                by_gdal = options.replace(geotiff=GeoTiffProfile(compress=args.compress, writer="gdal"))
+                t0, c0 = time.perf_counter(), cpu_seconds()
+                with Finaliser() as finaliser:
+                    for i in range(args.pipeline):
+                        rectify_strip(geometry, image_path, tmp / f"pipelined-gdal{i}.tif", by_gdal,
+                                      finaliser=finaliser)
+                keep("pipe-gdal", (time.perf_counter() - t0) / args.pipeline, (cpu_seconds() - c0) / args.pipeline)
         grid = result.grid
         t0, c0 = time.perf_counter(), cpu_seconds()
         x, y = corner_geolocation(geometry)
@@ -208,6 +219,10 @@ def main() -> None:
     if t_pipe is not None:
         label = f"scangeo, {args.pipeline} strips pipelined, per strip"
         print(f"{label:<44}{t_pipe:>9.2f}{c_pipe:>8.2f}{c_pipe / t_pipe:>7.2f}{mpx / t_pipe:>13.1f}")
+        if "pipe-gdal" in best:
+            t_pg, c_pg = best["pipe-gdal"]
+            label = "  same, GDAL's COG driver writing"
+            print(f"{label:<44}{t_pg:>9.2f}{c_pg:>8.2f}{c_pg / t_pg:>7.2f}{mpx / t_pg:>13.1f}")
     print(f"{'GDAL geolocation warp (in memory)':<44}{t_gdal:>9.2f}{c_gdal:>8.2f}{c_gdal / t_gdal:>7.2f}"
           f"{mpx / t_gdal:>13.1f}{rss_gdal:>13.0f}")
     print(f"{'  + its input: IGM of the pixel corners':<44}{t_igm:>9.2f}{c_igm:>8.2f}{c_igm / t_igm:>7.2f}")

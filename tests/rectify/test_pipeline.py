@@ -49,17 +49,22 @@ def test_pipelined_outputs_are_byte_identical_to_sequential(tmp_path):
     assert sorted(p.name for p in (tmp_path / "pipe").iterdir()) == sorted(names)
 
 
-def test_a_failure_of_the_background_step_is_raised_by_wait_and_leaves_no_output(tmp_path, monkeypatch):
+@pytest.mark.parametrize("writer", ["scangeo", "gdal"])
+def test_a_failure_of_the_background_step_is_raised_by_wait_and_leaves_no_output(tmp_path, monkeypatch, writer):
     (geom,) = strips(tmp_path, 1)
+    import scangeo.rectify.cog_writer as cog_module
     import scangeo.rectify.strip as strip_module
 
     def broken(*args, **kwargs):
         raise OSError("disk full")
 
-    monkeypatch.setattr(strip_module, "finalise", broken)
+    if writer == "gdal":
+        monkeypatch.setattr(strip_module, "finalise", broken)
+    else:  # the disk fills while the file is assembled from the spool
+        monkeypatch.setattr(cog_module, "_copy", broken)
+    options = RectifyOptions(resolution=2.0, geotiff=GeoTiffProfile(writer=writer))
     with Finaliser() as finaliser:
-        r = rectify_strip(geom, tmp_path / "img0.tif", tmp_path / "o.tif", RectifyOptions(resolution=2.0),
-                          finaliser=finaliser)
+        r = rectify_strip(geom, tmp_path / "img0.tif", tmp_path / "o.tif", options, finaliser=finaliser)
         with pytest.raises(OSError, match="disk full"):
             r.wait()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["img0.tif"]
