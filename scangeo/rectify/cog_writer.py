@@ -31,6 +31,7 @@ import math
 import os
 import struct
 import threading
+from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -149,19 +150,17 @@ def _ifd_bytes(tags: list[Tag], at: int, next_ifd: int, big: bool) -> bytes:
     return head + b"".join(entries) + tail + b"".join(extra)
 
 
-def gdal_tags(width: int, height: int, count: int, dtype, crs, transform: Affine, nodata,
-              bands: list | None = None, tags: dict | None = None) -> dict[int, Tag]:
+def gdal_tags(count: int, dtype, crs, transform: Affine, nodata,
+              annotate: Callable[[rasterio.io.DatasetWriter], None] | None = None) -> dict[int, Tag]:
     """The tags GDAL writes for a pixel-interleaved GeoTIFF of ``count`` bands of ``dtype`` with
-    this georeferencing, nodata, band descriptions (:class:`~scangeo.rectify.geotiff.BandInfo`)
-    and dataset tags: read back from a small one GDAL writes in memory."""
-    from scangeo.rectify.geotiff import describe  # geotiff imports this module
-
+    this georeferencing and nodata, and what ``annotate(dataset)`` adds (band descriptions, band
+    and dataset tags): read back from a one-cell GeoTIFF GDAL writes in memory."""
     profile = {"driver": "GTiff", "width": 1, "height": 1, "count": count, "dtype": np.dtype(dtype).name,
                "crs": crs, "transform": transform, "nodata": nodata, "interleave": "pixel", "compress": "none"}
     with rasterio.MemoryFile() as mem:
         with mem.open(**profile) as dst:
-            if bands is not None or tags:
-                describe(dst, list(bands or []), dict(tags or {}))
+            if annotate is not None:
+                annotate(dst)
         data = mem.read()
     return read_directories(data)[0]
 
@@ -305,11 +304,12 @@ class CogWriter:
             fut.result()
         self._futures = []
 
-    def finish(self, final: Path, bands: list | None = None, tags: dict | None = None) -> Path:
+    def finish(self, final: Path, tmp: Path,
+               annotate: Callable[[rasterio.io.DatasetWriter], None] | None = None) -> Path:
         """Encode what is left (blocks partly or never written keep nodata elsewhere), write the
-        file in the cloud-optimised layout under a hidden name beside ``final``, rename it."""
-        from scangeo.rectify.geotiff import partial_path  # geotiff imports this module
-
+        file in the cloud-optimised layout as ``tmp`` (a hidden name beside ``final``), rename it
+        to ``final``. ``annotate(dataset)`` writes the band descriptions and tags (see
+        :func:`gdal_tags`)."""
         try:
             for k, lv in enumerate(self.levels):
                 for index in range(lv.blocks_x * lv.blocks_y):
@@ -320,9 +320,8 @@ class CogWriter:
                 self._drain()
             self._pool.shutdown(wait=True)
             self._spool.close()
-            template = gdal_tags(self.width, self.height, self.count, self.dtype, self.crs, self.transform,
-                                 self.nodata, bands, tags)
-            tmp = partial_path(Path(final), ".tif")
+            template = gdal_tags(self.count, self.dtype, self.crs, self.transform, self.nodata, annotate)
+            tmp = Path(tmp)
             try:
                 self._assemble(tmp, template)
                 commit(tmp, final)

@@ -1,6 +1,8 @@
 """GeoTIFF outputs: a profile with sane defaults, band descriptions, atomic COG finalisation.
 
-Tiles are first written into an uncompressed tiled GeoTIFF beside the output (a hidden
+A strip's orthoimage is written by :class:`scangeo.rectify.cog_writer.CogWriter` when
+:meth:`GeoTiffProfile.scangeo_writes` (the default). Otherwise, and for the layers and the mosaic,
+tiles are first written into an uncompressed tiled GeoTIFF beside the output (a hidden
 ``.NAME.partial-*`` file), its overviews computed beside it (:mod:`scangeo.rectify.overviews`), then
 copied by GDAL's COG driver into a second hidden file (tiled, compressed, with those overviews,
 cloud-optimised layout), which is renamed to the final name only when complete. A run killed at
@@ -8,6 +10,7 @@ any point leaves only hidden partial files, which the next run removes.
 """
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import uuid
@@ -18,10 +21,12 @@ import numpy as np
 import rasterio
 import rasterio.enums
 import rasterio.shutil
+from rasterio.windows import Window
 
 from scangeo.atomic import commit
 from scangeo.errors import RectifyOptionsError
 from scangeo.io.schema import setting
+from scangeo.rectify.cog_writer import CogWriter
 from scangeo.rectify.output_grid import OutputGrid
 from scangeo.rectify.overviews import with_overviews
 
@@ -65,7 +70,7 @@ class GeoTiffProfile:
     predictor: bool = setting(True, doc="horizontal differencing (integers), floating-point predictor (floats)")
     overviews: bool | str = setting("auto", choices=("auto",),
                                     doc=f"internal overviews: auto (above {OVERVIEW_MIN_SIZE} cells), true, false")
-    cog: bool = setting(True, doc="write with GDAL's COG driver (cloud-optimised layout)")
+    cog: bool = setting(True, doc="cloud-optimised layout (false: a plain tiled GeoTIFF)")
     threads: str = setting("ALL_CPUS", doc="compression threads: ALL_CPUS or a number")
     writer: str = setting("scangeo", choices=_WRITERS,
                           doc="who writes a COG: scangeo (deflate levels 1-3 or none; the rest goes to GDAL) or gdal")
@@ -248,6 +253,9 @@ def finalise(working: Path, final: Path, profile: GeoTiffProfile, dtype, levels_
     driver = "COG" if profile.cog else "GTiff"
     with rasterio.open(working) as src:
         factors = overviews_of(profile, src.width, src.height)
+        if profile.scangeo_writes(dtype):
+            _write_cog(src, final, tmp, profile, factors)
+            return
     # the overviews, averaged by scangeo beside the working file, reach GDAL through a VRT
     made: list[Path] = []
     overviews = bool(factors)
@@ -259,3 +267,33 @@ def finalise(working: Path, final: Path, profile: GeoTiffProfile, dtype, levels_
     finally:
         for path in [tmp, *made]:
             path.unlink(missing_ok=True)
+
+
+def _copy_description(src, dst) -> None:
+    """Band descriptions, band tags and dataset tags of ``src`` into ``dst``."""
+    for b in range(1, src.count + 1):
+        if src.descriptions[b - 1]:
+            dst.set_band_description(b, src.descriptions[b - 1])
+        if src.tags(b):
+            dst.update_tags(b, **src.tags(b))
+    dst.update_tags(**src.tags())
+
+
+def _write_cog(src, final: Path, tmp: Path, profile: GeoTiffProfile, factors: list[int]) -> None:
+    """The working file ``src`` through :class:`~scangeo.rectify.cog_writer.CogWriter`, read in
+    windows aligned on the blocks and on the coarsest overview factor."""
+    step = math.lcm(profile.blocksize, max(factors, default=1))
+    side = step * max(1, 2048 // step)
+    writer = CogWriter(partial_path(final, ".spool"), width=src.width, height=src.height, count=src.count,
+                       dtype=src.dtypes[0], nodata=src.nodata, crs=src.crs, transform=src.transform,
+                       blocksize=profile.blocksize, factors=factors, compress=profile.compress, level=profile.level,
+                       predictor=profile.predictor, threads=profile.thread_count())
+    try:
+        for r in range(0, src.height, side):
+            for c in range(0, src.width, side):
+                window = Window(c, r, min(side, src.width - c), min(side, src.height - r))
+                writer.write(src.read(window=window), window)
+    except BaseException:
+        writer.close()
+        raise
+    writer.finish(final, tmp, lambda dst: _copy_description(src, dst))

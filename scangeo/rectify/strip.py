@@ -47,6 +47,7 @@ from scangeo.rectify.geotiff import (
     describe,
     finalise,
     overviews_of,
+    partial_path,
     remove_partials,
     working_profile,
 )
@@ -179,7 +180,8 @@ def write_outputs(run: StripRun, resampled: Resampled) -> None:
             resampled.cog.close()
         raise
     if resampled.cog is not None:
-        resampled.cog.finish(output, resampled.bands, resampled.tags)
+        bands, tags = resampled.bands or [], resampled.tags
+        resampled.cog.finish(output, partial_path(output, ".tif"), lambda dst: describe(dst, bands, tags))
     else:
         finalise(resampled.image, output, options.geotiff, resampled.dtype, resampled.levels_made)
 

@@ -57,7 +57,7 @@ def by_scangeo(tmp_path, data, nodata, profile, bands, tags, tile=256, seed=0):
         r, c = int(win.row_off), int(win.col_off)
         w.write(data[:, r:r + int(win.height), c:c + int(win.width)].copy(), win)
     out = tmp_path / "own.tif"
-    w.finish(out, bands, tags)
+    w.finish(out, tmp_path / ".own.tif.partial", lambda dst: describe(dst, bands, tags))
     assert not (tmp_path / "spool").exists()
     return out
 
@@ -136,6 +136,25 @@ def test_the_same_file_as_gdals_cog_driver_but_for_the_compressed_bytes(tmp_path
         assert o.nodata == 0
 
 
+def test_a_working_file_finalised_by_either_writer(tmp_path):
+    """The mosaic's and GDAL-written working files' route (geotiff.finalise), with band tags beyond
+    the wavelengths."""
+    data = image((2, 1500, 900), np.uint16, seed=5)
+    profile = GeoTiffProfile(blocksize=256, overviews=True, writer="gdal")
+    gdal = by_gdal(tmp_path, data, 0, profile, [BandInfo("a", 1.0, "um"), BandInfo("b")], {"strip": "mosaic"})
+    with rasterio.open(tmp_path / "work.tif", "r+") as d:
+        d.update_tags(2, view="nadir")
+    gdal.unlink()
+    finalise(tmp_path / "work.tif", gdal, profile, np.uint16)
+    ours = tmp_path / "ours.tif"
+    finalise(tmp_path / "work.tif", ours, GeoTiffProfile(blocksize=256, overviews=True), np.uint16)
+    same_for_readers(gdal, ours)
+    assert layout_problems(ours) == []
+    with rasterio.open(ours) as o:
+        assert o.tags(2)["view"] == "nadir" and o.tags(1)["wavelength_units"] == "um"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["gdal.tif", "ours.tif", "work.tif"]
+
+
 def test_tiles_smaller_and_larger_than_the_blocks_and_a_bigtiff(tmp_path, monkeypatch):
     data = image((2, 900, 1300), np.uint16, seed=3)
     profile = GeoTiffProfile(blocksize=256, overviews=True, writer="gdal")
@@ -161,7 +180,7 @@ def test_blocks_no_tile_touched_are_nodata_and_a_block_cannot_be_written_twice(t
     with pytest.raises(ValueError, match="written twice"):
         w.write(tile, Window(0, 0, 256, 256))
     w.write(tile[:, :44, :100], Window(0, 256, 100, 44))  # part of a block: the rest stays nodata
-    w.finish(tmp_path / "o.tif")
+    w.finish(tmp_path / "o.tif", tmp_path / ".o.tif.partial")
     with rasterio.open(tmp_path / "o.tif") as o:
         a = o.read(1)
     assert (a[:256, :256] == 1000).all()
@@ -180,7 +199,7 @@ def test_a_writer_that_fails_or_is_closed_leaves_nothing(tmp_path, monkeypatch):
                   transform=TRANSFORM, blocksize=256)
     w.write(data, Window(0, 0, 300, 300))
     with pytest.raises(OSError, match="disk full"):
-        w.finish(tmp_path / "o.tif")
+        w.finish(tmp_path / "o.tif", tmp_path / ".o.tif.partial")
     assert sorted(p.name for p in tmp_path.iterdir()) == []
     w = CogWriter(tmp_path / "spool", width=300, height=300, count=1, dtype=np.uint16, nodata=0, crs=CRS_,
                   transform=TRANSFORM, blocksize=256)
