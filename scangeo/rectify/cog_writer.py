@@ -206,10 +206,10 @@ class CogWriter:
         self.bs, self.factors = blocksize, list(factors or [])
         self.compress, self.predictor = compress, predictor and compress != "none"
         self.level = 1 if level is None else min(max(int(level), 0), 3)
-        fill = nodata if nodata is not None and not (isinstance(nodata, float) and math.isnan(nodata)) else 0
-        if np.issubdtype(self.dtype, np.floating) and nodata is not None:
-            fill = nodata
-        self.fill = np.array(fill).astype(self.dtype)
+        integer = np.issubdtype(self.dtype, np.integer)
+        unset = nodata is None or (integer and math.isnan(float(nodata)))
+        #: the value of cells no tile wrote (and of the padding of the edge blocks)
+        self.fill = np.array(0 if unset else nodata).astype(self.dtype)
         self.levels: list[_Level] = []
         w, h = width, height
         for i in range(len(self.factors) + 1):
@@ -223,14 +223,18 @@ class CogWriter:
         self._spool = open(self._spool_path, "wb")  # noqa: SIM115 - closed by finish/close
         self._lock = threading.Lock()
         self._pool = ThreadPoolExecutor(max_workers=max(1, threads), thread_name_prefix="scangeo-cog")
-        self._slots = threading.BoundedSemaphore(2 * max(1, threads) + 2)
+        #: blocks waiting for an encoder at most (5.8 MB each for 11 bands of uint16): enough that
+        #: pass 2 seldom waits, the backlog being encoded during the next strip's pass 1
+        self._slots = threading.BoundedSemaphore(4 * max(1, threads) + 4)
+        self._submit_lock = threading.Lock()
         self._futures: list[Future] = []
         self._submitted: set[tuple[int, int]] = set()
 
     # -- tiles in -------------------------------------------------------------------------------
     def write(self, data: np.ndarray, window: Window) -> None:
-        """A tile ``data`` (bands, rows, cols) of the full resolution at ``window``; its overview
-        levels are computed from it (offsets multiples of the coarsest factor, but at the edges)."""
+        """A tile ``data`` (bands, rows, cols) of the full resolution at ``window``, and its
+        overview levels computed from it (offsets multiples of the coarsest factor, but at the
+        edges). ``data`` is copied: the caller may reuse it."""
         row, col = int(window.row_off), int(window.col_off)
         data = np.asarray(data)
         for k in range(len(self.levels)):
@@ -262,9 +266,10 @@ class CogWriter:
                     self._submit(k, index, entry[0])
 
     def _submit(self, k: int, index: int, block: np.ndarray) -> None:
-        if (k, index) in self._submitted:
-            raise ValueError(f"CogWriter: block {index} of level {k} written twice (overlapping tiles)")
-        self._submitted.add((k, index))
+        with self._submit_lock:
+            if (k, index) in self._submitted:
+                raise ValueError(f"CogWriter: block {index} of level {k} written twice (overlapping tiles)")
+            self._submitted.add((k, index))
         self._slots.acquire()
         try:
             fut = self._pool.submit(self._encode, k, index, block)
@@ -272,7 +277,8 @@ class CogWriter:
             self._slots.release()
             raise
         fut.add_done_callback(lambda _f: self._slots.release())
-        self._futures.append(fut)
+        with self._submit_lock:
+            self._futures.append(fut)
 
     # -- encoding (worker threads) --------------------------------------------------------------
     def encode(self, block: np.ndarray) -> bytes:
