@@ -1,7 +1,7 @@
 """Benchmark: rectify one Daedalus strip, scangeo against the GDAL geolocation route (issue 6).
 
 Run: python tests/benchmarks/rectify.py [--lines 10000] [--resampling bilinear] [--keep DIR] [--pipeline [N]]
-[--compress deflate|zstd] [--repeat R]
+[--compress deflate|zstd] [--repeat R] [--gdal-writer]
 
 Set-up (not timed): a simulated project (preset ``small``, one strip of N lines x 716 pixels, its
 turbulence, true terrain and DTM at 2.5 m) and an 11-band uint16 image of that size.
@@ -26,7 +26,8 @@ megapixel-bands per second (grid cells x bands / time), peak memory
 /proc/self/clear_refs; it includes the interpreter and libraries, and for the GDAL route the whole
 image and geolocation arrays it needs in memory), the inverse map's exact solutions, and the
 geometric difference of the two outputs (least-squares shift over the whole strip
-and in 128-cell windows). With ``--repeat R`` the routes run R times in turn (scangeo, pipelined,
+and in 128-cell windows). ``--gdal-writer`` also times the pipelined strips with GDAL's COG
+driver writing (``[rectify.geotiff] writer = "gdal"``), beside scangeo's own COG writer. With ``--repeat R`` the routes run R times in turn (scangeo, pipelined,
 IGM, GDAL, scangeo, ...) and each route's run with the fewest CPU seconds is reported: on a shared
 machine the others' load moves CPU seconds by 20-40 % between minutes, and alternating gives every
 route the same chances. No tracemalloc: it slows numpy's allocations several-fold.
