@@ -27,7 +27,8 @@ megapixel-bands per second (grid cells x bands / time), peak memory
 image and geolocation arrays it needs in memory), the inverse map's exact solutions, and the
 geometric difference of the two outputs (least-squares shift over the whole strip
 and in 128-cell windows). ``--gdal-writer`` also times the pipelined strips with GDAL's COG
-driver writing (``[rectify.geotiff] writer = "gdal"``), beside scangeo's own COG writer. With ``--repeat R`` the routes run R times in turn (scangeo, pipelined,
+driver writing (``[rectify.geotiff] writer = "gdal"``), beside scangeo's own COG writer. With
+``--repeat R`` the routes run R times in turn (scangeo, pipelined,
 IGM, GDAL, scangeo, ...) and each route's run with the fewest CPU seconds is reported: on a shared
 machine the others' load moves CPU seconds by 20-40 % between minutes, and alternating gives every
 route the same chances. No tracemalloc: it slows numpy's allocations several-fold.
