@@ -21,7 +21,10 @@ one-cell GeoTIFF that GDAL writes in memory with the same CRS, transform, bands 
 reader sees what GDAL's COG driver would have written; only the pixel blocks are scangeo's.
 
 Blocks are cut from tiles written in any order (:meth:`CogWriter.write`); a block is encoded once
-all its cells have been written, and blocks no tile touched are nodata. The overview levels are
+all its cells have been written, and blocks no tile touched are nodata. Memory: the blocks waiting
+for an encoder (at most :data:`BACKLOG_BYTES`) and those being filled, about a row of blocks per
+overview level whose blocks span several tiles (with 1024-cell tiles and 512-cell blocks, levels 2
+and coarser: for a 760-cell wide strip of 11 bands one block of 5.8 MB per level). The overview levels are
 computed from each tile with :func:`scangeo.rectify.overviews.halve` (tiles aligned on the
 coarsest factor, as for :class:`~scangeo.rectify.overviews.LevelTiles`).
 """
@@ -52,6 +55,8 @@ SHORT, LONG, LONG8 = 3, 4, 16
 _STRUCTURE = {254, 256, 257, 259, 273, 278, 279, 284, 317, 322, 323, 324, 325}
 #: GDAL's tags an overview's directory carries besides the structure
 _OVERVIEW_TAGS = {258, 262, 277, 338, 339, 42113}
+#: bytes of the blocks waiting for an encoder at most (but two blocks)
+BACKLOG_BYTES = 128 * 2**20
 #: files up to this size are classic TIFFs, larger ones BigTIFFs (GDAL's ``BIGTIFF=IF_SAFER`` idea)
 CLASSIC_LIMIT = 2**32 - 2**20
 _GHOST = (
@@ -223,9 +228,11 @@ class CogWriter:
         self._spool = open(self._spool_path, "wb")  # noqa: SIM115 - closed by finish/close
         self._lock = threading.Lock()
         self._pool = ThreadPoolExecutor(max_workers=max(1, threads), thread_name_prefix="scangeo-cog")
-        #: blocks waiting for an encoder at most (5.8 MB each for 11 bands of uint16): enough that
-        #: pass 2 seldom waits, the backlog being encoded during the next strip's pass 1
-        self._slots = threading.BoundedSemaphore(4 * max(1, threads) + 4)
+        #: blocks waiting for an encoder at most: enough that pass 2 seldom waits (the backlog is
+        #: encoded during the next strip's pass 1), at most BACKLOG_BYTES of them (5.8 MB a block
+        #: of 11 bands of uint16, 117 MB one of 224 bands), but 2
+        block_bytes = count * blocksize * blocksize * self.dtype.itemsize
+        self._slots = threading.BoundedSemaphore(max(2, min(4 * max(1, threads) + 4, BACKLOG_BYTES // block_bytes)))
         self._submit_lock = threading.Lock()
         self._futures: list[Future] = []
         self._submitted: set[tuple[int, int]] = set()
