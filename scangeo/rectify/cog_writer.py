@@ -208,7 +208,7 @@ class CogWriter:
             raise ValueError("CogWriter: the predictor is for integer types only (GDAL writes floats)")
         self.width, self.height, self.count = width, height, count
         self.nodata, self.crs, self.transform = nodata, crs, transform
-        self.bs, self.factors = blocksize, list(factors or [])
+        self.bs = blocksize
         self.compress, self.predictor = compress, predictor and compress != "none"
         self.level = 1 if level is None else min(max(int(level), 0), 3)
         integer = np.issubdtype(self.dtype, np.integer)
@@ -217,7 +217,7 @@ class CogWriter:
         self.fill = np.array(0 if unset else nodata).astype(self.dtype)
         self.levels: list[_Level] = []
         w, h = width, height
-        for i in range(len(self.factors) + 1):
+        for i in range(len(factors or []) + 1):
             if i:
                 w, h = (w + 1) // 2, (h + 1) // 2
             self.levels.append(_Level(w, h, -(-w // blocksize), -(-h // blocksize)))
@@ -233,7 +233,6 @@ class CogWriter:
         #: of 11 bands of uint16, 117 MB one of 224 bands), but 2
         block_bytes = count * blocksize * blocksize * self.dtype.itemsize
         self._slots = threading.BoundedSemaphore(max(2, min(4 * max(1, threads) + 4, BACKLOG_BYTES // block_bytes)))
-        self._submit_lock = threading.Lock()
         self._futures: list[Future] = []
         self._submitted: set[tuple[int, int]] = set()
 
@@ -273,10 +272,9 @@ class CogWriter:
                     self._submit(k, index, entry[0])
 
     def _submit(self, k: int, index: int, block: np.ndarray) -> None:
-        with self._submit_lock:
-            if (k, index) in self._submitted:
-                raise ValueError(f"CogWriter: block {index} of level {k} written twice (overlapping tiles)")
-            self._submitted.add((k, index))
+        if (k, index) in self._submitted:
+            raise ValueError(f"CogWriter: block {index} of level {k} written twice (overlapping tiles)")
+        self._submitted.add((k, index))
         self._slots.acquire()
         try:
             fut = self._pool.submit(self._encode, k, index, block)
@@ -284,8 +282,7 @@ class CogWriter:
             self._slots.release()
             raise
         fut.add_done_callback(lambda _f: self._slots.release())
-        with self._submit_lock:
-            self._futures.append(fut)
+        self._futures.append(fut)
 
     # -- encoding (worker threads) --------------------------------------------------------------
     def encode(self, block: np.ndarray) -> bytes:
@@ -312,11 +309,6 @@ class CogWriter:
             self._where[(k, index)] = (at, len(data))
 
     # -- the final file -------------------------------------------------------------------------
-    def _drain(self) -> None:
-        for fut in self._futures:
-            fut.result()
-        self._futures = []
-
     def finish(self, final: Path, tmp: Path,
                annotate: Callable[[rasterio.io.DatasetWriter], None] | None = None) -> Path:
         """Encode what is left (blocks partly or never written keep nodata elsewhere), write the
@@ -330,7 +322,8 @@ class CogWriter:
                     if entry is not None or (k, index) not in self._submitted:
                         self._submit(k, index, entry[0] if entry is not None
                                      else np.full((self.count, self.bs, self.bs), self.fill, self.dtype))
-                self._drain()
+            for fut in self._futures:
+                fut.result()  # an encoder's failure surfaces here
             self._pool.shutdown(wait=True)
             self._spool.close()
             template = gdal_tags(self.count, self.dtype, self.crs, self.transform, self.nodata, annotate)

@@ -110,6 +110,13 @@ class GeoTiffProfile:
             return False
         return not (self.predictor and self.compress != "none" and not np.issubdtype(np.dtype(dtype), np.integer))
 
+    def cog_writer(self, spool: Path, width: int, height: int, count: int, dtype, nodata, crs, transform,
+                   factors: list[int]) -> CogWriter:
+        """scangeo's COG writer of an output with this profile (when :meth:`scangeo_writes`)."""
+        return CogWriter(spool, width=width, height=height, count=count, dtype=dtype, nodata=nodata, crs=crs,
+                         transform=transform, blocksize=self.blocksize, factors=factors, compress=self.compress,
+                         level=self.level, predictor=self.predictor, threads=self.thread_count())
+
     def wants_overviews(self, width: int, height: int) -> bool:
         """Whether an output of ``width`` x ``height`` cells gets internal overviews."""
         if self.overviews == "auto":
@@ -284,10 +291,8 @@ def _write_cog(src, final: Path, tmp: Path, profile: GeoTiffProfile, factors: li
     windows aligned on the blocks and on the coarsest overview factor."""
     step = math.lcm(profile.blocksize, max(factors, default=1))
     side = step * max(1, 2048 // step)
-    writer = CogWriter(partial_path(final, ".spool"), width=src.width, height=src.height, count=src.count,
-                       dtype=src.dtypes[0], nodata=src.nodata, crs=src.crs, transform=src.transform,
-                       blocksize=profile.blocksize, factors=factors, compress=profile.compress, level=profile.level,
-                       predictor=profile.predictor, threads=profile.thread_count())
+    writer = profile.cog_writer(partial_path(final, ".spool"), src.width, src.height, src.count, src.dtypes[0],
+                                src.nodata, src.crs, src.transform, factors)
     try:
         for r in range(0, src.height, side):
             for c in range(0, src.width, side):

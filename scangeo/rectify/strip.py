@@ -128,11 +128,8 @@ def resample(run: StripRun, bands: list[BandInfo], tags: Mapping[str, object] | 
         factors = overviews_of(gp, grid.width, grid.height)
         aligned = not factors or LevelTiles.aligned(run.result.tile_size, factors)
         if aligned and gp.scangeo_writes(dtype):
-            out.cog = CogWriter(
-                run.work_dir / "blocks.spool", width=grid.width, height=grid.height, count=src.count, dtype=dtype,
-                nodata=run.nodata, crs=grid.crs, transform=grid.transform, blocksize=gp.blocksize, factors=factors,
-                compress=gp.compress, level=gp.level, predictor=gp.predictor, threads=gp.thread_count(),
-            )
+            out.cog = gp.cog_writer(run.work_dir / "blocks.spool", grid.width, grid.height, src.count, dtype,
+                                    run.nodata, grid.crs, grid.transform, factors)
             stack.push(lambda exc_type, *_: out.cog.close() if exc_type is not None and out.cog else None)
             tiles, out.bands = out.cog, list(bands)
         else:
