@@ -28,9 +28,13 @@ freedom) with the other breaks fixed (a profile likelihood interval).
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
+
+from scangeo.adjustment.diagnosis.local_fit import MARGIN, BlockIndex, CurrentFit, StripProbe
 
 #: chi^2 quantile (1 degree of freedom, 95 %) for the profile-likelihood interval of a break.
 CHI2_95 = 3.841
@@ -214,16 +218,6 @@ def residual_correlation(data: PatternData, fit: Fit) -> dict[str, float]:
     return out
 
 
-def _feasible(data: PatternData, s: int, breaks: tuple[float, ...], line: float, min_gap: float,
-              min_rows: int) -> bool:
-    nd = _nodes(data.n_lines[s], tuple(breaks) + (line,))
-    if np.min(np.diff(nd)) < min_gap:
-        return False
-    sel = data.term_strip == s
-    counts = np.histogram(data.term_line[sel], bins=nd)[0]
-    return bool(np.all(counts >= min_rows))
-
-
 @dataclass(frozen=True)
 class SelectionOptions:
     """Options of :func:`select_breaks`.
@@ -244,85 +238,191 @@ class SelectionOptions:
     degree: int = 1
 
 
-def _best_position(data, breaks, s, j, lines, rho, options, constant=()):
-    best = None
+def _with(breaks, s: int, strip_breaks) -> list[list[float]]:
+    trial = [list(x) for x in breaks]
+    trial[s] = sorted(float(v) for v in strip_breaks)
+    return trial
+
+
+def _refit_bic(data: PatternData, breaks, rho, degree: int, constant) -> float:
+    return evaluate(data, breaks, rho, degree, constant).bic
+
+
+class _Candidates:
+    """Models scored by :mod:`~.local_fit` (None: not trusted), refitted with :func:`evaluate` where the
+    scores are too close to tell (:data:`~.local_fit.MARGIN`). A model is ``base`` with strip ``s``'s
+    breaks replaced, or whole ``breaks``."""
+
+    def __init__(self, data: PatternData, base, rho, degree: int) -> None:
+        self.data, self.base, self.rho, self.degree = data, base, rho, degree
+        self.models: list[tuple[int, list[float], list[list[float]] | None, set[int]]] = []
+        self.approx: list[float | None] = []
+        self.fits: dict[int, Fit] = {}
+
+    def add(self, approx: float | None, constant, s: int = -1, strip=(), breaks=None) -> None:
+        self.models.append((s, sorted(float(v) for v in strip), breaks, set(constant)))
+        self.approx.append(approx)
+
+    def breaks(self, i: int) -> list[list[float]]:
+        s, strip, breaks, _ = self.models[i]
+        return [list(x) for x in breaks] if breaks is not None else _with(self.base, s, strip)
+
+    def fit(self, i: int) -> Fit:
+        if i not in self.fits:
+            self.fits[i] = evaluate(self.data, self.breaks(i), self.rho, self.degree, self.models[i][3])
+        return self.fits[i]
+
+    def refit_bic(self, i: int) -> float:
+        return self.fit(i).bic
+
+    def score(self, i: int) -> tuple[float, bool]:
+        """Candidate ``i``'s criterion and whether it is :func:`evaluate`'s."""
+        return (self.fits[i].bic, True) if i in self.fits else (float(self.approx[i]), False)  # type: ignore[arg-type]
+
+    def best(self, by_rank: bool = False) -> int:
+        """The candidate with the least criterion (then the least rank, ``by_rank``) as refitting every one
+        would find it, the first of equals: the untrusted ones are refitted, then those within the margin
+        of the least value, unless a single one is that close."""
+        for i, a in enumerate(self.approx):
+            if a is None:
+                self.fit(i)
+        values = [self.score(i)[0] for i in range(len(self.approx))]
+        least = min(values)
+        near = [i for i, v in enumerate(values) if v <= least + MARGIN]
+        if len(near) == 1:
+            return near[0]
+        if by_rank:
+            return min(near, key=lambda i: (self.fit(i).bic, self.fit(i).k))
+        return min(near, key=self.refit_bic)
+
+
+def _below(a: tuple[float, bool], refit_a: Callable[[], float], b: tuple[float, bool], refit_b: Callable[[], float],
+           slack: float = 0.0) -> bool:
+    """Whether criterion ``a`` < ``b`` + ``slack`` (each with whether it is :func:`evaluate`'s), refitting
+    both when the approximations are too close to tell."""
+    if abs(a[0] - b[0] - slack) <= MARGIN and not (a[1] and b[1]):
+        return refit_a() < refit_b() + slack
+    return a[0] < b[0] + slack
+
+
+def _best_position(data, breaks, s, j, lines, rho, options, constant=(), index: BlockIndex | None = None
+                   ) -> list[float]:
+    """Strip ``s``'s breaks with break ``j`` on the best of ``lines`` (the first of equals)."""
+    index = index or BlockIndex(data)
+    probe = StripProbe(CurrentFit(index, breaks, options.degree, constant), s)
+    n_breaks = sum(len(b) for b in breaks)
+    candidates = _Candidates(data, breaks, rho, options.degree)
     for b in lines:
-        trial = [list(x) for x in breaks]
-        trial[s][j] = float(b)
-        trial[s].sort()
-        f = evaluate(data, trial, rho, options.degree, constant)
-        if best is None or f.bic < best.bic:
-            best = f
-    return best
+        strip = list(breaks[s])
+        strip[j] = float(b)
+        r = probe.bic(sorted(strip), False, rho, n_breaks)
+        candidates.add(None if r is None else r[0], constant, s, strip)
+    return candidates.models[candidates.best()][1]
 
 
-def _moves(data: PatternData, breaks, constant: set[int], options: SelectionOptions):
-    """Every model one step richer: a constant strip made linear, or a break added to a non-constant strip."""
+def _richer(data: PatternData, index: BlockIndex, breaks, constant: set[int], options: SelectionOptions
+            ) -> _Candidates:
+    """Every model one step richer than the current: a constant strip made linear, or a break added to a
+    non-constant strip, scored against the current model."""
+    fit = CurrentFit(index, breaks, options.degree, constant)
+    n_breaks = sum(len(b) for b in breaks)
+    candidates = _Candidates(data, breaks, None, options.degree)
     for s in range(len(data.strips)):
         if s in constant:
-            yield [list(x) for x in breaks], constant - {s}
+            r = StripProbe(fit, s).bic((), False, None, n_breaks)
+            candidates.add(None if r is None else r[0], constant - {s}, s, [])
             continue
         n = data.n_lines[s]
         if len(breaks[s]) >= options.max_breaks:
             continue
         gap = options.min_gap_fraction * n
+        probe = None
         for b in np.linspace(0, n - 1, options.candidates + 2)[1:-1]:
-            if _feasible(data, s, tuple(breaks[s]), float(b), gap, options.min_rows):
-                trial = [list(x) for x in breaks]
-                trial[s] = sorted(trial[s] + [float(b)])
-                yield trial, constant
+            if index.feasible(s, tuple(breaks[s]), float(b), gap, options.min_rows):
+                probe = probe or StripProbe(fit, s)
+                trial = sorted(breaks[s] + [float(b)])
+                r = probe.bic(trial, False, None, n_breaks + 1)
+                candidates.add(None if r is None else r[0], constant, s, trial)
+    return candidates
+
+
+def _poorer(data: PatternData, index: BlockIndex, breaks, constant: set[int], rho, options: SelectionOptions
+            ) -> _Candidates:
+    """Every model one step poorer than the current: a linear strip made constant, or a break removed (and
+    the others moved to their best lines)."""
+    fit = CurrentFit(index, breaks, options.degree, constant)
+    n_breaks = sum(len(b) for b in breaks)
+    candidates = _Candidates(data, breaks, rho, options.degree)
+    for s in range(len(data.strips)):
+        if s in constant:
+            continue
+        if not breaks[s]:
+            r = StripProbe(fit, s).bic((), True, rho, n_breaks)
+            candidates.add(None if r is None else r[0], constant | {s}, s, [])
+        for j in range(len(breaks[s])):
+            trial = [list(x) for x in breaks]
+            del trial[s][j]
+            trial = refine(data, trial, rho, options, constant, index=index)
+            candidates.add(CurrentFit(index, trial, options.degree, constant).bic(rho, n_breaks - 1), constant,
+                           breaks=trial)
+    return candidates
+
+
+def _current(data: PatternData, index: BlockIndex, breaks, constant, rho, degree: int) -> tuple[float, bool]:
+    """The current model's criterion, and whether it is :func:`evaluate`'s."""
+    value = CurrentFit(index, breaks, degree, constant).bic(rho, sum(len(b) for b in breaks))
+    return (value, False) if value is not None else (_refit_bic(data, breaks, rho, degree, constant), True)
 
 
 def select_breaks(data: PatternData, options: SelectionOptions = SelectionOptions()) -> Fit:
-    """Greedy model growth by BIC, then pruning under serial correlation (module docstring)."""
+    """Greedy model growth by BIC, then pruning under serial correlation (module docstring).
+
+    The candidate models are scored by :mod:`~.local_fit` (each differs from the current model in one
+    strip); where two are too close to tell they are refitted with :func:`evaluate`, so the choices are
+    those of refitting every candidate."""
     ns = len(data.strips)
+    degree = options.degree
+    index = BlockIndex(data)
     breaks: list[list[float]] = [[] for _ in range(ns)]
     constant = set(range(ns))
-    current = evaluate(data, breaks, None, options.degree, constant)
     while True:
-        best = None
-        for trial, const in _moves(data, breaks, constant, options):
-            f = evaluate(data, trial, None, options.degree, const)
-            if best is None or f.bic < best[0].bic:
-                best = (f, const)
-        if best is None or best[0].bic >= current.bic:
+        richer = _richer(data, index, breaks, constant, options)
+        if not richer.models:
             break
-        constant = set(best[1])
-        breaks = refine(data, [list(x) for x in best[0].breaks], None, options, constant)
-        current = evaluate(data, breaks, None, options.degree, constant)
+        i = richer.best()
+        now = _current(data, index, breaks, constant, None, degree)
+        if not _below(richer.score(i), partial(richer.refit_bic, i), now,
+                      partial(_refit_bic, data, breaks, None, degree, constant)):
+            break
+        breaks, constant = richer.breaks(i), richer.models[i][3]
+        breaks = refine(data, breaks, None, options, constant, index=index)
+    current = evaluate(data, breaks, None, degree, constant)
     if len(constant) == ns:
         return current
     # the serial correlation of what the richest model leaves is the noise's: prune what it does not pay for
     # (and what it adds nothing to: a function another strip's can take over does not raise the rank)
     rho = residual_correlation(data, current) if options.serial_correlation else {}
-    current = evaluate(data, breaks, rho, options.degree, constant)
+    current = evaluate(data, breaks, rho, degree, constant)
     while len(constant) < ns:
-        trials = []
-        for s in range(ns):
-            if s in constant:
-                continue
-            if not breaks[s]:
-                trials.append(evaluate(data, breaks, rho, options.degree, constant | {s}))
-            for j in range(len(breaks[s])):
-                trial = [list(x) for x in breaks]
-                del trial[s][j]
-                trials.append(evaluate(data, refine(data, trial, rho, options, constant), rho, options.degree,
-                                       constant))
-        pruned = min(trials, key=lambda f: (f.bic, f.k))
-        if pruned.bic > current.bic + 1e-6:
+        poorer = _poorer(data, index, breaks, constant, rho, options)
+        i = poorer.best(by_rank=True)
+        # keep the current model when the poorer one's criterion exceeds it by more than 1e-6
+        if _below((current.bic, True), partial(float, current.bic), poorer.score(i), partial(poorer.refit_bic, i),
+                  -1e-6):
             break
-        breaks = [list(x) for x in pruned.breaks]
-        constant = set(pruned.constant)
-        current = pruned
+        current = poorer.fit(i)
+        breaks = [list(x) for x in current.breaks]
+        constant = set(current.constant)
     # the breaks' best lines under the final weights of the channels
-    breaks = refine(data, breaks, rho, options, constant)
-    return evaluate(data, breaks, rho, options.degree, constant)
+    breaks = refine(data, breaks, rho, options, constant, index=index)
+    return evaluate(data, breaks, rho, degree, constant)
 
 
-def refine(data: PatternData, breaks, rho, options: SelectionOptions, constant=(), sweeps: int = 3
-           ) -> list[list[float]]:
+def refine(data: PatternData, breaks, rho, options: SelectionOptions, constant=(), sweeps: int = 3,
+           index: BlockIndex | None = None) -> list[list[float]]:
     """Move every break to its best line (others fixed), a few sweeps: within two candidate spacings of
     where it is, on a grid of 1/600 of the strip."""
+    index = index or BlockIndex(data)
     breaks = [list(b) for b in breaks]
     for _ in range(sweeps):
         moved = False
@@ -334,8 +434,7 @@ def refine(data: PatternData, breaks, rho, options: SelectionOptions, constant=(
                 lines = lines[np.abs(lines - breaks[s][j]) <= reach]
                 if lines.size == 0:
                     continue
-                f = _best_position(data, breaks, s, j, lines, rho, options, constant)
-                new = sorted(f.breaks[s])
+                new = _best_position(data, breaks, s, j, lines, rho, options, constant, index)
                 if new != breaks[s]:
                     moved = True
                 breaks[s] = list(new)
@@ -356,22 +455,44 @@ def _window(data, strip_breaks, j, n, options, step_fraction=1.0 / 600) -> np.nd
 
 def break_intervals(data: PatternData, fit: Fit, options: SelectionOptions = SelectionOptions()
                     ) -> list[BreakEstimate]:
-    """95 % profile-likelihood interval of every break of ``fit`` (the others fixed)."""
+    """95 % profile-likelihood interval of every break of ``fit`` (the others fixed).
+
+    The profile is scored by :class:`~.local_fit.StripProbe`; the lines near its least value and near
+    the interval's ends (within :data:`~.local_fit.MARGIN`) are refitted with :func:`evaluate`, so the
+    interval is the one refitting every line gives."""
     rho = fit.rho
+    index = BlockIndex(data)
+    current = CurrentFit(index, fit.breaks, options.degree, fit.constant)
+    n_breaks = sum(len(b) for b in fit.breaks)
     out = []
     for s, strip_breaks in enumerate(fit.breaks):
         n = data.n_lines[s]
+        probe = StripProbe(current, s) if strip_breaks else None
         for j, b in enumerate(strip_breaks):
             lines = np.union1d(_window(data, list(strip_breaks), j, n, options, 1.0 / 1000), [b])
-            profile = []
-            for line in lines:
-                trial = [list(x) for x in fit.breaks]
-                trial[s][j] = float(line)
-                profile.append(evaluate(data, trial, rho, options.degree, fit.constant).deviance)
-            dev = np.asarray(profile)
-            if dev.size == 0:
+            if lines.size == 0:
                 out.append(BreakEstimate(data.strips[s], b, b, b))
                 continue
+            trials = []
+            for line in lines:
+                strip = list(strip_breaks)
+                strip[j] = float(line)
+                trials.append(sorted(strip))
+            approx = [probe.bic(t, False, rho, n_breaks) if probe is not None else None for t in trials]
+            dev = np.array([np.inf if a is None else a[1] for a in approx])
+            exact = np.zeros(dev.size, bool)
+            # refitted: the untrusted lines; then, when a line is too close to the interval's end to tell,
+            # the least value and the lines that close to the end
+            for sel in (~np.isfinite(dev), "least", "edge"):
+                if isinstance(sel, str):
+                    if not np.any(np.abs(dev - dev.min() - CHI2_95) <= MARGIN):
+                        break
+                    low = dev.min() + (CHI2_95 if sel == "edge" else 0.0)
+                    sel = np.abs(dev - low) <= MARGIN
+                for i in np.flatnonzero(sel & ~exact):
+                    dev[i] = evaluate(data, _with(fit.breaks, s, trials[i]), rho, options.degree,
+                                      fit.constant).deviance
+                    exact[i] = True
             i0 = int(np.argmin(dev))
             ok = dev - dev.min() <= CHI2_95
             lo = hi = i0
