@@ -10,8 +10,10 @@ measurements (not of check points), control coordinates, and DTM heights at tie 
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -84,13 +86,54 @@ def gpsimu_epochs(spline: OrientationSpline, t_first: float, t_last: float) -> n
     return out
 
 
+#: the strips' trajectories read and fitted so far, while :func:`strips_read_once` is active (else None)
+_READ: dict[tuple, tuple[ProjectTrajectory, OrientationSpline, np.ndarray, np.ndarray]] | None = None
+
+
+@contextmanager
+def strips_read_once() -> Iterator[None]:
+    """Within it, :func:`strip_data` reads, checks and fits each strip's trajectory once (while the project
+    file and the trajectory file are unchanged): for the many adjustments of one diagnosis or comparison,
+    which otherwise read every strip's trajectory again for each. Each :class:`StripData` still gets its
+    own copies. The trajectories are kept until the outermost ``with`` ends (about 2 MB a strip of 7,000
+    lines)."""
+    global _READ
+    outer = _READ
+    _READ = {} if outer is None else outer
+    try:
+        yield
+    finally:
+        _READ = outer
+
+
+def _stamp(path: Path) -> tuple[int, int] | None:
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_mtime_ns, st.st_size
+
+
 def strip_data(project: Project, strip_id: str) -> StripData:
-    traj = project.stream(strip_id).to_project(project.map_frame.frame)
-    spline = OrientationSpline.from_trajectory(traj, project.knot_spacing)
-    epochs = gpsimu_epochs(spline, traj.time[0], traj.time[-1])
-    values = np.column_stack([np.interp(epochs, traj.time, traj.p_P[:, k]) for k in range(3)]
-                             + [np.interp(epochs, traj.time, traj.angles_P[:, k]) for k in range(3)])
-    return StripData(strip_id, traj, spline, epochs, values, project.geometry(strip_id, spline=spline))
+    key = None
+    if _READ is not None:
+        strip = project.strip(strip_id)
+        line_times = _stamp(Path(strip.line_times)) if strip.line_times else None
+        key = (str(project.root), _stamp(project.root / "project.toml"), strip_id, str(strip.trajectory),
+               _stamp(Path(strip.trajectory)), str(strip.line_times), line_times)
+    if key is None or key not in _READ:  # type: ignore[operator]
+        traj = project.stream(strip_id).to_project(project.map_frame.frame)
+        spline = OrientationSpline.from_trajectory(traj, project.knot_spacing)
+        epochs = gpsimu_epochs(spline, traj.time[0], traj.time[-1])
+        values = np.column_stack([np.interp(epochs, traj.time, traj.p_P[:, k]) for k in range(3)]
+                                 + [np.interp(epochs, traj.time, traj.angles_P[:, k]) for k in range(3)])
+        if key is None:
+            return StripData(strip_id, traj, spline, epochs, values, project.geometry(strip_id, spline=spline))
+        _READ[key] = (traj, spline, epochs, values)  # type: ignore[index]
+    traj, spline, epochs, values = _READ[key]  # type: ignore[index]
+    traj = replace(traj, time=traj.time.copy(), p_P=traj.p_P.copy(), angles_P=traj.angles_P.copy())
+    spline = spline.with_coef(spline.coef.copy())
+    return StripData(strip_id, traj, spline, epochs.copy(), values.copy(), project.geometry(strip_id, spline=spline))
 
 
 def build_models(project: Project, variant: Variant, strips: dict[str, StripData]) -> ModelSet:

@@ -14,7 +14,7 @@ import logging
 import math
 from pathlib import Path
 
-from scangeo.adjustment.block import CONTROL_COMPONENTS
+from scangeo.adjustment.block import CONTROL_COMPONENTS, strips_read_once
 from scangeo.adjustment.ground import DtmHeights
 from scangeo.adjustment.outputs import write_results
 from scangeo.adjustment.results import VariantResult, run_variant
@@ -68,6 +68,7 @@ def summarise(result: VariantResult, truth: Truth | None = None) -> VariantSumma
         correlations=correlated_pairs(result))
 
 
+@strips_read_once()  # its variants and folds read each trajectory once
 def compare_project(project_root, variants_file=None, *, reference: str = "SE", names: list[str] | None = None,
                     problem_strip: str | None = None, breaks_lines: tuple[float, ...] | None = None,
                     folds: int = 4, callback: ProgressCallback = no_progress) -> Comparison:

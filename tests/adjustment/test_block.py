@@ -333,3 +333,46 @@ def test_rows_of_each_strip_found_in_one_pass_equal_the_per_strip_selection(smal
         assert np.array_equal(got, expected), sid
         total += len(got)
     assert total == np.isin(points.point.astype(str), setup.used).sum() > 0
+
+
+def test_strips_read_once_reads_each_trajectory_once_and_hands_out_copies(tiny_project, monkeypatch):
+    import os
+
+    from scangeo.adjustment.block import strip_data, strips_read_once
+    from scangeo.io.project import Project
+
+    project = Project.load(tiny_project.root)
+    reads: list[str] = []
+    stream = Project.stream
+
+    def counted(self, strip_id, check=True):
+        reads.append(strip_id)
+        return stream(self, strip_id, check)
+
+    monkeypatch.setattr(Project, "stream", counted)
+    plain = strip_data(project, "1")
+    with strips_read_once():
+        first = strip_data(project, "1")
+        with strips_read_once():  # nested: the same memory
+            second = strip_data(project, "1")
+        assert reads == ["1", "1"]  # once outside, once inside
+        # the same numbers as without the memory, in arrays of its own
+        for a, b in ((first, plain), (second, plain)):
+            assert np.array_equal(a.spline.coef, b.spline.coef) and np.array_equal(a.gpsimu, b.gpsimu)
+            assert np.array_equal(a.trajectory.p_P, b.trajectory.p_P) and np.array_equal(a.epochs, b.epochs)
+        first.spline.coef[:] = 0.0
+        first.gpsimu[:] = 0.0
+        first.trajectory.p_P[:] = 0.0
+        third = strip_data(project, "1")
+        assert np.array_equal(third.spline.coef, plain.spline.coef) and np.array_equal(third.gpsimu, plain.gpsimu)
+        assert np.array_equal(third.trajectory.p_P, plain.trajectory.p_P)
+        assert third.geometry.spline is third.spline
+        assert reads == ["1", "1"]
+        # a rewritten trajectory file is read again
+        nav = tiny_project.root / "nav" / "1.csv"
+        st = nav.stat()
+        os.utime(nav, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+        strip_data(project, "1")
+        assert reads == ["1", "1", "1"]
+    strip_data(project, "1")  # outside: read every time again
+    assert reads == ["1", "1", "1", "1"]

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from scangeo.adjustment.block import strips_read_once
 from scangeo.adjustment.diagnosis.patterns import (
     BreakEstimate,
     Fit,
@@ -267,6 +268,7 @@ def se_variant() -> Variant:
     return Variant("diagnosis-SE", "SE", "strip models of degree 0 for the diagnosis", snooping=False)
 
 
+@strips_read_once()  # its 26 adjustments read each trajectory once
 def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = False,
              options: SelectionOptions | None = None, refine: RefineOptions | None = DEFAULT_REFINE,
              callback: ProgressCallback = no_progress) -> Diagnosis:
