@@ -72,7 +72,8 @@ def block():
     return _block()
 
 
-def test_a_candidates_criterion_is_the_refitted_ones(block):
+@pytest.mark.parametrize("degree, most_untrusted", [(1, 4), (2, 16)])
+def test_a_candidates_criterion_is_the_refitted_ones(block, degree, most_untrusted):
     ns = len(block.strips)
     rng = np.random.default_rng(1)
     index = BlockIndex(block)
@@ -80,8 +81,8 @@ def test_a_candidates_criterion_is_the_refitted_ones(block):
     bases = [([[] for _ in range(ns)], set(range(ns))), ([[], [], [], [700.0, 1250.0], [], [], []], {0, 1, 2, 4, 6})]
     checked, untrusted = 0, []
     for breaks, constant in bases:
-        fit = CurrentFit(index, breaks, 1, constant)
-        exact = evaluate(block, breaks, rho, 1, constant)
+        fit = CurrentFit(index, breaks, degree, constant)
+        exact = evaluate(block, breaks, rho, degree, constant)
         assert fit.bic(rho, sum(map(len, breaks))) == pytest.approx(exact.bic, abs=MARGIN / 100)
         for s in range(ns):
             probe = StripProbe(fit, s)
@@ -91,7 +92,7 @@ def test_a_candidates_criterion_is_the_refitted_ones(block):
                     approx = probe.bic(trial, const, rho, nb)
                     model = [list(b) for b in breaks]
                     model[s] = list(trial)
-                    ref = evaluate(block, model, rho, 1, (constant - {s}) | ({s} if const else set()))
+                    ref = evaluate(block, model, rho, degree, (constant - {s}) | ({s} if const else set()))
                     checked += 1
                     if approx is None:  # a function the data hardly see: left to the refit
                         untrusted.append((s, tuple(trial), const))
@@ -100,11 +101,13 @@ def test_a_candidates_criterion_is_the_refitted_ones(block):
                     assert approx[0] == pytest.approx(ref.bic, abs=MARGIN / 100), (s, trial, const)
                     assert approx[1] == pytest.approx(ref.deviance, abs=MARGIN / 100)
     assert checked == 2 * 7 * 4
-    assert len(untrusted) <= 4, untrusted
-    # and the rank the refit counts: a made-linear strip adds 2 columns per channel it is seen in
-    fit = CurrentFit(index, bases[0][0], 1, bases[0][1])
+    assert len(untrusted) <= most_untrusted, untrusted
+    # and the rank the refit counts: a made-linear strip adds 2 columns per channel it is seen in (degree 2:
+    # and a bubble per component)
+    fit = CurrentFit(index, bases[0][0], degree, bases[0][1])
     linear = StripProbe(fit, 0).rss_rank([], False)
-    assert [rank for _, rank in linear] == [2 * ns + 2, 2 * 4 + 2]
+    assert linear is not None
+    assert [rank for _, rank in linear] == [2 * ns + 2 * degree, 2 * 4 + 2 * degree]
 
 
 def test_the_selection_is_the_one_refitting_every_candidate(block, monkeypatch):
