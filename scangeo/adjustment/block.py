@@ -94,7 +94,8 @@ _READ: dict[tuple, tuple[ProjectTrajectory, OrientationSpline, np.ndarray, np.nd
 def strips_read_once() -> Iterator[None]:
     """Within it, :func:`strip_data` reads, checks and fits each strip's trajectory once (while the project
     file and the trajectory file are unchanged): for the many adjustments of one diagnosis or comparison,
-    which otherwise read every strip's trajectory again for each. Each :class:`StripData` still gets its
+    which otherwise read every strip's trajectory again for each (the map frame comes from the project
+    file and the DTM, whose stamps are part of the key too). Each :class:`StripData` still gets its
     own copies. The trajectories are kept until the outermost ``with`` ends (about 2 MB a strip of 7,000
     lines)."""
     global _READ
@@ -119,8 +120,8 @@ def strip_data(project: Project, strip_id: str) -> StripData:
     if _READ is not None:
         strip = project.strip(strip_id)
         line_times = _stamp(Path(strip.line_times)) if strip.line_times else None
-        key = (str(project.root), _stamp(project.root / "project.toml"), strip_id, str(strip.trajectory),
-               _stamp(Path(strip.trajectory)), str(strip.line_times), line_times)
+        key = (str(project.root), _stamp(project.root / "project.toml"), _stamp(Path(project.dtm_path)), strip_id,
+               str(strip.trajectory), _stamp(Path(strip.trajectory)), str(strip.line_times), line_times)
     if key is None or key not in _READ:  # type: ignore[operator]
         traj = project.stream(strip_id).to_project(project.map_frame.frame)
         spline = OrientationSpline.from_trajectory(traj, project.knot_spacing)
