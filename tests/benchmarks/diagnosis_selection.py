@@ -73,7 +73,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[24, 48, 96])
     ap.add_argument("--lines", type=int, default=7000)
-    ap.add_argument("--baseline", type=int, nargs="*", default=[24], help="sizes also run with every candidate refitted")
+    ap.add_argument("--baseline", type=int, nargs="*", default=[24],
+                    help="sizes also run with every candidate refitted")
     ap.add_argument("--work", type=Path)
     args = ap.parse_args()
     work = args.work or Path(tempfile.mkdtemp(prefix="selection_"))
