@@ -43,7 +43,8 @@ CONDITION = 1e-12
 TRUST = 1e-9
 
 
-def _nodes(n_lines: int, breaks) -> np.ndarray:
+def strip_nodes(n_lines: int, breaks) -> np.ndarray:
+    """A strip's nodes: its first line, its breaks in order, its last line."""
     return np.concatenate([[0.0], np.sort(np.asarray(breaks, float)), [float(n_lines - 1)]])
 
 
@@ -66,7 +67,7 @@ class BlockIndex:
 
     def feasible(self, s: int, breaks, line: float, min_gap: float, min_rows: int) -> bool:
         """Whether a break at ``line`` keeps the least gap and the least terms between breaks."""
-        nd = _nodes(self.data.n_lines[s], tuple(breaks) + (line,))
+        nd = strip_nodes(self.data.n_lines[s], tuple(breaks) + (line,))
         if np.min(np.diff(nd)) < min_gap:
             return False
         return bool(np.all(np.histogram(self.lines[s], bins=nd)[0] >= min_rows))
@@ -86,7 +87,7 @@ class BlockIndex:
         first = nk if with_constant else 0
         if constant:
             return row, comp, w, nk
-        nd = _nodes(data.n_lines[s], breaks)
+        nd = strip_nodes(data.n_lines[s], breaks)
         line = np.clip(data.term_line[sel], nd[0], nd[-1])
         seg = np.clip(np.searchsorted(nd, line, side="right") - 1, 0, nd.size - 2)
         frac = (line - nd[seg]) / (nd[seg + 1] - nd[seg])
@@ -248,6 +249,8 @@ class StripProbe:
     def rss_rank(self, breaks_s, constant_s: bool) -> list[tuple[float, int]] | None:
         """Per channel, the residual sum of squares and rank with strip ``s`` given these functions;
         None when the update is not to be trusted (module docstring)."""
+        if not self.trusted:
+            return None
         index = self.fit.index
         data = index.data
         if constant_s:
@@ -255,8 +258,6 @@ class StripProbe:
         else:
             row, col, val, ncol = index.strip_terms(self.s, breaks_s, self.fit.degree, False, with_constant=False)
         chan = data.channel[row]
-        if not self.trusted:
-            return None
         out: list[tuple[float, int]] = []
         for c, part in enumerate(self.parts):
             if part is None:
@@ -297,4 +298,4 @@ class StripProbe:
         return _criterion(self.fit.index, parts, rho, n_breaks)
 
 
-__all__ = ["CONDITION", "MARGIN", "TRUST", "BlockIndex", "CurrentFit", "StripProbe"]
+__all__ = ["CONDITION", "MARGIN", "TRUST", "BlockIndex", "CurrentFit", "StripProbe", "strip_nodes"]

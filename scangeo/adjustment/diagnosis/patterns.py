@@ -34,7 +34,7 @@ from functools import partial
 
 import numpy as np
 
-from scangeo.adjustment.diagnosis.local_fit import MARGIN, BlockIndex, CurrentFit, StripProbe
+from scangeo.adjustment.diagnosis.local_fit import MARGIN, BlockIndex, CurrentFit, StripProbe, strip_nodes
 
 #: chi^2 quantile (1 degree of freedom, 95 %) for the profile-likelihood interval of a break.
 CHI2_95 = 3.841
@@ -115,10 +115,6 @@ class BreakEstimate:
         return 0.5 * (self.high - self.low)
 
 
-def _nodes(n_lines: int, breaks) -> np.ndarray:
-    return np.concatenate([[0.0], np.sort(np.asarray(breaks, float)), [float(n_lines - 1)]])
-
-
 def design(data: PatternData, breaks, degree: int = 1, constant=()) -> tuple[np.ndarray, list[tuple[int, int, int]]]:
     """The design matrix for ``breaks`` (per strip) and (strip, component, node) per column.
 
@@ -133,7 +129,7 @@ def design(data: PatternData, breaks, degree: int = 1, constant=()) -> tuple[np.
     offset = np.zeros(len(data.strips), int)
     nodes = []
     for s, (n, b) in enumerate(zip(data.n_lines, breaks)):
-        nd = _nodes(n, b)
+        nd = strip_nodes(n, b)
         nodes.append(nd)
         offset[s] = len(names)
         if s in constant:
@@ -315,16 +311,16 @@ def _best_position(data, breaks, s, j, lines, rho, options, constant=(), index: 
     for b in lines:
         strip = list(breaks[s])
         strip[j] = float(b)
-        r = probe.bic(sorted(strip), False, rho, n_breaks)
+        strip.sort()
+        r = probe.bic(strip, False, rho, n_breaks)
         candidates.add(None if r is None else r[0], constant, s, strip)
     return candidates.models[candidates.best()][1]
 
 
-def _richer(data: PatternData, index: BlockIndex, breaks, constant: set[int], options: SelectionOptions
-            ) -> _Candidates:
-    """Every model one step richer than the current: a constant strip made linear, or a break added to a
-    non-constant strip, scored against the current model."""
-    fit = CurrentFit(index, breaks, options.degree, constant)
+def _richer(data: PatternData, fit: CurrentFit, options: SelectionOptions) -> _Candidates:
+    """Every model one step richer than the current one (``fit``): a constant strip made linear, or a break
+    added to a non-constant strip, scored against it."""
+    index, breaks, constant = fit.index, [list(b) for b in fit.breaks], set(fit.constant)
     n_breaks = sum(len(b) for b in breaks)
     candidates = _Candidates(data, breaks, None, options.degree)
     for s in range(len(data.strips)):
@@ -368,12 +364,6 @@ def _poorer(data: PatternData, index: BlockIndex, breaks, constant: set[int], rh
     return candidates
 
 
-def _current(data: PatternData, index: BlockIndex, breaks, constant, rho, degree: int) -> tuple[float, bool]:
-    """The current model's criterion, and whether it is :func:`evaluate`'s."""
-    value = CurrentFit(index, breaks, degree, constant).bic(rho, sum(len(b) for b in breaks))
-    return (value, False) if value is not None else (_refit_bic(data, breaks, rho, degree, constant), True)
-
-
 def select_breaks(data: PatternData, options: SelectionOptions = SelectionOptions()) -> Fit:
     """Greedy model growth by BIC, then pruning under serial correlation (module docstring).
 
@@ -386,11 +376,13 @@ def select_breaks(data: PatternData, options: SelectionOptions = SelectionOption
     breaks: list[list[float]] = [[] for _ in range(ns)]
     constant = set(range(ns))
     while True:
-        richer = _richer(data, index, breaks, constant, options)
+        fit = CurrentFit(index, breaks, degree, constant)
+        richer = _richer(data, fit, options)
         if not richer.models:
             break
         i = richer.best()
-        now = _current(data, index, breaks, constant, None, degree)
+        value = fit.bic(None, sum(len(b) for b in breaks))
+        now = (value, False) if value is not None else (_refit_bic(data, breaks, None, degree, constant), True)
         if not _below(richer.score(i), partial(richer.refit_bic, i), now,
                       partial(_refit_bic, data, breaks, None, degree, constant)):
             break
