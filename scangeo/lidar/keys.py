@@ -17,3 +17,11 @@ class Plane(Key):
 @dataclass(frozen=True, slots=True)
 class RangeOffset(Key):
     """Laser range offset (metres): true range = measured + offset."""
+
+
+@dataclass(frozen=True, slots=True)
+class StripHeight(Key):
+    """The height error of a strip in the 1D strip adjustment: offset (m) and, optionally, along- and
+    across-track tilts (m/m) (``scangeo.lidar.strip_adjustment``)."""
+
+    strip: str

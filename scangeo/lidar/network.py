@@ -5,7 +5,9 @@ A regular block: ``n_strips`` parallel strips flown north-south (x east, y north
 along the block. Tie areas sit in every side overlap every ``tie_spacing`` metres and at every
 crossing of a cross strip with a parallel strip; a control area is seen by every strip covering it.
 The precision of the strip offsets then follows from the configuration alone
-(:func:`scangeo.lidar.strip_adjustment.offset_covariance`).
+(:func:`scangeo.lidar.strip_adjustment.offset_covariance`: the engine's selected inverse), and so do the
+areas' redundancy numbers and minimal detectable blunders (:func:`area_reliability`, the engine's
+reliability that the image block's planning, :mod:`scangeo.adjustment.planning`, reports too).
 """
 from __future__ import annotations
 
@@ -15,7 +17,7 @@ import numpy as np
 
 from scangeo.atomic import atomic_path
 from scangeo.errors import LidarError
-from scangeo.lidar.strip_adjustment import ControlArea, Strip, TieArea, offset_covariance
+from scangeo.lidar.strip_adjustment import ControlArea, Strip, TieArea, design_reliability, offset_covariance
 
 
 @dataclass(frozen=True)
@@ -84,9 +86,18 @@ def build_block(
 def offset_precision(layout: BlockLayout, controls: list[tuple[float, float]], tilts: bool = False) -> np.ndarray:
     """Standard deviation (m) of each strip offset (parallel strips first, then cross strips)."""
     strips, ties, ctl = build_block(layout, controls)
-    Q = offset_covariance(strips, ties, ctl, tilts=tilts)
-    k = 3 if tilts else 1
-    return np.sqrt(np.diag(Q)[::k])
+    return np.sqrt(offset_covariance(strips, ties, ctl, tilts=tilts)[:, 0, 0])
+
+
+def area_reliability(layout: BlockLayout, controls: list[tuple[float, float]], tilts: bool = False) -> dict:
+    """Redundancy numbers and MDBs (m) of the tie areas and of the control areas of a regular block.
+
+    Returns ``{"tie areas": {"redundancy": (m,), "mdb_m": (m,)}, "control areas": {...}}`` (areas in the
+    order of :func:`build_block`; an uncontrolled area has MDB inf).
+    """
+    strips, ties, ctl = build_block(layout, controls)
+    rel = design_reliability(strips, ties, ctl, tilts=tilts)
+    return {g.name: {"redundancy": r, "mdb_m": m} for g, r, m in zip(rel.groups, rel.redundancy, rel.mdb)}
 
 
 def design_scenarios(layout: BlockLayout) -> dict[str, np.ndarray]:
