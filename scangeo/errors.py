@@ -86,3 +86,7 @@ def where(path: object, line: int | None = None, key: str | None = None) -> str:
     if key is not None:
         text += f" [{key}]"
     return text
+
+
+class ParGeFileError(InputFileError, ValueError):
+    """A PARGE status file (``.gcs``) or a HySpex sensor-model file cannot be imported (names the file)."""

@@ -29,6 +29,7 @@ COMMANDS = [
     "locate",
     "lidar",
     "simulate",
+    "imports",
     "match",
     "adjust",
     "plan",

@@ -1,0 +1,1 @@
+"""Other tools' projects in, written as scangeo projects: PARGE status files of HySpex lines."""

@@ -1,0 +1,454 @@
+"""``scangeo import parge``: a PARGE status file (a HySpex line) as a scangeo project.
+
+PARGE's conventions, found on the two shared HySpex lines by ground control residuals and applied
+here (docs/real-data.md shows each measurement):
+
+* **Roll** is positive with the left wing down: scangeo's roll (right wing down) is ``-rollarr``.
+* **Heading** is a grid heading (clockwise from the map grid's north): scangeo's true heading is
+  ``headarr + gamma`` with ``gamma`` the meridian convergence of the map CRS at the aircraft
+  (pyproj; about -0.76 deg for UTM 6N at 147.8 W, 64.9 N).
+* **Pitch** is positive nose up, as scangeo's.
+* **Look angles**: ``sensarr`` (or the HySpex sensor model) gives ``vinkelx`` positive to the left of
+  the flight direction and ``vinkely`` positive forward: scangeo's across-track angle is
+  ``-vinkelx``, its along-track angle ``vinkely``.
+* **Pixel and line** of a GCP are 0-based indices of the raw image; scangeo takes them as pixel
+  centres.
+* **Heights**: ``gpsarr`` holds the GNSS altitude, ``navarr``'s height is that minus PARGE's height
+  offset ``aux[6].OFFSET``, and the GCP heights come from the DEM PARGE used. Without a ``geoid``,
+  scangeo takes PARGE's height offset as the undulation N (so the heights are PARGE's); a number or a
+  raster of N gives the real one.
+* **Offsets**: the attitude arrays may already hold some of PARGE's offsets. The history
+  (``pr.HSRY``) lists each change of the offsets (boresight results, a user's offset events); the
+  offsets not yet in the arrays are a suffix of that list. Each split of the list is a hypothesis;
+  the one whose fixed boresight fits the used GCPs best is taken, and every hypothesis's figures are
+  written to ``import.json``.
+
+The project is written into a new folder, complete or not at all (:func:`scangeo.atomic.atomic_directory`).
+"""
+from __future__ import annotations
+
+import json
+import logging
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from scangeo.atomic import atomic_directory, write_csv, write_text
+from scangeo.errors import MissingFileError, ParGeFileError, ProjectFileError
+from scangeo.importers.hyspex import HySpexSensorModel
+from scangeo.importers.parge_dtm import write_gcp_dtm
+from scangeo.importers.parge_status import ParGeStatus
+from scangeo.io.points import GroundPoints, ImagePoints
+from scangeo.io.project import Project
+from scangeo.progress import ProgressCallback, no_progress
+from scangeo.rotation import matrix_to_rph, rph_to_matrix
+from scangeo.sensors.strip import Mounting
+from scangeo.trajectory.readers import write_trajectory_csv
+from scangeo.trajectory.stream import GpsImuStream
+
+log = logging.getLogger(__name__)
+
+#: Standard deviations written into ground.csv and points.csv for PARGE's GCPs: measured on an IFSAR
+#: orthoimage of 0.625 m pixels and a 0.5 m DEM, and in the raw image.
+GCP_SIGMA_XY_M = 0.3
+GCP_SIGMA_Z_M = 0.5
+GCP_SIGMA_PX = 0.5
+
+#: The three variants the import writes (variants.toml).
+VARIANTS = ("PARGE", "BORESIGHT", "CALIBRATED")
+
+
+@dataclass(frozen=True)
+class OffsetHypothesis:
+    """Which of PARGE's offsets the arrays hold: the first ``held`` changes of the history.
+
+    ``remainder_deg``: PARGE's offsets (roll, pitch, heading; PARGE's signs) not in the arrays;
+    ``boresight_deg``: the same as scangeo's boresight (its conventions); ``fit_px``: the rms of the
+    used GCPs' residuals with that boresight fixed (along track in lines, across track in pixels);
+    ``approximation_deg``: how far the constant boresight is from PARGE's per-record offsets at most.
+    """
+
+    held: int
+    description: str
+    remainder_deg: tuple[float, float, float]
+    boresight_deg: tuple[float, float, float]
+    approximation_deg: float
+    fit_px: tuple[float, float] | None = None
+
+
+@dataclass
+class ImportResult:
+    """What ``scangeo import parge`` wrote and decided."""
+
+    folder: Path
+    strip: str
+    line_rate_hz: float
+    line_rate_source: str
+    geoid: str
+    boresight_deg: tuple[float, float, float]
+    offsets: OffsetHypothesis
+    hypotheses: list[OffsetHypothesis]
+    control: int
+    check: int
+    dtm: str
+    notes: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        d = asdict(self)
+        d["folder"] = str(self.folder)
+        return d
+
+
+def import_parge(status, out, *, sensor_model=None, dtm=None, geoid: float | str | Path | None = None,
+                 progress: ProgressCallback = no_progress) -> ImportResult:
+    """Write a scangeo project from a PARGE status file.
+
+    Parameters
+    ----------
+    status : path of the PARGE status file (``.gcs``).
+    out : the project folder to write; it must not exist or be empty.
+    sensor_model : a HySpex sensor-model file (``pixel vinkelx vinkely``) to take the look angles
+        from instead of the status file's ``sensarr``; its pixel count must be the image's.
+    dtm : a DTM raster (orthometric heights in any CRS GDAL knows); the project refers to it by its
+        absolute path. Default: a surface through the GCPs' heights, labelled as such.
+    geoid : the geoid undulation N (m, a number) or a raster of N; default: PARGE's height offset.
+    progress : ``callback(done, total, message)``.
+
+    Returns
+    -------
+    ImportResult : what was written and decided (also in ``OUT/import.json``).
+
+    Raises
+    ------
+    ParGeFileError : the status or sensor-model file cannot be imported (names the file and why).
+    ProjectFileError : ``out`` exists and is not empty.
+    """
+    out = Path(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise ProjectFileError(f"{out}: exists and is not an empty folder (the import writes a new project)")
+    progress(0, 5, "import: reading the PARGE status")
+    st = ParGeStatus.read(status)
+    across, along, look_source = _look_angles(st, sensor_model)
+    strip = _strip_id(st)
+    notes: list[str] = []
+    rate, rate_source = _line_rate(st, notes)
+    geoid_value, geoid_text = _geoid(st, geoid, notes)
+    times = st.start_seconds + np.arange(st.lines) / rate
+    convergence = _convergence(st)
+    roll = -st.roll
+    heading = st.heading + convergence
+    stream = GpsImuStream(times, np.radians(st.lat), np.radians(st.lon), st.altitude, roll, st.pitch, heading,
+                          source=str(st.path))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_directory(out) as tmp:
+        progress(1, 5, "import: writing the project")
+        (tmp / "nav").mkdir()
+        (tmp / "sensor").mkdir()
+        write_trajectory_csv(tmp / "nav" / f"{strip}.csv", stream)
+        write_csv(tmp / "sensor" / "look_angles.csv", ["pixel", "along_deg", "across_deg"],
+                  ([j, f"{np.degrees(a):.10f}", f"{np.degrees(c):.10f}"]
+                   for j, (a, c) in enumerate(zip(along, across))))
+        ids = _write_points(tmp, st, strip)
+        if dtm is not None:
+            dtm_path = Path(dtm).resolve()
+            if not dtm_path.exists():
+                raise MissingFileError(f"{dtm}: no such DTM")
+            dtm_text, dtm_name = f"{dtm_path} (given)", str(dtm_path)
+        elif len(st.gcps):
+            footprint = _footprint(st, across, along)
+            dtm_text = write_gcp_dtm(tmp / "dtm_from_gcps.tif", st.gcps.xyz, footprint, st.crs_wkt)
+            dtm_name = "dtm_from_gcps.tif"
+        else:
+            footprint = _footprint(st, across, along)
+            dtm_text = write_gcp_dtm(tmp / "dtm_from_gcps.tif", None, footprint, st.crs_wkt,
+                                     flat_height=float(np.median(st.height)) - _nominal_agl(st))
+            dtm_name = "dtm_from_gcps.tif"
+            notes.append("no GCPs: the DTM is a flat plane at a nominal terrain height; give a real DTM")
+        origin = _origin(st)
+        progress(2, 5, "import: testing which offsets the attitude arrays hold")
+        _write_project_toml(tmp, st, strip, rate, geoid_value, dtm_name, origin, (0.0, 0.0, 0.0), look_source)
+        hypotheses = _hypotheses(st, roll, st.pitch, heading)
+        if st.gcps.used.any():
+            project = Project.load(tmp)
+            for i, h in enumerate(hypotheses):
+                hypotheses[i] = _fitted(project, strip, st, h)
+            chosen = min(hypotheses, key=lambda h: math.hypot(*h.fit_px) if h.fit_px else math.inf)
+        else:
+            chosen = _default_hypothesis(hypotheses)
+            notes.append(f"no used GCPs: which offsets the arrays hold could not be tested; assumed "
+                         f"'{chosen.description}'")
+        _write_project_toml(tmp, st, strip, rate, geoid_value, dtm_name, origin, chosen.boresight_deg, look_source)
+        progress(3, 5, "import: variants")
+        write_text(tmp / "variants.toml", _variants_toml(st, chosen))
+        result = ImportResult(tmp, strip, rate, rate_source, geoid_text, chosen.boresight_deg, chosen, hypotheses,
+                              int(st.gcps.used.sum()), int((~st.gcps.used).sum()), dtm_text, notes)
+        record = result.as_dict()
+        record.update(source=str(st.path), camera=st.camera, pixels=st.pixels, lines=st.lines, bands=st.bands,
+                      look_angles=look_source, points=ids, parge_offsets=st.offsets,
+                      parge_sensor_boresight_rad=list(st.sensor_boresight),
+                      history=[asdict(e) for e in st.events], image=st.image_name, dem=st.dem_name,
+                      conventions=CONVENTIONS)
+        record["folder"] = str(out)
+        write_text(tmp / "import.json", json.dumps(record, indent=1, default=_json_default) + "\n")
+    result.folder = out
+    progress(5, 5, "import: done")
+    return result
+
+
+#: The conventions applied, as written into import.json (module docstring).
+CONVENTIONS = {
+    "roll": "scangeo roll = -rollarr (PARGE's roll is positive with the left wing down)",
+    "pitch": "scangeo pitch = pitcharr",
+    "heading": "scangeo true heading = headarr (grid) + meridian convergence of the map CRS",
+    "look_angles": "scangeo across = -vinkelx, along = +vinkely (sensarr columns 1, 2)",
+    "image_coordinates": "GCP pixel and line are 0-based indices of the raw image, pixel centres",
+    "heights": "trajectory h = gpsarr altitude; GCP and DTM heights as PARGE's DEM; N = PARGE's height "
+               "offset unless a geoid is given",
+}
+
+
+def _json_default(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(type(value).__name__)
+
+
+def _strip_id(st: ParGeStatus) -> str:
+    keep = "".join(c if c.isalnum() or c in "-_" else "_" for c in st.camera)
+    return keep or "line"
+
+
+def _look_angles(st: ParGeStatus, sensor_model) -> tuple[np.ndarray, np.ndarray, str]:
+    """scangeo's across- and along-track look angles (rad) and where they came from."""
+    if sensor_model is not None:
+        model = HySpexSensorModel.read(sensor_model, pixels=st.pixels)
+        vx, vy, source = model.vinkelx, model.vinkely, f"{Path(sensor_model).name} (the HySpex sensor model given)"
+    else:
+        vx, vy, source = st.look_across, st.look_along, "the status file's sensarr"
+    across = -np.asarray(vx, float)
+    if not (np.all(np.diff(across) > 0) or np.all(np.diff(across) < 0)):
+        raise ParGeFileError(f"{sensor_model or st.path}: the across-track look angles are not monotonic over the "
+                             "pixels")
+    return across, np.asarray(vy, float), source
+
+
+def _line_rate(st: ParGeStatus, notes: list[str]) -> tuple[float, str]:
+    if st.frame_period_us:
+        rate = 1e6 / st.frame_period_us
+        if abs(rate - st.scan_frequency_hz) > 1e-6 * rate:
+            notes.append(f"line rate {rate:.4f} Hz from the camera's frame period ({st.frame_period_us:g} us); "
+                         f"PARGE's SCANFREQ says {st.scan_frequency_hz:g} Hz")
+        return rate, f"frame period {st.frame_period_us:g} us (camera header)"
+    return st.scan_frequency_hz, "PARGE's SCANFREQ"
+
+
+def _geoid(st: ParGeStatus, geoid, notes: list[str]) -> tuple[float | str, str]:
+    """The geoid undulation (m) or raster of the project, and a sentence saying where it came from."""
+    diff = st.altitude - st.height
+    offset = float(np.median(diff))
+    if np.ptp(diff) > 1e-3:
+        notes.append(f"gpsarr altitude - navarr height varies by {np.ptp(diff):.3f} m; its median {offset:.3f} m "
+                     "is taken as PARGE's height offset")
+    if geoid is None:
+        return offset, (f"N = {offset:.3f} m: PARGE's height offset (gpsarr altitude - navarr height), not a geoid "
+                        "model (give the real undulation as the geoid)")
+    if isinstance(geoid, int | float):
+        return float(geoid), f"N = {float(geoid):.3f} m (given)"
+    path = Path(geoid)
+    try:
+        value = float(str(geoid))
+    except ValueError:
+        if not path.exists():
+            raise MissingFileError(f"{geoid}: no such geoid raster (the geoid is a number of metres or a "
+                                   "raster)") from None
+        return str(path.resolve()), f"geoid raster {path.resolve()} (given)"
+    return value, f"N = {value:.3f} m (given)"
+
+
+def _convergence(st: ParGeStatus) -> np.ndarray:
+    """Meridian convergence (rad) of the map CRS at every record: true heading = grid heading + gamma."""
+    import pyproj
+
+    crs = pyproj.CRS.from_wkt(st.crs_wkt)
+    if crs.is_geographic:
+        return np.zeros(st.lines)
+    factors = pyproj.Proj(crs).get_factors(st.lon, st.lat)
+    return np.radians(np.asarray(factors.meridian_convergence, float))
+
+
+def _nominal_agl(st: ParGeStatus) -> float:
+    if len(st.gcps):
+        return float(np.median(st.height) - np.median(st.gcps.xyz[:, 2]))
+    return 700.0
+
+
+def _footprint(st: ParGeStatus, across: np.ndarray, along: np.ndarray) -> tuple[float, float, float, float]:
+    """Map box (xmin, ymin, xmax, ymax) of the line's ground footprint, with a margin."""
+    agl = max(_nominal_agl(st), 10.0)
+    reach = agl * np.tan(np.max(np.abs(across)) + np.max(np.abs(-st.roll)) + 0.05)
+    reach_along = agl * np.tan(np.max(np.abs(st.pitch)) + np.max(np.abs(along)) + 0.05)
+    r = max(reach, reach_along) + 50.0
+    return (float(st.easting.min() - r), float(st.northing.min() - r),
+            float(st.easting.max() + r), float(st.northing.max() + r))
+
+
+def _origin(st: ParGeStatus) -> tuple[float, float, float]:
+    """The project frame's origin: the line's middle, at the ground's height (ellipsoidal)."""
+    k = st.lines // 2
+    ground = float(np.median(st.gcps.xyz[:, 2])) if len(st.gcps) else float(st.height[k]) - _nominal_agl(st)
+    return float(st.lat[k]), float(st.lon[k]), ground
+
+
+def _write_points(tmp: Path, st: ParGeStatus, strip: str) -> list[str]:
+    n = len(st.gcps)
+    width = max(2, len(str(n)))
+    ids = [f"GCP{k + 1:0{width}d}" for k in range(n)]
+    if not n:
+        return ids
+    roles = np.where(st.gcps.used, "control", "check")
+    GroundPoints(np.array(ids, dtype=object), st.gcps.xyz, np.full(n, GCP_SIGMA_XY_M), np.full(n, GCP_SIGMA_Z_M),
+                 np.array(roles, dtype=object), np.arange(n)).write(tmp / "ground.csv")
+    ImagePoints(np.array(ids, dtype=object), np.array([strip] * n, dtype=object), st.gcps.line, st.gcps.pixel,
+                np.full(n, GCP_SIGMA_PX), np.arange(n)).write(tmp / "points.csv")
+    return ids
+
+
+def _write_project_toml(tmp: Path, st: ParGeStatus, strip: str, rate: float, geoid, dtm_name: str,
+                        origin: tuple[float, float, float], boresight_deg, look_source: str) -> None:
+    geoid_line = (f"geoid_undulation_m = {geoid:.4f}" if isinstance(geoid, float)
+                  else f"geoid = {json.dumps(str(geoid))}")
+    text = f"""# Imported by scangeo import parge from {st.path.name} ({st.camera}); decisions in import.json
+[project]
+crs = {json.dumps(st.crs_wkt)}
+dtm = {json.dumps(dtm_name)}
+{geoid_line}
+origin = [{origin[0]:.9f}, {origin[1]:.9f}, {origin[2]:.3f}]
+knot_spacing_s = {1.0 / rate:.9g}   # one knot per navigation record (one per line)
+
+[sensor]
+kind = "pushbroom"
+pixels = {st.pixels}
+line_rate_hz = {rate:.9g}
+look_angles = "sensor/look_angles.csv"   # from {look_source}
+# PARGE's boresight in scangeo's convention
+boresight_deg = [{boresight_deg[0]:.6f}, {boresight_deg[1]:.6f}, {boresight_deg[2]:.6f}]
+
+[[strips]]
+id = {json.dumps(strip)}
+trajectory = "nav/{strip}.csv"
+first_line_time = {st.start_seconds:.6f}
+lines = {st.lines}
+"""
+    write_text(tmp / "project.toml", text)
+
+
+def _hypotheses(st: ParGeStatus, roll: np.ndarray, pitch: np.ndarray, heading: np.ndarray) -> list[OffsetHypothesis]:
+    """Every split of the history's offset changes into held by the arrays / still to apply."""
+    total = np.degrees([st.offsets["roll"], st.offsets["pitch"], st.offsets["heading"]])
+    changes = [np.array(e.degrees) for e in st.events]
+    before = total - (np.sum(changes, axis=0) if changes else 0.0)  # offsets older than the history kept
+    steps: list[tuple[str, np.ndarray]] = []
+    if np.abs(before).max() > 1e-6:  # the history prints 8 digits
+        steps.append(("offsets older than the history", before))
+    steps += [(_event_name(e), c) for e, c in zip(st.events, changes)]
+    out = []
+    held = np.zeros(3)
+    for k in range(len(steps) + 1):
+        if k:
+            held = held + steps[k - 1][1]
+        remainder = total - held
+        if k == 0:
+            text = "the arrays hold none of PARGE's offsets"
+        elif k == len(steps):
+            text = "the arrays hold all of PARGE's offsets"
+        else:
+            text = f"the arrays hold the offsets up to {steps[k - 1][0]}, not the later ones"
+        bs, worst = _as_boresight(roll, pitch, heading, remainder)
+        out.append(OffsetHypothesis(k, text, tuple(float(v) for v in remainder), bs, worst))  # type: ignore[arg-type]
+    return out
+
+
+def _event_name(e) -> str:
+    if e.kind == "crossbore":
+        return f"the boresight result of {e.time}"
+    axis = ("roll", "pitch", "heading")[int(np.argmax(np.abs(e.degrees)))]
+    return f"the {axis} offset of {e.time}"
+
+
+def _as_boresight(roll, pitch, heading, remainder_deg) -> tuple[tuple[float, float, float], float]:
+    """The constant boresight (deg) closest to adding PARGE's offsets to the attitude angles, and the
+    largest angle (deg) between it and the exact per-record rotation."""
+    r = np.radians(remainder_deg)
+    R_arrays = rph_to_matrix(roll, pitch, heading)
+    R_parge = rph_to_matrix(roll - r[0], pitch + r[1], heading + r[2])  # PARGE's roll sign is scangeo's negative
+    per_record = np.einsum("nji,njk->nik", R_arrays, R_parge)
+    u, _, vt = np.linalg.svd(per_record.sum(axis=0))
+    mean = u @ np.diag([1, 1, np.linalg.det(u @ vt)]) @ vt
+    dev = np.einsum("ji,njk->nik", mean, per_record)
+    angle = np.degrees(np.arccos(np.clip((np.trace(dev, axis1=1, axis2=2) - 1) / 2, -1, 1))).max()
+    rph = np.degrees(matrix_to_rph(mean))
+    return (float(rph[0]), float(rph[1]), float(rph[2])), float(angle)
+
+
+def _fitted(project: Project, strip: str, st: ParGeStatus, h: OffsetHypothesis) -> OffsetHypothesis:
+    """The hypothesis with the rms of the used GCPs' residuals (lines, pixels) under its boresight.
+
+    Each GCP is projected into the line by Newton on time from its measured line, as the
+    adjustment's image observations do: a jittery pushbroom sees a point on several lines, and the
+    one nearest the measurement is the one the measurement is of."""
+    from dataclasses import replace
+
+    mounting = Mounting(project.sensor.mounting.lever_arm_B, np.radians(h.boresight_deg),
+                        project.sensor.mounting.time_offset)
+    geometry = project.geometry(strip, mounting=mounting, check=False)
+    used = st.gcps.used
+    xyz = st.gcps.xyz[used]
+    p_P = project.map_frame.map_to_project(xyz[:, 0], xyz[:, 1], xyz[:, 2])
+    line, pixel, _, _ = geometry.ground_to_image_near(p_P, st.gcps.line[used], st.gcps.pixel[used])
+    dl, dp = line - st.gcps.line[used], pixel - st.gcps.pixel[used]
+    ok = np.isfinite(dl) & np.isfinite(dp)
+    if not ok.any():
+        return replace(h, fit_px=(math.inf, math.inf))
+    return replace(h, fit_px=(float(np.sqrt(np.mean(dl[ok] ** 2))), float(np.sqrt(np.mean(dp[ok] ** 2)))))
+
+
+def _default_hypothesis(hypotheses: list[OffsetHypothesis]) -> OffsetHypothesis:
+    """Without GCPs: the arrays hold everything up to the last boresight result (as on the lines where
+    the GCPs could tell), else all of the offsets."""
+    for h in reversed(hypotheses):
+        if "boresight result" in h.description:
+            return h
+    return hypotheses[-1]
+
+
+def _variants_toml(st: ParGeStatus, chosen: OffsetHypothesis) -> str:
+    bs = ", ".join(f"{v:.4f}" for v in chosen.boresight_deg)
+    return f"""# Written by scangeo import parge ({st.path.name}); edit freely: scangeo run keeps it.
+# PARGE's boresight in scangeo's convention is [sensor] boresight_deg = [{bs}] (project.toml).
+
+[defaults]
+strategy = "DG"                     # GPS/IMU as measured: a single line has no tie points to adjust it with
+gps_sigma_m = [0.05, 0.05, 0.10]
+imu_sigma_deg = [0.003, 0.003, 0.005]
+
+[variants.PARGE]
+description = "PARGE's boresight held fixed"
+snooping = false
+
+[variants.BORESIGHT]
+description = "boresight (roll, pitch, heading) calibrated from the control GCPs"
+calibrate = ["boresight"]
+
+[variants.CALIBRATED]
+description = "boresight, the pushbroom's look angles (across offset and scale, along offset) and the time offset"
+calibrate = ["boresight", "across_scale", "along_offset", "time_offset"]
+"""
+
+
+__all__ = ["CONVENTIONS", "ImportResult", "OffsetHypothesis", "VARIANTS", "import_parge"]
