@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from scangeo.errors import MissingFileError, ProjectFileError
-from scangeo.io.schema import read, setting
+from scangeo.io.schema import check, read, setting
 from scangeo.io.toml_config import load_toml
 
 STRATEGIES = ("DG", "BE", "SE", "P", "S")
@@ -33,6 +33,9 @@ class StripModels:
     rotation: bool | None = setting(None, default_doc="the variant's", doc="rigid rotation of the model's positions")
     breaks_lines: tuple[float, ...] = setting((), ge=0, unit="line", doc="image lines where the model splits")
     breaks_times: tuple[float, ...] = setting((), unit="s", doc="times where the model splits")
+
+    def __post_init__(self) -> None:
+        check(self)
 
 
 @dataclass(frozen=True)
@@ -69,6 +72,9 @@ class Variant:
                                    doc="re-solution after a removal: low-rank update or full")
     max_iterations: int = setting(20, ge=1, unit="1", doc="Gauss-Newton iterations at most")
     backend: str = setting("auto", choices=("auto", "cholmod", "superlu"), doc="sparse solver")
+
+    def __post_init__(self) -> None:
+        check(self, where=f"Variant {self.name}")
 
     def role_of(self, point: str, role: str) -> str:
         """The role of a point in this variant: ground.csv's (or ``tie``), then the patterns in order."""

@@ -21,12 +21,22 @@ absent), unions such as ``bool | str``, ``tuple[T, ...]`` and ``tuple[T, T, T]``
 Adding a key: add a field ``name: type = setting(default, unit=..., doc=...)`` to the dataclass of
 its table, then regenerate the docs. A key that needs custom parsing gives ``parse=`` (a function
 ``(value, where) -> value`` that raises :class:`~scangeo.errors.ProjectFileError` via
-:func:`fail`).
+:func:`fail`); a condition that a range cannot say gives ``multiple_of=`` or ``rule=`` (a
+:class:`Rule`: a test and its words).
+
+The same checks hold for a settings dataclass built in Python: its ``__post_init__`` calls
+:func:`check`, which converts and checks every field as :func:`read` checks a key, so
+``RectifyOptions(max_error_px=0)`` fails with the words a file gets, only the place differs::
+
+    RectifyOptions.max_error_px: expected a number > 0 (px), found 0
+    run.toml [rectify.max_error_px]: expected a number > 0 (px), found 0
 """
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
+import os
 import types
 import typing
 from collections.abc import Callable, Mapping
@@ -41,6 +51,15 @@ REQUIRED: Any = dataclasses.MISSING
 #: Units inferred from a key's name when ``unit`` is not given.
 _SUFFIX_UNITS = {"_m": "m", "_deg": "deg", "_s": "s", "_hz": "Hz", "_px": "px", "_mm": "mm", "_um": "um",
                  "_nm": "nm", "_mb": "MiB", "_mps": "m/s", "_dn": "DN"}
+
+
+@dataclass(frozen=True)
+class Rule:
+    """A condition a range cannot state: ``test(value)`` is true for a good value; ``text`` says it in
+    words for errors and the docs (``"odd"``, ``"ALL_CPUS or a number >= 1"``)."""
+
+    test: Callable[[Any], bool]
+    text: str
 
 
 @dataclass(frozen=True)
@@ -61,9 +80,18 @@ class Setting:
     parse: Callable[[Any, str], Any] | None = None
     default_doc: str = ""
     file_type: Any = None
+    multiple_of: int | None = None
+    rule: Rule | None = None
+    allow_nan: bool = False
 
     def range_text(self) -> str:
-        """The range as ``[0, 0.9]``, ``> 0``, ``>= 16`` ('' without one)."""
+        """The range as ``[0, 0.9]``, ``> 0``, ``>= 16, multiple of 16`` ('' without one)."""
+        text = self._bounds_text()
+        extra = [t for t in (f"multiple of {self.multiple_of}" if self.multiple_of else "",
+                             self.rule.text if self.rule else "") if t]
+        return ", ".join([text, *extra] if text else extra)
+
+    def _bounds_text(self) -> str:
         lo = f"[{_num(self.ge)}" if self.ge is not None else f"({_num(self.gt)}" if self.gt is not None else None
         hi = f"{_num(self.le)}]" if self.le is not None else f"{_num(self.lt)})" if self.lt is not None else None
         if lo and hi:
@@ -83,7 +111,8 @@ def setting(default: Any = REQUIRED, *, unit: str = "", doc: str = "", ge: float
             gt: float | None = None, le: float | None = None, lt: float | None = None,
             choices: tuple[Any, ...] = (), length: int | None = None, key: str | None = None,
             when: tuple[str, Any] | None = None, internal: bool = False,
-            parse: Callable[[Any, str], Any] | None = None, default_doc: str = "", file_type: Any = None) -> Any:
+            parse: Callable[[Any, str], Any] | None = None, default_doc: str = "", file_type: Any = None,
+            multiple_of: int | None = None, rule: Rule | None = None, allow_nan: bool = False) -> Any:
     """A dataclass field that is a configuration key.
 
     Parameters
@@ -103,9 +132,17 @@ def setting(default: Any = REQUIRED, *, unit: str = "", doc: str = "", ge: float
     parse : custom conversion ``(value, where) -> value`` after the type check.
     default_doc : how the docs show the default, when its value does not say it.
     file_type : the type in the file when it differs from the field's (``parse`` converts it).
+    multiple_of : integers must be a multiple of this.
+    rule : any other condition on a value (:class:`Rule`), stated in errors and docs.
+    allow_nan : a number may be NaN (``nan`` in TOML; a nodata value).
+
+    Returns
+    -------
+    dataclasses.Field
+        The field, with the :class:`Setting` in its metadata.
     """
     meta = {"setting": Setting(unit, doc, ge, gt, le, lt, tuple(choices), length, key, when, internal, parse,
-                               default_doc, file_type)}
+                               default_doc, file_type, multiple_of, rule, allow_nan)}
     if default is REQUIRED:
         return dataclasses.field(metadata=meta)
     return dataclasses.field(default=default, metadata=meta)
@@ -138,7 +175,22 @@ class Key:
 
 
 def keys(cls: type) -> list[Key]:
-    """The keys of a settings dataclass, in field order (internal fields left out)."""
+    """The keys of a settings dataclass, in field order (internal fields left out).
+
+    Parameters
+    ----------
+    cls : a dataclass whose fields are :func:`setting` s.
+
+    Returns
+    -------
+    list of Key
+        One per key of the file, in field order.
+    """
+    return list(_keys(cls))
+
+
+@functools.cache
+def _keys(cls: type) -> tuple[Key, ...]:
     hints = typing.get_type_hints(cls)
     out = []
     for f in dataclasses.fields(cls):
@@ -152,7 +204,81 @@ def keys(cls: type) -> list[Key]:
         else:
             default = REQUIRED
         out.append(Key(s.key or f.name, f.name, s.file_type or hints[f.name], s, default))
-    return out
+    return tuple(out)
+
+
+def check(obj: Any, error: type[Exception] = ProjectFileError, where: str | None = None) -> None:
+    """Check a settings dataclass built in Python as :func:`read` checks the keys of a file.
+
+    Called by a settings dataclass's ``__post_init__``: every field is converted and checked as its
+    key would be (type, range, allowed values, length, rule), and the converted value is stored (a
+    list or array becomes a tuple, an integer given for a number a float). A field ``None`` is
+    accepted where the type allows None; a nested settings dataclass must be an instance (it checked
+    itself); a field read with ``parse=`` holds the parsed value and is left to ``__post_init__``.
+
+    Parameters
+    ----------
+    obj : the settings dataclass instance (frozen or not).
+    error : the exception class raised (the class its file's errors are raised as).
+    where : the name errors give before the field (default: the class's name).
+
+    Raises
+    ------
+    error
+        ``CLASS.FIELD: expected ..., found ...``: the words :func:`read` uses for a file's key.
+    """
+    cls = type(obj)
+    name = where or cls.__name__
+    known = keys(cls)
+    by_name = {k.name: k for k in known}
+    for k in known:
+        if k.setting.parse is not None:
+            continue
+        when = k.setting.when
+        if when is not None and when[0] in by_name and getattr(obj, by_name[when[0]].field) != when[1]:
+            continue
+        try:
+            value = _from_python(getattr(obj, k.field), k.hint, dataclasses.replace(k.setting, unit=k.unit),
+                                 f"{name}.{k.field}")
+        except ProjectFileError as exc:
+            if error is ProjectFileError:
+                raise
+            raise error(str(exc)) from None
+        object.__setattr__(obj, k.field, value)
+
+
+def _from_python(value: Any, hint: Any, s: Setting, where: str) -> Any:
+    """One field's value built in Python, checked and converted as the same value read from a file."""
+    origin = typing.get_origin(hint)
+    args = typing.get_args(hint)
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        members = [a for a in args if a is not type(None)]
+        if len(members) == 1:
+            return _from_python(value, members[0], s, where)
+    if isinstance(hint, type) and dataclasses.is_dataclass(hint):
+        if not isinstance(value, hint):
+            fail(where, f"a {hint.__name__}", value)
+        return value
+    if origin is tuple and args and isinstance(args[0], type) and dataclasses.is_dataclass(args[0]):
+        item = args[0]
+        if not isinstance(value, (tuple, list)) or not all(isinstance(v, item) for v in value):
+            fail(where, f"a tuple of {item.__name__}", value)
+        return tuple(value)
+    return convert(_plain(value), hint, s, where)
+
+
+def _plain(value: Any) -> Any:
+    """A value built in Python as TOML would give it: tuples and arrays as lists, numpy scalars as
+    Python numbers, a path as a string."""
+    if isinstance(value, (tuple, list)):
+        return [_plain(v) for v in value]
+    if hasattr(value, "tolist") and hasattr(value, "dtype"):  # a numpy array or scalar
+        return _plain(value.tolist())
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    return value
 
 
 def read(cls: type, table: Any, file: str, path: str = "", **internal: Any) -> Any:
@@ -227,7 +353,7 @@ def convert(value: Any, hint: Any, s: Setting, where: str, file: str = "", path:
                 return convert(value, member, s, where, file, path)
             except ProjectFileError as exc:
                 errors.append(str(exc).split(": expected ", 1)[-1].split(", found ")[0])
-        fail(where, " or ".join(errors), value)
+        fail(where, s.rule.text if s.rule is not None else " or ".join(dict.fromkeys(errors)), value)
     if dataclasses.is_dataclass(hint):
         return read(hint, value, file, path)  # type: ignore[arg-type]
     if origin is tuple:
@@ -297,6 +423,8 @@ def _scalar(value: Any, hint: Any, s: Setting, where: str) -> Any:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             fail(where, "a number" + _with(s) + _unit(s), value)
         if math.isnan(value):
+            if s.allow_nan:
+                return float(value)
             fail(where, "a number", value)
         _check_range(value, s, where, "a number")
         return float(value)
@@ -305,6 +433,7 @@ def _scalar(value: Any, hint: Any, s: Setting, where: str) -> Any:
             fail(where, "a string" + _with(s), value)
         if s.choices and value not in s.choices:
             fail(where, "one of " + ", ".join(str(c) for c in s.choices), value)
+        _check_rule(value, s, where, "a string")
         return value
     if hint is Any:
         return value
@@ -322,9 +451,17 @@ def _with(s: Setting) -> str:
 
 def _check_range(value: float, s: Setting, where: str, kind: str) -> None:
     ok = ((s.ge is None or value >= s.ge) and (s.gt is None or value > s.gt)
-          and (s.le is None or value <= s.le) and (s.lt is None or value < s.lt))
+          and (s.le is None or value <= s.le) and (s.lt is None or value < s.lt)
+          and (not s.multiple_of or value % s.multiple_of == 0))
     if not ok:
         fail(where, f"{kind} {_constraint_text(s)}{_unit(s)}", value)
+    _check_rule(value, s, where, kind)
+
+
+def _check_rule(value: Any, s: Setting, where: str, kind: str) -> None:
+    if s.rule is not None and not s.rule.test(value):
+        fail(where, f"{kind} {_constraint_text(s)}{_unit(s)}" if s.range_text() != s.rule.text else s.rule.text,
+             value)
 
 
 def type_text(hint: Any, s: Setting | None = None) -> str:
@@ -346,4 +483,4 @@ def type_text(hint: Any, s: Setting | None = None) -> str:
     return {bool: "true/false", int: "integer", float: "number", str: "string"}.get(hint, str(hint))
 
 
-__all__ = ["REQUIRED", "Key", "Setting", "convert", "fail", "keys", "read", "setting", "type_text"]
+__all__ = ["REQUIRED", "Key", "Rule", "Setting", "check", "convert", "fail", "keys", "read", "setting", "type_text"]

@@ -10,8 +10,8 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from scangeo.errors import OptionsError, ProjectFileError, ScangeoError
-from scangeo.io.schema import read, setting
+from scangeo.errors import OptionsError, ProjectFileError
+from scangeo.io.schema import Rule, check, read, setting
 
 #: wavelength range of the default matching bands, nm: every reflective band, never thermal (averaging
 #: the 10 reflective Daedalus bands halves the noise of 6 visible ones: 0.127 against 0.180 px true rms
@@ -54,7 +54,8 @@ class MatchOptions:
     per_cell: int = setting(2, ge=1, unit="1", doc="target number of points per cell")
     control_per_strip: int = setting(30, ge=0, unit="1", doc="target control and check points per strip and reference")
     check_share: float = setting(0.3, ge=0, lt=1, unit="1", doc="share of the control points held back as check")
-    template_px: int = setting(25, ge=7, unit="cell", doc="side of the matching template (odd)")
+    template_px: int = setting(25, ge=7, rule=Rule(lambda v: v % 2 == 1, "odd"), unit="cell",
+                               doc="side of the matching template")
     search_px: int = setting(16, ge=1, unit="cell", doc="search radius around the predicted position")
     min_correlation: float = setting(0.7, gt=-1, lt=1, unit="1", doc="smallest accepted correlation peak")
     max_second_peak: float = setting(0.99, gt=0, le=1, unit="1",
@@ -68,37 +69,15 @@ class MatchOptions:
                                      doc="1-based strip bands averaged into the matching image")
     reference_bands: tuple[int, ...] = setting((), ge=1, default_doc="the first 3",
                                                doc="1-based bands of the reference orthoimage")
-    resolution: float | None = setting(None, gt=0, unit="map unit", default_doc="nadir ground pixel",
+    resolution: float | None = setting(None, gt=0, rule=Rule(math.isfinite, "finite"), unit="map unit",
+                                       default_doc="nadir ground pixel",
                                        doc="chip cell size")
-    id_prefix: str = setting("M", doc="first letters of matched point ids")
+    id_prefix: str = setting("M", rule=Rule(lambda v: bool(v) and v.isalnum(), "letters or digits"),
+                             doc="first letters of matched point ids")
     seed: int = setting(0, unit="1", doc="seed of the choice of check points")
 
     def __post_init__(self) -> None:
-        checks = [
-            (self.per_overlap >= 1, "per_overlap", "at least 1"),
-            (self.per_cell >= 1, "per_cell", "at least 1"),
-            (self.control_per_strip >= 0, "control_per_strip", "0 or more"),
-            (0.0 <= self.check_share < 1.0, "check_share", "in [0, 1)"),
-            (self.template_px >= 7 and self.template_px % 2 == 1, "template_px", "an odd number >= 7"),
-            (self.search_px >= 1, "search_px", "at least 1"),
-            (-1.0 < self.min_correlation < 1.0, "min_correlation", "in (-1, 1)"),
-            (0.0 < self.max_second_peak <= 1.0, "max_second_peak", "in (0, 1]"),
-            (self.max_sigma_px > 0, "max_sigma_px", "positive"),
-            (self.ransac_px > 0, "ransac_px", "positive"),
-            (self.neighbours >= 4, "neighbours", "at least 4"),
-            (self.min_sigma_px > 0, "min_sigma_px", "positive"),
-            (0.0 <= self.smooth_cells <= 5.0, "smooth_cells", "in [0, 5]"),
-            (all(int(b) >= 1 for b in self.bands), "bands", "1-based band numbers"),
-            (all(int(b) >= 1 for b in self.reference_bands), "reference_bands", "1-based band numbers"),
-            (self.resolution is None or (self.resolution > 0 and math.isfinite(self.resolution)), "resolution",
-             "a positive number"),
-            (bool(self.id_prefix) and self.id_prefix.isalnum(), "id_prefix", "letters or digits"),
-        ]
-        for ok, key, expected in checks:
-            if not ok:
-                raise OptionsError(f"match: {key} must be {expected}, got {getattr(self, key)!r}")
-        object.__setattr__(self, "bands", tuple(int(b) for b in self.bands))
-        object.__setattr__(self, "reference_bands", tuple(int(b) for b in self.reference_bands))
+        check(self, OptionsError)
 
     @property
     def tie_prefix(self) -> str:
@@ -117,8 +96,5 @@ class MatchOptions:
         naming ``source`` (the file) and the key."""
         try:
             return read(cls, table, source, "match")
-        except (ProjectFileError, ScangeoError) as exc:
-            text = str(exc)
-            if not text.startswith(source):
-                text = f"{source} [match]: {text.removeprefix('match: ')}"
-            raise OptionsError(text) from exc
+        except ProjectFileError as exc:
+            raise OptionsError(str(exc)) from exc

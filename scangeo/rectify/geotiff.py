@@ -25,12 +25,21 @@ from rasterio.windows import Window
 
 from scangeo.atomic import commit
 from scangeo.errors import RectifyOptionsError
-from scangeo.io.schema import setting
+from scangeo.io.schema import Rule, check, setting
 from scangeo.rectify.cog_writer import CogWriter
 from scangeo.rectify.output_grid import OutputGrid
 from scangeo.rectify.overviews import with_overviews
 
 _COMPRESSIONS = ("deflate", "zstd", "lzw", "none")
+
+
+def _thread_count(value: str | int) -> bool:
+    """``ALL_CPUS`` or a number of 1 or more (an integer or its digits)."""
+    text = str(value).strip()
+    return text.upper() == "ALL_CPUS" or (text.isdigit() and int(text) >= 1)
+
+
+_THREADS = Rule(_thread_count, "ALL_CPUS or a number >= 1")
 _WRITERS = ("scangeo", "gdal")
 #: With ``overviews = "auto"`` an output whose larger side exceeds this many cells gets internal
 #: overviews: a viewer (QGIS) zoomed out on a larger raster reads every cell without them
@@ -63,7 +72,7 @@ class GeoTiffProfile:
         strip took 7.18 CPU s per pipelined strip that way against 5.33, docs/performance.md).
     """
 
-    blocksize: int = setting(512, ge=16, unit="px", doc="internal tile size, a multiple of 16")
+    blocksize: int = setting(512, ge=16, multiple_of=16, unit="px", doc="internal tile size")
     compress: str = setting("deflate", choices=_COMPRESSIONS, doc="compression")
     level: int | None = setting(None, ge=1, le=22, unit="1", default_doc="1 for deflate and zstd",
                                 doc="compression level")
@@ -71,35 +80,18 @@ class GeoTiffProfile:
     overviews: bool | str = setting("auto", choices=("auto",),
                                     doc=f"internal overviews: auto (above {OVERVIEW_MIN_SIZE} cells), true, false")
     cog: bool = setting(True, doc="cloud-optimised layout (false: a plain tiled GeoTIFF)")
-    threads: str = setting("ALL_CPUS", doc="compression threads: ALL_CPUS or a number")
+    threads: str | int = setting("ALL_CPUS", rule=_THREADS, unit="1", doc="compression threads")
     writer: str = setting("scangeo", choices=_WRITERS,
                           doc="who writes a COG: scangeo (deflate levels 1-3 or none; the rest goes to GDAL) or gdal")
 
     def __post_init__(self) -> None:
-        if self.compress not in _COMPRESSIONS:
-            raise RectifyOptionsError(
-                f"GeoTIFF profile: compress {self.compress!r} is not one of {', '.join(_COMPRESSIONS)}")
-        if isinstance(self.overviews, str) and self.overviews != "auto":
-            raise RectifyOptionsError(
-                f"GeoTIFF profile: overviews must be 'auto', true or false, got {self.overviews!r}")
-        if self.blocksize < 16 or self.blocksize % 16:
-            raise RectifyOptionsError(f"GeoTIFF profile: blocksize must be a multiple of 16, got {self.blocksize}")
-        if self.writer not in _WRITERS:
-            raise RectifyOptionsError(f"GeoTIFF profile: writer {self.writer!r} is not one of {', '.join(_WRITERS)}")
-        self.thread_count()
+        check(self, RectifyOptionsError)
 
     def thread_count(self) -> int:
         """Compression threads as a number (``ALL_CPUS``: the machine's)."""
         if str(self.threads).upper() == "ALL_CPUS":
             return os.cpu_count() or 1
-        try:
-            n = int(self.threads)
-        except ValueError:
-            n = 0
-        if n < 1:
-            raise RectifyOptionsError(
-                f"GeoTIFF profile: threads must be ALL_CPUS or a positive number, got {self.threads!r}")
-        return n
+        return int(self.threads)
 
     def scangeo_writes(self, dtype) -> bool:
         """Whether scangeo's own COG writer writes an output of ``dtype`` with this profile: a COG,

@@ -12,10 +12,12 @@ import math
 from dataclasses import dataclass
 
 from scangeo.errors import ProjectFileError, RectifyOptionsError
-from scangeo.io.schema import read, setting
+from scangeo.io.schema import Rule, check, read, setting
 from scangeo.rectify.geotiff import GeoTiffProfile
 from scangeo.rectify.inverse_map import InverseMapOptions
-from scangeo.rectify.resample import RESAMPLING, check_resampling
+from scangeo.rectify.resample import RESAMPLING
+
+_FINITE = Rule(math.isfinite, "finite")
 
 #: optional per-cell layers (written as bands of NAME.layers.tif, float32, NaN nodata)
 LAYERS = {
@@ -50,16 +52,16 @@ class RectifyOptions:
     geotiff : layout of the GeoTIFFs.
     """
 
-    resolution: float | None = setting(None, gt=0, unit="map unit", default_doc="nadir ground pixel",
+    resolution: float | None = setting(None, gt=0, rule=_FINITE, unit="map unit", default_doc="nadir ground pixel",
                                        doc="output cell size (default: the nadir ground pixel, two significant digits)")
     bounds: tuple[float, float, float, float] | None = setting(
         None, unit="map unit", default_doc="strip footprint", doc="xmin, ymin, xmax, ymax of the output")
     resampling: str = setting("bilinear", choices=tuple(RESAMPLING), doc="resampling of the image")
     max_error_px: float = setting(0.05, gt=0, doc="tolerance of the inverse map's validation sample")
     memory_budget_mb: float = setting(1024.0, ge=16, doc="memory a strip may use for its working arrays")
-    tile_size: int | None = setting(None, ge=16, unit="cell", default_doc="from the memory budget",
-                                    doc="output tile size, a multiple of 16")
-    nodata: float | None = setting(None, default_doc="the source's", unit="1",
+    tile_size: int | None = setting(None, ge=16, multiple_of=16, unit="cell", default_doc="from the memory budget",
+                                    doc="output tile size")
+    nodata: float | None = setting(None, default_doc="the source's", unit="1", allow_nan=True,
                                    doc="output nodata value (default: the source's, else 0 or NaN)")
     occlusion: bool = setting(True, doc="make ground hidden by terrain nodata")
     layers: tuple[str, ...] = setting((), choices=tuple(LAYERS), doc="optional per-cell layers (NAME.layers.tif)")
@@ -69,19 +71,7 @@ class RectifyOptions:
     geotiff: GeoTiffProfile = setting(GeoTiffProfile(), doc="layout of the GeoTIFFs ([rectify.geotiff])")
 
     def __post_init__(self) -> None:
-        check_resampling(self.resampling)
-        if self.resolution is not None and not (self.resolution > 0 and math.isfinite(self.resolution)):
-            raise RectifyOptionsError(f"rectify: resolution must be a positive number, got {self.resolution!r}")
-        unknown = [name for name in self.layers if name not in LAYERS]
-        if unknown:
-            raise RectifyOptionsError(f"rectify: unknown layer {unknown[0]!r} (expected one of {', '.join(LAYERS)})")
-        if self.memory_budget_mb < 16:
-            raise RectifyOptionsError(f"rectify: memory_budget_mb {self.memory_budget_mb} is below 16 MiB")
-        if self.tile_size is not None and (self.tile_size < 16 or self.tile_size % 16):
-            raise RectifyOptionsError(f"rectify: tile_size must be a multiple of 16, got {self.tile_size}")
-        object.__setattr__(self, "layers", tuple(self.layers))
-        if self.bounds is not None:
-            object.__setattr__(self, "bounds", tuple(float(v) for v in self.bounds))
+        check(self, RectifyOptionsError)
 
     @property
     def inverse_map(self) -> InverseMapOptions:

@@ -102,7 +102,7 @@ def choose_tile_size(
         if cells * per_cell + window <= budget:
             return size
     raise RectifyOptionsError(
-        f"rectify: a memory budget of {options.memory_budget_mb} MiB is too small for this strip "
+        f"rectify: a memory budget of {options.memory_budget_mb:g} MiB is too small for this strip "
         f"({geometry.lines} x {geometry.pixels} x {bands}); allow more with memory_budget_mb"
     )
 

@@ -5,12 +5,14 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from scangeo.adjustment.variants import read_variants
-from scangeo.errors import ProjectFileError, RectifyOptionsError
+from scangeo.errors import OptionsError, ProjectFileError, RectifyOptionsError
 from scangeo.io.project_schema import read_project_file
 from scangeo.io.schema import keys, read, setting, type_text
+from scangeo.match.options import MatchOptions
 from scangeo.rectify.options import RectifyOptions
 from scangeo.simulate.config import config_from_dict
 
@@ -89,12 +91,68 @@ def test_units_ranges_and_types_are_metadata():
     ({"layers": ["time", "colour"]}, "layers", "expected a list of strings (one of"),
     ({"bounds": [0, 0, 1]}, "bounds", "expected 4 numbers (map unit), found [0, 0, 1]"),
     ({"geotiff": {"compress": "jpeg"}}, "geotiff.compress", "expected one of deflate, zstd, lzw, none, found 'jpeg'"),
-    ({"geotiff": {"blocksize": "512"}}, "geotiff.blocksize", "expected an integer >= 16 (px), found '512'"),
+    ({"geotiff": {"blocksize": "512"}}, "geotiff.blocksize",
+     "expected an integer >= 16, multiple of 16 (px), found '512'"),
+    ({"geotiff": {"blocksize": 520}}, "geotiff.blocksize", "expected an integer >= 16, multiple of 16 (px), found 520"),
+    ({"tile_size": 40}, "tile_size", "expected an integer >= 16, multiple of 16 (cell), found 40"),
+    ({"geotiff": {"threads": 0}}, "geotiff.threads", "expected ALL_CPUS or a number >= 1, found 0"),
 ])
 def test_rectify_options(table, key, expected):
     with pytest.raises(RectifyOptionsError) as info:
         RectifyOptions.from_dict(table, "rectify.toml")
     assert str(info.value).startswith(f"rectify.toml [rectify.{key}]: {expected}")
+
+
+def _built_in_python(cls, table: dict):
+    """``cls`` built from a table's values in Python (nested tables as their dataclasses)."""
+    import dataclasses
+    import typing
+
+    hints = typing.get_type_hints(cls)
+    values = {k: _built_in_python(hints[k], v) if isinstance(v, dict) and dataclasses.is_dataclass(hints[k]) else v
+              for k, v in table.items()}
+    return cls(**values)
+
+
+@pytest.mark.parametrize("cls, table, error, key, expected", [
+    (RectifyOptions, {"max_error_px": 0}, RectifyOptionsError, "max_error_px", "expected a number > 0 (px), found 0"),
+    (RectifyOptions, {"memory_budget_mb": 8}, RectifyOptionsError, "memory_budget_mb",
+     "expected a number >= 16 (MiB), found 8"),
+    (RectifyOptions, {"igm": "false"}, RectifyOptionsError, "igm", "expected true or false, found 'false'"),
+    (RectifyOptions, {"bounds": [0, 0, 1]}, RectifyOptionsError, "bounds",
+     "expected 4 numbers (map unit), found [0, 0, 1]"),
+    (RectifyOptions, {"tile_size": 40}, RectifyOptionsError, "tile_size",
+     "expected an integer >= 16, multiple of 16 (cell), found 40"),
+    (RectifyOptions, {"resampling": "lanczos"}, RectifyOptionsError, "resampling",
+     "expected one of nearest, bilinear, cubic, found 'lanczos'"),
+    (RectifyOptions, {"geotiff": {"compress": "jpeg"}}, RectifyOptionsError, "compress",
+     "expected one of deflate, zstd, lzw, none, found 'jpeg'"),
+    (MatchOptions, {"template_px": 8}, OptionsError, "template_px", "expected an integer >= 7, odd (cell), found 8"),
+    (MatchOptions, {"check_share": 1.0}, OptionsError, "check_share", "expected a number in [0, 1), found 1.0"),
+    (MatchOptions, {"bands": [0, 2]}, OptionsError, "bands", "expected a list of integers >= 1, found [0, 2]"),
+    (MatchOptions, {"id_prefix": "M-"}, OptionsError, "id_prefix", "expected letters or digits, found 'M-'"),
+])
+def test_options_built_in_python_fail_as_the_same_keys_of_a_file(cls, table, error, key, expected):
+    """The same class of error and the same words; only the place differs (the field, or file and key)."""
+    with pytest.raises(error) as from_file:
+        cls.from_dict(table, "run.toml")
+    with pytest.raises(error) as in_python:
+        _built_in_python(cls, table)
+    section = "match" if cls is MatchOptions else "rectify"
+    path = f"geotiff.{key}" if "geotiff" in table else key
+    owner = "GeoTiffProfile" if "geotiff" in table else cls.__name__
+    assert str(from_file.value) == f"run.toml [{section}.{path}]: {expected}"
+    assert str(in_python.value) == f"{owner}.{key}: {expected}"
+
+
+def test_options_built_in_python_are_converted_as_a_file_is_read():
+    o = RectifyOptions(resolution=2, layers=["time"], bounds=np.array([0, 0, 10, 20]))
+    assert o == RectifyOptions.from_dict({"resolution": 2, "layers": ["time"], "bounds": [0, 0, 10, 20]}, "r")
+    assert np.isnan(RectifyOptions(nodata=float("nan")).nodata)  # a nodata value may be NaN
+    assert isinstance(o.resolution, float) and o.layers == ("time",) and o.bounds == (0.0, 0.0, 10.0, 20.0)
+    assert MatchOptions(bands=np.array([3, 1])).bands == (3, 1)
+    with pytest.raises(RectifyOptionsError, match=r"RectifyOptions.geotiff: expected a GeoTiffProfile, found \{"):
+        RectifyOptions(geotiff={"level": 3})
 
 
 def test_rectify_options_read():

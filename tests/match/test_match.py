@@ -136,7 +136,7 @@ def test_bad_settings_name_the_key(tmp_path, landcover_block, capsys):
     cfg.write_text("[match]\ntemplate_size = 21\n")
     assert main(["match", str(landcover_block), "--config", str(cfg)]) == 1
     assert "template_size" in capsys.readouterr().err
-    with pytest.raises(OptionsError, match=r"x.toml \[match\]: template_px must be an odd number"):
+    with pytest.raises(OptionsError, match=r"x.toml \[match.template_px\]: expected an integer >= 7, odd"):
         MatchOptions.from_dict({"template_px": 20}, "x.toml")
 
 
