@@ -13,7 +13,6 @@ import logging
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -23,6 +22,7 @@ from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
 from scangeo.adjustment.variants import Variant
 from scangeo.errors import AdjustmentError
+from scangeo.filecache import FileCache
 from scangeo.io.point_checks import check_points
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
@@ -86,52 +86,49 @@ def gpsimu_epochs(spline: OrientationSpline, t_first: float, t_last: float) -> n
     return out
 
 
-#: the strips' trajectories read and fitted so far, while :func:`strips_read_once` is active (else None)
-_READ: dict[tuple, tuple[ProjectTrajectory, OrientationSpline, np.ndarray, np.ndarray]] | None = None
+#: the strips' trajectories read and fitted, while :func:`strips_read_once` is active; a block of 96
+#: strips of 7,000 lines holds about 200 MB
+_TRAJECTORIES: FileCache[tuple[ProjectTrajectory, OrientationSpline, np.ndarray, np.ndarray]] = FileCache(
+    "strip trajectories", 512)
+_ACTIVE = 0
 
 
 @contextmanager
 def strips_read_once() -> Iterator[None]:
     """Within it, :func:`strip_data` reads, checks and fits each strip's trajectory once (while the project
-    file and the trajectory file are unchanged): for the many adjustments of one diagnosis or comparison,
-    which otherwise read every strip's trajectory again for each (the map frame comes from the project
-    file and the DTM, whose stamps are part of the key too). Each :class:`StripData` still gets its
-    own copies. The trajectories are kept until the outermost ``with`` ends (about 2 MB a strip of 7,000
-    lines)."""
-    global _READ
-    outer = _READ
-    _READ = {} if outer is None else outer
+    file, the DTM (the map frame may come from it), the trajectory and the line times are unchanged:
+    :mod:`scangeo.filecache`): for the many adjustments of one diagnosis or comparison, which otherwise
+    read every strip's trajectory again for each. Each :class:`StripData` still gets its own copies. The
+    trajectories are kept until the outermost ``with`` ends (about 2 MB a strip of 7,000 lines, 512
+    strips at most)."""
+    global _ACTIVE
+    _ACTIVE += 1
     try:
         yield
     finally:
-        _READ = outer
+        _ACTIVE -= 1
+        if _ACTIVE == 0:
+            _TRAJECTORIES.clear()
 
 
-def _stamp(path: Path) -> tuple[int, int] | None:
-    try:
-        st = path.stat()
-    except OSError:
-        return None
-    return st.st_mtime_ns, st.st_size
+def _read_strip(project: Project, strip_id: str) -> tuple[ProjectTrajectory, OrientationSpline, np.ndarray, np.ndarray]:
+    """A strip's trajectory in the project frame, its orientation spline, GPS/IMU epochs and values."""
+    traj = project.stream(strip_id).to_project(project.map_frame.frame)
+    spline = OrientationSpline.from_trajectory(traj, project.knot_spacing)
+    epochs = gpsimu_epochs(spline, traj.time[0], traj.time[-1])
+    values = np.column_stack([np.interp(epochs, traj.time, traj.p_P[:, k]) for k in range(3)]
+                             + [np.interp(epochs, traj.time, traj.angles_P[:, k]) for k in range(3)])
+    return traj, spline, epochs, values
 
 
 def strip_data(project: Project, strip_id: str) -> StripData:
-    key = None
-    if _READ is not None:
-        strip = project.strip(strip_id)
-        line_times = _stamp(Path(strip.line_times)) if strip.line_times else None
-        key = (str(project.root), _stamp(project.root / "project.toml"), _stamp(Path(project.dtm_path)), strip_id,
-               str(strip.trajectory), _stamp(Path(strip.trajectory)), str(strip.line_times), line_times)
-    if key is None or key not in _READ:  # type: ignore[operator]
-        traj = project.stream(strip_id).to_project(project.map_frame.frame)
-        spline = OrientationSpline.from_trajectory(traj, project.knot_spacing)
-        epochs = gpsimu_epochs(spline, traj.time[0], traj.time[-1])
-        values = np.column_stack([np.interp(epochs, traj.time, traj.p_P[:, k]) for k in range(3)]
-                                 + [np.interp(epochs, traj.time, traj.angles_P[:, k]) for k in range(3)])
-        if key is None:
-            return StripData(strip_id, traj, spline, epochs, values, project.geometry(strip_id, spline=spline))
-        _READ[key] = (traj, spline, epochs, values)  # type: ignore[index]
-    traj, spline, epochs, values = _READ[key]  # type: ignore[index]
+    if not _ACTIVE:
+        traj, spline, epochs, values = _read_strip(project, strip_id)
+        return StripData(strip_id, traj, spline, epochs, values, project.geometry(strip_id, spline=spline))
+    strip = project.strip(strip_id)
+    files = [project.root / "project.toml", project.dtm_path, strip.trajectory, strip.line_times]
+    traj, spline, epochs, values = _TRAJECTORIES.get((str(project.root), strip_id), files,
+                                                     lambda: _read_strip(project, strip_id))
     traj = replace(traj, time=traj.time.copy(), p_P=traj.p_P.copy(), angles_P=traj.angles_P.copy())
     spline = spline.with_coef(spline.coef.copy())
     return StripData(strip_id, traj, spline, epochs.copy(), values.copy(), project.geometry(strip_id, spline=spline))

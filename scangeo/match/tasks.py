@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from scangeo.filecache import FileCache
 from scangeo.io.project import Project
 from scangeo.match.correlate import match_template, prepare, smooth
 from scangeo.match.options import MatchOptions
@@ -24,6 +25,7 @@ from scangeo.match.overlaps import Cell
 from scangeo.match.reference import Reference
 from scangeo.match.strips import Chip, ChipGrid, MatchStrip
 from scangeo.orientation import reuse
+from scangeo.orientation.file import FILE_NAME
 
 log = logging.getLogger(__name__)
 
@@ -163,24 +165,24 @@ def _back_project(points: list[Measured], strips: dict[str, MatchStrip]) -> None
         p.strips = {sid: m for sid, m in p.strips.items() if np.isfinite(m[2]) and np.isfinite(m[3])}
 
 
-#: strips of the last task in this process (a worker runs several tasks of one project)
-_CACHE: dict[tuple, MatchStrip] = {}
+#: strips of the last tasks in this process (a worker runs several tasks of one project), keyed by the
+#: stamps of every file a strip is read from
+_STRIPS: FileCache[MatchStrip] = FileCache("match strips", 4)
 
 
 def clear_caches() -> None:
     """Forget the strips, projects and orientations of earlier tasks (files may have changed)."""
-    _CACHE.clear()
+    _STRIPS.clear()
     reuse.clear()
 
 
 def _strip(project: Project, task: MatchTask, sid: str) -> MatchStrip:
+    s = project.strip(sid)
+    files = [project.root / "project.toml", getattr(project, "dtm_path", None), s.image, s.trajectory, s.line_times,
+             project.root / "results" / task.variant / FILE_NAME]
     key = (task.project, task.variant, sid, task.options.bands, task.options.smooth_cells)
-    if key not in _CACHE:
-        if len(_CACHE) >= 4:
-            _CACHE.pop(next(iter(_CACHE)))
-        _CACHE[key] = MatchStrip(project, task.variant, sid, task.options,
-                                 orientation=reuse.orientation_of(project, task.variant))
-    return _CACHE[key]
+    return _STRIPS.get(key, files, lambda: MatchStrip(project, task.variant, sid, task.options,
+                                                      orientation=reuse.orientation_of(project, task.variant)))
 
 
 def _inner(grid: ChipGrid, cell: Cell) -> np.ndarray:

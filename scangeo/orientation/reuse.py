@@ -1,21 +1,24 @@
 """A project and its orientations read once per process, for the many tasks of one run.
 
 Matching and rectification run one task per overlap or strip, in this process or in worker
-processes. Each task used to load the project (opening the DTM of the whole block) and the
-variant's ``orientation.json`` (every strip's): per task work that grows with the block, so a
-run's grew with its square. Here the tasks of a process share them, under the modification
-times of ``project.toml`` and ``orientation.json`` (a changed file is read again); a run clears
-them at its start (:func:`clear`).
+processes. Loading the project (opening the DTM of the whole block) and the variant's
+``orientation.json`` (every strip's) for each task would make a run's work grow with the square of
+the block. Here the tasks of a process share them through :mod:`scangeo.filecache`: keyed by the
+stamps of ``project.toml`` and the DTM, and of ``orientation.json`` (a changed file is read again);
+a run clears them at its start (:func:`clear`).
 """
 from __future__ import annotations
 
 from pathlib import Path
 
+from scangeo.filecache import FileCache
 from scangeo.io.project import Project
 from scangeo.orientation.file import FILE_NAME, Orientation, load_orientation
 
-_PROJECTS: dict[tuple, Project] = {}
-_ORIENTATIONS: dict[tuple, Orientation] = {}
+#: the project of this process's tasks (a worker runs the tasks of one project)
+_PROJECTS: FileCache[Project] = FileCache("projects", 1)
+#: the orientations of the variants its tasks read (a comparison's matching reads one or two)
+_ORIENTATIONS: FileCache[Orientation] = FileCache("orientations", 2)
 
 
 def clear() -> None:
@@ -24,31 +27,22 @@ def clear() -> None:
     _ORIENTATIONS.clear()
 
 
-def _stamp(path: Path) -> int | None:
-    try:
-        return path.stat().st_mtime_ns
-    except OSError:
-        return None
-
-
 def project_of(path: str | Path) -> Project:
-    """``Project.load(path)``, once per process while ``project.toml`` is unchanged."""
+    """``Project.load(path)``, once per process while ``project.toml`` and the DTM are unchanged."""
     root = Path(path)
-    key = (str(path), _stamp(root / "project.toml" if root.is_dir() else root))
-    if key not in _PROJECTS:
-        _PROJECTS.clear()
-        _PROJECTS[key] = Project.load(path)
-    return _PROJECTS[key]
+    file = root / "project.toml" if root.is_dir() else root
+    return _PROJECTS.get(str(path), [file], lambda: Project.load(path),
+                         derived=lambda p: [getattr(p, "dtm_path", None)])
 
 
 def orientation_of(project: Project, variant: str) -> Orientation:
-    """``load_orientation(project, variant)``, once per process while its file is unchanged."""
-    key = (str(project.root), variant, _stamp(project.root / "results" / variant / FILE_NAME))
-    if key not in _ORIENTATIONS:
-        if len(_ORIENTATIONS) >= 2:
-            _ORIENTATIONS.pop(next(iter(_ORIENTATIONS)))
-        _ORIENTATIONS[key] = load_orientation(project, variant)
-    return _ORIENTATIONS[key]
+    """``load_orientation(project, variant)``, once per process while its file and the project's are
+    unchanged (direct georeferencing, without a file, on the strips' trajectories too)."""
+    file = project.root / "results" / variant / FILE_NAME
+    files = [project.root / "project.toml", file]
+    if not file.exists():
+        files += [s.trajectory for s in project.strips]
+    return _ORIENTATIONS.get((str(project.root), variant), files, lambda: load_orientation(project, variant))
 
 
 __all__ = ["clear", "orientation_of", "project_of"]

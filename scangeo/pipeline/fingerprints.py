@@ -1,7 +1,7 @@
 """Fingerprints of a stage's inputs: the files it reads (by content), its options and the stages before it.
 
 A file is stamped by its path relative to the project (outside the project: its name), its size and
-the SHA-256 of its bytes (:func:`scangeo.rectify.batch.content_hash`: hashed once and then cached
+the SHA-256 of its bytes (:func:`scangeo.filecache.content_hash`: hashed once and then cached
 in ``PROJECT/results/.content-hashes.json`` while size, mtime and inode stay, so a rerun does not
 read the strip images again). A stage's fingerprint is the SHA-256 of its name, the scangeo
 version, its options, the stamps of its files and the fingerprints of the stages whose results it
@@ -14,7 +14,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from scangeo.rectify.batch import content_hash
+from scangeo.filecache import content_hash
 from scangeo.version import __version__
 
 

@@ -20,7 +20,6 @@ import hashlib
 import json
 import logging
 import multiprocessing
-import os
 import time
 import warnings
 from dataclasses import asdict, dataclass, field
@@ -29,8 +28,8 @@ from pathlib import Path
 import rasterio
 from rasterio.windows import Window
 
-from scangeo.atomic import write_text
 from scangeo.errors import ProjectFileError
+from scangeo.filecache import content_stamp
 from scangeo.io.project import Project
 from scangeo.orientation import reuse
 from scangeo.orientation.file import Orientation, load_orientation, results_folder
@@ -77,83 +76,9 @@ def output_folder(project: Project, variant: str) -> Path:
     return results_folder(project, variant) / "ortho"
 
 
-#: Content hashes of this process's runs, by (path, size, mtime, inode): a project's DTM and
-#: project.toml are hashed once a run, not once a strip.
-_HASHES: dict[tuple, str] = {}
-_CHUNK = 1 << 22
-#: Beside the results, the hashes of earlier runs by (path relative to the project, size, mtime,
-#: inode): a rerun does not read every strip image again (0.46 s per 160 MB image) unless a file
-#: changed or the project was copied (new mtimes and inodes: hashed again, same fingerprints).
-HASH_CACHE = Path("results") / ".content-hashes.json"
-
-
-def _cache_key(path: Path, st: os.stat_result) -> tuple:
-    return (str(path.resolve()), st.st_size, st.st_mtime_ns, st.st_ino)
-
-
-def _load_cache(root: Path) -> dict[str, list]:
-    try:
-        data = json.loads((root / HASH_CACHE).read_text(encoding="utf-8"))
-        return data if isinstance(data, dict) else {}
-    except (OSError, ValueError):
-        return {}  # none yet, unreadable or damaged: hashed again
-
-
-def _save_cache(root: Path, cache: dict[str, list]) -> None:
-    target = root / HASH_CACHE
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        write_text(target, json.dumps(cache, sort_keys=True))
-    except OSError:  # a read-only project: the cache only saves time
-        pass
-
-
-def _relative(path: Path, root: Path) -> str | None:
-    """``path`` relative to the project folder ``root`` (posix), None if it lies outside."""
-    try:
-        return path.resolve().relative_to(root.resolve()).as_posix()
-    except ValueError:
-        return None
-
-
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with path.open("rb") as f:
-        while block := f.read(_CHUNK):
-            h.update(block)
-    return h.hexdigest()
-
-
-def content_hash(path: Path, root: Path | None = None) -> str:
-    """SHA-256 of a file's bytes (read in 4 MiB chunks), cached while its size, mtime and inode
-    stay: in this process, and with ``root`` (the project) in ``root/results/.content-hashes.json``."""
-    st = path.stat()
-    key = _cache_key(path, st)
-    if key in _HASHES:
-        return _HASHES[key]
-    rel = None if root is None else _relative(path, root)
-    if root is None or rel is None:  # no project to keep it in
-        _HASHES[key] = _sha256(path)
-        return _HASHES[key]
-    stamp = [st.st_size, st.st_mtime_ns, st.st_ino]
-    cache = _load_cache(root)
-    hit = cache.get(rel)
-    if isinstance(hit, list) and len(hit) == 4 and hit[:3] == stamp:
-        _HASHES[key] = str(hit[3])
-    else:
-        _HASHES[key] = _sha256(path)
-        cache[rel] = [*stamp, _HASHES[key]]
-        _save_cache(root, cache)
-    return _HASHES[key]
-
-
 def _file_stamp(path: Path, root: Path) -> list:
     """Where a file lies relative to the project (outside it: its name) and what it holds (size, hash)."""
-    where = _relative(path, root) or path.name
-    try:
-        return [where, path.stat().st_size, content_hash(path, root)]
-    except OSError:
-        return [where, None, None]
+    return list(content_stamp(path, root))
 
 
 def fingerprint(project: Project, source: Orientation, strip_id: str, options: RectifyOptions) -> str:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scangeo.rectify import batch
+from scangeo import filecache
 
 
 def read_only(path: Path) -> None:
@@ -44,12 +44,12 @@ def main() -> None:
             t = time.perf_counter()
             read_only(path)
             reads.append(time.perf_counter() - t)
-            batch._HASHES.clear()
+            filecache.clear_all()
             t = time.perf_counter()
-            batch.content_hash(path)
+            filecache.content_hash(path)
             hashes.append(time.perf_counter() - t)
             t = time.perf_counter()
-            batch.content_hash(path)
+            filecache.content_hash(path)
             cached.append(time.perf_counter() - t)
     print(f"image {args.pixels} x {args.lines} x {args.bands} uint16: {mb:.1f} MB; load {os.getloadavg()[0]:.1f}")
     print(f"read alone      best {min(reads):.3f} s  ({mb / min(reads):.0f} MB/s)")

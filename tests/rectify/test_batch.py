@@ -84,11 +84,12 @@ def test_a_rerun_reads_no_input_again_unless_it_changed(project, tmp_path, monke
     """The content hashes of the fingerprint are kept in results/.content-hashes.json: a rerun in a
     new process (the in-process cache emptied) hashes nothing; a file rewritten with the same size
     is hashed again and its strips redone; a damaged cache file only costs the hashing."""
+    from scangeo import filecache
     from scangeo.rectify import batch
 
     root = fresh_copy(project, tmp_path)
     rectify_project(root, "DG", options=OPTS)
-    cache = root / batch.HASH_CACHE
+    cache = root / filecache.HASH_CACHE
     assert {"project.toml", "nav/01.csv", "images/01.tif", "images/02.tif"} <= set(json.loads(cache.read_text()))
     hashed = []
     real = batch.hashlib.sha256
@@ -97,7 +98,7 @@ def test_a_rerun_reads_no_input_again_unless_it_changed(project, tmp_path, monke
         hashed.append(1)
         return real(*args)
 
-    monkeypatch.setattr(batch, "_HASHES", {})
+    filecache.clear_all()  # a new process
     monkeypatch.setattr(batch.hashlib, "sha256", counting)
     statuses = [s["status"] for s in rectify_project(root, "DG", options=OPTS).strips.values()]
     assert statuses == ["skipped", "skipped"]
