@@ -4,40 +4,47 @@ The break selection (:mod:`scangeo.adjustment.diagnosis.patterns`) compares thou
 each differs from the current one in a single strip ``s``: a break added or moved, or its constant
 function made linear. Refitting the whole block for each, as :func:`~.patterns.evaluate` does, costs
 a dense least-squares solve over every strip's functions, so the selection grew with about the cube
-of the block. A tie row couples only the strips that see its point, so the change is local:
+of the block. A tie row couples only the strips that see its point, so the change is local.
 
-Per channel, with ``A`` the current design (all strips' columns) and ``N = A^T A`` nonsingular, take
-``P = N^-1`` once. Removing strip ``s``'s columns ``S`` leaves the others ``O`` with (block inverse)
+Per channel, with ``A`` the current design (all strips' columns), take its QR factorisation
+``A = Q R`` once. Removing strip ``s``'s columns ``S`` leaves the others ``O``; the part of
+``range(A)`` they lose is spanned by ``Q V``, ``V`` an orthonormal basis of ``R^-T E_S`` (orthogonal
+to every column of ``R`` in ``O``). So the residual without strip ``s`` and its square sum are
 
-    (N_OO)^-1 = P_OO - P_OS P_SS^-1 P_SO,   x_O = x_O - P_OS P_SS^-1 x_S,   RSS_O = RSS + x_S^T P_SS^-1 x_S,
+    r_O = r + Q V V^T Q^T y,        RSS_O = RSS + |V^T Q^T y|^2,
 
-and a candidate's columns ``Z`` for strip ``s`` (non-zero only in the rows ``R`` that see strip ``s``)
-bring
+and the projection on ``range(A_O)`` is ``Q (I - V V^T) Q^T``. A candidate's columns ``Z`` for strip
+``s`` (non-zero only in the rows ``R`` that see strip ``s``) bring
 
-    RSS = RSS_O - g^T H^-1 g,   g = Z_R^T r_O,R,   H = Z_R^T Z_R - F^T (N_OO)^-1_CC F,   F = A_RC^T Z_R,
+    RSS = RSS_O - g^T H^-1 g,   g = Z_R^T r_O,R,   H = Z_R^T Z_R - |U_R^T Z_R|^2,   U_R = (Q (I - V V^T))_R,
 
-where ``C`` are the other strips' columns in the rows ``R`` (the neighbours') and ``r_O`` the residual
-without strip ``s``; the rank grows by the columns of ``Z``. So a candidate costs the rows of its
-strip, and the block's size enters once per current model (one inverse of ``N`` per channel).
+and the rank grows by the columns of ``Z``. So a candidate costs the rows of its strip, and the
+block's size enters once per current model (one QR factorisation per channel).
 
-The result is the same criterion as :func:`~.patterns.evaluate`'s to rounding (about 1e-9 of it on
-the test blocks), when both the current design and ``H`` are well conditioned. Where they are not,
-the rank that ``numpy.linalg.lstsq`` would find is in doubt, and :meth:`StripProbe.bic` returns None:
-the caller fits that model with :func:`~.patterns.evaluate`. The callers also refit the best
-candidates exactly before choosing (:data:`MARGIN`), so the choices are :func:`~.patterns.evaluate`'s.
+Everything is computed from orthonormal factors, never from the normal equations ``A^T A``: their
+rounding alone perturbs ``(A^T A)^-1`` by ``eps cond(A)^2`` of itself, and a nearly unobservable
+common shift of the strips makes ``cond(A)`` about 1e4 (the test block), so the criterion then
+depended on the BLAS kernel at 1e-5. The QR factors' rounding is a change of ``A`` of ``eps``, which
+moves these projections by about ``eps cond(A)``: the result is :func:`~.patterns.evaluate`'s to
+about 1e-9 of the criterion on the test blocks, on every kernel, when both the current design and
+``H`` are well conditioned. Where they are not, the rank that ``numpy.linalg.lstsq`` would find is in
+doubt, and :meth:`StripProbe.bic` returns None: the caller fits that model with
+:func:`~.patterns.evaluate`. The callers also refit the best candidates exactly before choosing
+(:data:`MARGIN`), so the choices are :func:`~.patterns.evaluate`'s.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 import scipy.sparse as sp
 
 #: the callers refit exactly every candidate whose approximate criterion is within this of the least
 MARGIN = 1e-3
-#: the least ratio of the smallest to the largest eigenvalue of ``N`` for the update to be trusted
-#: (the rank not in doubt: a singular value ratio above 1e-6, far from ``lstsq``'s 1e-9)
-CONDITION = 1e-12
+#: the least ratio of the smallest to the largest singular value of the current design ``A`` for the
+#: update to be trusted (the rank not in doubt: far from the 1e-9 under which ``lstsq`` drops a column)
+CONDITION = 1e-6
 #: the least ratio of the smallest eigenvalue of ``H`` to its columns' largest square sum for a
 #: candidate's columns to count in the rank without refitting it
 TRUST = 1e-9
@@ -109,13 +116,15 @@ class BlockIndex:
 class _Channel:
     """The current model's fit of one channel."""
 
-    A: sp.csr_matrix  # rows of the channel, used columns
-    P: np.ndarray  # (A^T A)^-1
-    x: np.ndarray
-    rss: float
+    Q: np.ndarray  # A = Q R (rows of the channel, used columns)
+    R: np.ndarray
+    c: np.ndarray  # Q^T y
+    r: np.ndarray  # the residual y - A x
+    rss: float  # r^T r
+    n_used: int
     owner: np.ndarray  # strip of every used column
     constant: np.ndarray  # whether a used column is a strip's constant function
-    good: bool  # N well conditioned
+    good: bool  # A well conditioned
 
 
 class CurrentFit:
@@ -148,29 +157,23 @@ class CurrentFit:
             A.sum_duplicates()
             A.eliminate_zeros()
             used = np.flatnonzero(np.diff(A.indptr) > 0)
-            A = A[:, used].tocsr()
-            N = (A.T @ A).toarray()
             y = data.value[crow]
-            good = used.size > 0
-            P = np.zeros((used.size, used.size))
-            x = np.zeros(used.size)
+            Q, R = np.zeros((crow.size, 0)), np.zeros((0, 0))
+            good = 0 < used.size <= crow.size
             if good:
-                ev = np.linalg.eigvalsh(N)
-                good = bool(ev[0] > CONDITION * ev[-1])
-            if good:
-                P = np.linalg.inv(N)
-                P = 0.5 * (P + P.T)
-                x = P @ (A.T @ y)
-            r = y - A @ x
-            self.channels.append(_Channel(A, P, x, float(r @ r), owners[used], consts[used], good))
-
+                Q, R = np.linalg.qr(A[:, used].toarray())
+                sv = np.linalg.svd(R, compute_uv=False)
+                good = bool(sv[-1] > CONDITION * sv[0])
+            c = Q.T @ y
+            r = y - Q @ c if good else y.copy()
+            self.channels.append(_Channel(Q, R, c, r, float(r @ r), used.size, owners[used], consts[used], good))
 
     def bic(self, rho: dict[str, float] | None, n_breaks: int) -> float | None:
         """The current model's BIC as :func:`~.patterns.evaluate` computes it; None when a channel's
         design is not well conditioned (its rank in doubt)."""
         if any(ch is not None and not ch.good for ch in self.channels):
             return None
-        parts = [(0.0, 0) if ch is None else (ch.rss, ch.x.size) for ch in self.channels]
+        parts = [(0.0, 0) if ch is None else (ch.rss, ch.n_used) for ch in self.channels]
         return _criterion(self.index, parts, rho, n_breaks)[0]
 
 
@@ -194,19 +197,15 @@ def _criterion(index: BlockIndex, parts, rho: dict[str, float] | None, n_breaks:
 
 @dataclass
 class _Local:
-    """What a candidate of strip ``s`` needs of one channel: the rows ``R`` that see the strip, the other
-    strips' columns ``C`` in them (``A_RC``), ``(N_OO)^-1`` on them (``G``), the residual without the
-    strip's non-constant functions (on ``R``; its square sum ``rss``), and ``B = A_O (N_OO)^-1_:C``'s
-    products (``a = B^T r_O``, ``BB = B^T B``, its rows ``R``); ``rank``: the columns left."""
+    """What a candidate of strip ``s`` needs of one channel: the rows ``R`` that see the strip, the
+    orthonormal basis of the other columns' span on them (``U_R``, module docstring), the residual
+    without the strip's non-constant functions on them (``r_R``) and its square sum over the channel
+    (``rss``); ``rank``: the columns left."""
 
     R: np.ndarray
-    A_RC: np.ndarray
-    G: np.ndarray
+    U_R: np.ndarray
     r_R: np.ndarray
     rss: float
-    a: np.ndarray
-    BB: np.ndarray
-    B_R: np.ndarray
     rank: int
 
 
@@ -230,21 +229,17 @@ class StripProbe:
             S = np.flatnonzero((ch.owner == s) & ~ch.constant)  # the constants stay
             if R.size == 0:
                 # the strip is not seen in this channel: no candidate changes it
-                self.parts.append((ch.rss, ch.x.size))
+                self.parts.append((ch.rss, ch.n_used))
                 continue
-            others = np.flatnonzero((ch.owner != s) | ch.constant)
-            A_O = ch.A[:, others]
-            C = np.searchsorted(others, np.setdiff1d(np.unique(ch.A[R].indices), S))
-            P_OS = ch.P[np.ix_(others, S)]
-            Pss = np.linalg.inv(ch.P[np.ix_(S, S)]) if S.size else np.zeros((0, 0))
-            x_O = ch.x[others] - P_OS @ (Pss @ ch.x[S])
-            K = ch.P[np.ix_(others, others[C])] - P_OS @ Pss @ P_OS[C].T  # (N_OO)^-1 [:, C]
-            y = data.value[fit.index.rows[c]]
-            r_O = y - A_O @ x_O
-            B = np.asarray(A_O @ K)
-            A_RC = A_O[R][:, C].toarray()
-            self.parts.append(_Local(R, A_RC, K[C], r_O[R], float(r_O @ r_O), B.T @ r_O, B.T @ B, B[R],
-                                     others.size))
+            # V: the part of range(R) that strip s's columns S add to the others' (orthogonal to R[:, O])
+            E_S = np.zeros((ch.n_used, S.size))
+            E_S[S, np.arange(S.size)] = 1.0
+            V = np.linalg.qr(scipy.linalg.solve_triangular(ch.R, E_S, trans="T", check_finite=False))[0]
+            cV = V.T @ ch.c
+            Q_R = ch.Q[R]
+            QV_R = Q_R @ V
+            self.parts.append(_Local(R, Q_R - QV_R @ V.T, ch.r[R] + QV_R @ cV, ch.rss + float(cV @ cV),
+                                     ch.n_used - S.size))
 
     def rss_rank(self, breaks_s, constant_s: bool) -> list[tuple[float, int]] | None:
         """Per channel, the residual sum of squares and rank with strip ``s`` given these functions;
@@ -274,17 +269,16 @@ class StripProbe:
             if Z.shape[1] == 0:
                 out.append((part.rss, part.rank))
                 continue
-            F = part.A_RC.T @ Z
+            UZ = part.U_R.T @ Z
             ZZ = Z.T @ Z
-            H = ZZ - F.T @ part.G @ F
+            H = ZZ - UZ.T @ UZ
             if np.linalg.eigvalsh(H)[0] <= TRUST * float(np.max(np.diag(ZZ))):
                 return None
-            z = np.linalg.solve(H, Z.T @ part.r_R)
-            u = F @ z
-            w = Z @ z
-            # the residual sum of squares of the coefficients found, from the residual vector
-            # r_O + B u - Z z over all the channel's rows (a slightly wrong solution errs in second order)
-            rss = part.rss + 2.0 * (part.a @ u - part.r_R @ w) + u @ part.BB @ u - 2.0 * (part.B_R @ u) @ w + w @ w
+            g = Z.T @ part.r_R
+            z = np.linalg.solve(H, g)
+            # RSS_O - 2 g^T z + z^T H z: the criterion's quadratic at the z found, so a slightly wrong z
+            # errs in second order (RSS_O - g^T H^-1 g at the exact one)
+            rss = part.rss - 2.0 * (g @ z) + z @ H @ z
             out.append((float(rss), part.rank + Z.shape[1]))
         return out
 
