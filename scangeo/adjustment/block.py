@@ -19,8 +19,19 @@ import numpy as np
 from scangeo.adjustment.gpsimu import GpsImuSamples
 from scangeo.adjustment.ground import DtmHeights, GroundControl
 from scangeo.adjustment.image import ImageObservations
-from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
-from scangeo.adjustment.variants import Variant
+from scangeo.adjustment.keys import (
+    AcrossOffset,
+    AcrossScale,
+    AlongOffset,
+    Boresight,
+    Ground,
+    Knots,
+    LeverArm,
+    ScanIndex,
+    ScanScale,
+    TimeOffset,
+)
+from scangeo.adjustment.variants import PUSHBROOM_CALIBRATION, WHISKBROOM_CALIBRATION, Variant
 from scangeo.errors import AdjustmentError
 from scangeo.filecache import FileCache
 from scangeo.io.point_checks import check_points
@@ -33,7 +44,7 @@ from scangeo.lsq.parameters import Parameters
 from scangeo.lsq.solver import SolverOptions
 from scangeo.orientation.models import GpsImuModel, ModelSet, coefficient_priors, group_model, strip_models
 from scangeo.progress import ProgressCallback, no_progress
-from scangeo.sensors.models import Whiskbroom
+from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.sensors.strip import StripGeometry
 from scangeo.trajectory.spline import COMPONENTS, OrientationSpline
 from scangeo.trajectory.stream import ProjectTrajectory
@@ -229,15 +240,28 @@ def _orientation_unknowns(setup: _Setup, params: Parameters) -> None:
 
 
 def _calibration_unknowns(setup: _Setup, params: Parameters) -> None:
-    """Boresight, lever arm, time offset, scan index and scale: free where the variant calibrates them."""
+    """Boresight, lever arm, time offset, a whiskbroom's scan index and scale, a pushbroom's across-track
+    offset and scale and along-track offset: free where the variant calibrates them. The pushbroom's
+    three carry priors (``value = the sensor's`` with the variant's ``*_sigma``), always: an across-track
+    offset is nearly a boresight roll and an along-track offset nearly a boresight pitch (and a time
+    offset), so without them calibrating both would leave the normal equations (nearly) singular."""
     project, v = setup.project, setup.variant
     mount, sensor = project.sensor.mounting, project.sensor.model
     cal = set(v.calibrate)
-    scan_errors = sorted(cal & {"index_error", "scale_error"})
-    if scan_errors and not isinstance(sensor, Whiskbroom):
-        raise AdjustmentError(f"variant {v.name}: calibrate {', '.join(scan_errors)} is a whiskbroom (scan "
-                              f"mirror) parameter, but the project's sensor is a {project.sensor.kind}")
+    for names, kind, cls in ((WHISKBROOM_CALIBRATION, "whiskbroom (scan mirror)", Whiskbroom),
+                             (PUSHBROOM_CALIBRATION, "pushbroom (detector line)", Pushbroom)):
+        wrong = sorted(cal & set(names))
+        if wrong and not isinstance(sensor, cls):
+            raise AdjustmentError(f"variant {v.name}: calibrate {', '.join(wrong)} is a {kind} parameter, but the "
+                                  f"project's sensor is a {project.sensor.kind}")
     scan = sensor if isinstance(sensor, Whiskbroom) else None
+    push = sensor if isinstance(sensor, Pushbroom) else None
+    for key, name, sigma in ((AcrossOffset(), "across_offset", np.radians(v.across_offset_sigma_deg)),
+                             (AcrossScale(), "across_scale", v.across_scale_sigma),
+                             (AlongOffset(), "along_offset", np.radians(v.along_offset_sigma_deg))):
+        value = float(getattr(push, name)) if push else 0.0
+        params.add(key, [value], name in cal, prior_sigma=[sigma], prior_values=[value], regularisation_sigma=sigma,
+                   names=[name])
     params.add(Boresight(), mount.boresight, "boresight" in cal, regularisation_sigma=0.01,
                names=["roll", "pitch", "heading"])
     params.add(LeverArm(), mount.lever_arm_B, "lever_arm" in cal, regularisation_sigma=0.5, names=["x", "y", "z"])

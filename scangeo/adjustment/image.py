@@ -15,8 +15,10 @@ Pose: ``p_S = p(t_nav) + R_PB l_B``, ``R_PS = R_PB R_BS``, ``R_PB = R_ENU_NED Rz
 Analytic Jacobian by the implicit function theorem: ``g(v(t, x)) = 0`` gives
 ``dt/dx = -(dg/dv dv/dx) / (dg/dv dv/dt)``; then ``dv/dx + dv/dt dt/dx`` into the pixel and the line.
 Unknowns: ``Knots(strip)`` (the 4 coefficients of the segment at ``t_nav``), ``Ground(point)``,
-``Boresight()``, ``LeverArm()``, ``TimeOffset()``, and for a whiskbroom ``ScanIndex()`` and
-``ScanScale()`` (they move the pixel only, not the scan plane).
+``Boresight()``, ``LeverArm()``, ``TimeOffset()``, for a whiskbroom ``ScanIndex()`` and
+``ScanScale()`` (they move the pixel only, not the scan plane), for a pushbroom ``AcrossOffset()``,
+``AcrossScale()`` and ``AlongOffset()`` (they move the pixel and, through the along-track look angle
+of the pixel and the along-track offset, the scan plane: ``dt/dx`` gets their direct ``dg/dx``).
 """
 from __future__ import annotations
 
@@ -143,7 +145,7 @@ class ImageObservations(ObservationGroup):
         t, f = self._solve_time(values, P)
         v = f["v"]
         pixel, dpix_dv, direct = self.plane.pixel(v, values)
-        _, dg_dv = self.plane.condition(v, values)
+        _, dg_dv, dg_direct = self.plane.condition_with_calibration(v, values)
         dt_pix = self.plane.dt_pixel
         t_line = t - self.plane.time_offset(pixel)
         line = self.timing.line_of_time(t_line)
@@ -151,11 +153,15 @@ class ImageObservations(ObservationGroup):
         rate = (self.timing.line_of_time(t_line + h) - self.timing.line_of_time(t_line - h)) / (2 * h)
         g_t = np.einsum("ni,ni->n", dg_dv, f["dv_dt"])
 
-        def chain(dv_dx: np.ndarray, dpix_direct: np.ndarray | None = None):
-            """(n, 3, m) direct derivatives of v -> (dline, dpixel) (n, m). ``dpix_direct``: derivatives
-            of the pixel that do not go through v (a whiskbroom's scan errors, which leave the scan
-            plane, and so t, unchanged)."""
-            dt_dx = -np.einsum("ni,nim->nm", dg_dv, dv_dx) / g_t[:, None]
+        def chain(dv_dx: np.ndarray, dpix_direct: np.ndarray | None = None, dg_direct: np.ndarray | None = None):
+            """(n, 3, m) direct derivatives of v -> (dline, dpixel) (n, m). ``dpix_direct``, ``dg_direct``:
+            derivatives of the pixel and of the scan-plane condition that do not go through v (the
+            sensor's calibration: a whiskbroom's scan errors move the pixel only, a pushbroom's also
+            the condition, and so t)."""
+            dg = np.einsum("ni,nim->nm", dg_dv, dv_dx)
+            if dg_direct is not None:
+                dg = dg + dg_direct
+            dt_dx = -dg / g_t[:, None]
             total = dv_dx + f["dv_dt"][:, :, None] * dt_dx[:, None, :]
             dpix = np.einsum("ni,nim->nm", dpix_dv, total)
             if dpix_direct is not None:
@@ -195,9 +201,10 @@ class ImageObservations(ObservationGroup):
         add([LeverArm()], dl, dp, np.arange(3))
         dl, dp = chain(f["dv_dt"][:, :, None])
         add([TimeOffset()], dl, dp, np.arange(1))
-        # the sensor's own calibration (whiskbroom index and scale error): the pixel directly
+        # the sensor's own calibration (whiskbroom index and scale error, pushbroom offsets and scale):
+        # the pixel directly, and for a pushbroom the scan-plane condition too
         for key, dpix_dkey in direct.items():
-            dl, dp = chain(np.zeros((n, 3, dpix_dkey.shape[1])), dpix_dkey)
+            dl, dp = chain(np.zeros((n, 3, dpix_dkey.shape[1])), dpix_dkey, dg_direct.get(key))
             add([key], dl, dp, np.arange(dpix_dkey.shape[1]))
         r = np.column_stack([line - self.line, pixel - self.pixel]).ravel() / self.sigma
         return Linearisation(r, parts)

@@ -48,3 +48,29 @@ class ScanIndex(Key):
 @dataclass(frozen=True, slots=True)
 class ScanScale(Key):
     """Whiskbroom scan-angle scale error (dimensionless, relative)."""
+
+
+@dataclass(frozen=True, slots=True)
+class AcrossOffset(Key):
+    """Pushbroom across-track offset of the look angles' tangents (radians near the centre of the field;
+    ``scangeo.sensors.models.Pushbroom``)."""
+
+
+@dataclass(frozen=True, slots=True)
+class AcrossScale(Key):
+    """Pushbroom across-track scale of the look angles' tangents about the centre pixel (relative)."""
+
+
+@dataclass(frozen=True, slots=True)
+class AlongOffset(Key):
+    """Pushbroom along-track offset of the detector line's look angles' tangents (radians)."""
+
+
+#: The calibration blocks in report order, with their names in ``calibrate = [...]`` and orientation.json's
+#: ``calibrated``, and the unit of their values (rad, m, s or 1).
+CALIBRATION_KEYS: tuple[tuple[Key, str, str], ...] = (
+    (Boresight(), "boresight", "rad"), (LeverArm(), "lever_arm", "m"), (TimeOffset(), "time_offset", "s"),
+    (ScanIndex(), "index_error", "rad"), (ScanScale(), "scale_error", "1"),
+    (AcrossOffset(), "across_offset", "rad"), (AcrossScale(), "across_scale", "1"),
+    (AlongOffset(), "along_offset", "rad"),
+)

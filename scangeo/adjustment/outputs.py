@@ -6,7 +6,8 @@
   mounting, scanner calibration, project frame; SI units; ``scangeo.orientation.file``,
   docs/formats.md). Everything that rebuilds the variant's geometry reads this file;
 - ``residuals.csv``: every observation row with its residual, w-test, redundancy number and flag;
-- ``report.json``: sigma0, accounting, iterations, rms per strip, coefficients, notes;
+- ``report.json``: sigma0, accounting, iterations, rms per strip, coefficients, the calibration (estimates,
+  sigmas, t-tests, priors, correlations: ``scangeo.adjustment.calibration``), notes;
 - ``reliability.csv``, ``reliability.json``: MDBs and external reliability per observation unit, per
   strip and kind of point, non-separable points (``scangeo.adjustment.reliability_summary``).
 
@@ -19,8 +20,9 @@ import json
 import math
 from pathlib import Path
 
+from scangeo.adjustment.calibration import calibration_summary
 from scangeo.adjustment.image import ImageObservations
-from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.keys import CALIBRATION_KEYS
 from scangeo.adjustment.reliability_summary import COLUMNS as RELIABILITY_COLUMNS
 from scangeo.adjustment.reliability_summary import check_columns, row_columns, variant_reliability, write_reliability
 from scangeo.adjustment.results import VariantResult
@@ -43,19 +45,23 @@ def coefficient_table(result: VariantResult) -> list[dict]:
     """Per GPS/IMU model and calibration block: value and sigma (m or deg) and significance."""
     stats = result.adjustment.statistics
     out = []
-    keys = [m.key for m in result.block.models] + [Boresight(), LeverArm(), TimeOffset(), ScanIndex(), ScanScale()]
+    units = {key: unit for key, _, unit in CALIBRATION_KEYS}
+    keys = [m.key for m in result.block.models] + list(units)
     for key in keys:
+        if key not in result.adjustment.parameters:
+            continue
         block = result.adjustment.parameters[key]
         if not block.free.any():
             continue
         for c in stats.significance(key):
-            deg = any(c.component.startswith(a) for a in _ANGULAR) or key in (Boresight(), ScanIndex())
+            unit = units.get(key, "rad" if any(c.component.startswith(a) for a in _ANGULAR) else "m")
+            deg = unit == "rad"
             f = math.degrees(1.0) if deg else 1.0
             out.append(
                 {
                     "block": key.label,
                     "name": c.component,
-                    "unit": "deg" if deg else ("s" if key == TimeOffset() else "m" if key != ScanScale() else ""),
+                    "unit": "deg" if deg else ("" if unit == "1" else unit),
                     "value": _num(c.value * f),
                     "sigma": _num(c.sigma * f),
                     "t": _num(c.t),
@@ -108,6 +114,7 @@ def report_dict(result: VariantResult) -> dict:
         ],
         "strips": result.rms_per_strip(),
         "coefficients": coefficient_table(result),
+        "calibration": calibration_summary(result),
         "regularisation": [
             {"unknown": n.key.label, "component": n.component, "sigma": n.sigma, "reason": n.reason}
             for n in sol.regularisation

@@ -14,7 +14,18 @@ import numpy as np
 
 from scangeo.adjustment.block import Block, adjust_variant
 from scangeo.adjustment.image import ImageObservations
-from scangeo.adjustment.keys import Boresight, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.keys import (
+    CALIBRATION_KEYS,
+    AcrossOffset,
+    AcrossScale,
+    AlongOffset,
+    Boresight,
+    Knots,
+    LeverArm,
+    ScanIndex,
+    ScanScale,
+    TimeOffset,
+)
 from scangeo.adjustment.variants import Variant, find_variant
 from scangeo.io import rejected
 from scangeo.io.points import GroundPoints, ImagePoints
@@ -23,7 +34,7 @@ from scangeo.lsq.engine import Adjustment
 from scangeo.lsq.keys import Key
 from scangeo.orientation.file import DIRECT, Orientation, StripOrientation, map_reference
 from scangeo.progress import ProgressCallback, no_progress
-from scangeo.sensors.models import Whiskbroom
+from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.sensors.strip import Mounting, StripGeometry
 from scangeo.trajectory.spline import OrientationSpline
 
@@ -74,6 +85,10 @@ class VariantResult:
             if isinstance(sensor, Whiskbroom):
                 sensor = sensor.with_calibration(index_error=float(p[ScanIndex()].values[0]),
                                                  scale_error=float(p[ScanScale()].values[0]))
+            elif isinstance(sensor, Pushbroom):
+                sensor = sensor.with_calibration(across_offset=float(p[AcrossOffset()].values[0]),
+                                                 across_scale=float(p[AcrossScale()].values[0]),
+                                                 along_offset=float(p[AlongOffset()].values[0]))
             strips = {sid: StripOrientation(sid, s.geometry.n_lines, s.geometry.timing, self.spline(sid))
                       for sid, s in self.block.strips.items()}
             calibrated = tuple(name for key, name in _CALIBRATION if p[key].free.any())
@@ -120,10 +135,7 @@ class VariantResult:
 
 
 #: calibration blocks -> their names in orientation.json's ``calibrated``
-_CALIBRATION: tuple[tuple[Key, str], ...] = (
-    (Boresight(), "boresight"), (LeverArm(), "lever_arm"), (TimeOffset(), "time_offset"),
-    (ScanIndex(), "index_error"), (ScanScale(), "scale_error"),
-)
+_CALIBRATION: tuple[tuple[Key, str], ...] = tuple((key, name) for key, name, _ in CALIBRATION_KEYS)
 
 
 def _rms(dl: np.ndarray, dp: np.ndarray) -> dict:

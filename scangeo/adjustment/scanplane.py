@@ -6,7 +6,9 @@ frame S: x along track, y right, z down) a line scanner's model needs
 * the **scan-plane condition** ``g(v) = 0`` that fixes ``t``, with ``dg/dv``;
 * the **pixel** from the across-track direction, with ``dpixel/dv`` and its direct derivatives with
   respect to the sensor's own calibration unknowns;
-* the pixel's **time offset** after the line's time (its derivative ``dt_pixel`` per pixel).
+* the pixel's **time offset** after the line's time (its derivative ``dt_pixel`` per pixel);
+* the direct derivatives of the condition with respect to the sensor's calibration unknowns
+  (``condition_with_calibration``; none for a whiskbroom, whose scan errors leave the scan plane).
 
 Whiskbroom (rotating mirror): ``g = v_x / v_z`` (the mirror's plane), pixel from the scan angle
 ``theta = atan2(v_y, v_z)``: ``pixel = j_c + s (theta - index) / (step (1 + scale))``; unknowns
@@ -16,14 +18,16 @@ Pushbroom: pixel from ``tan(across) = v_y / v_z`` (inverse of the pinhole's radi
 of the table, linear in the tangents between pixel centres), and the along-track look angle of
 *that* pixel: ``g = v_x / v_z - tan(along(pixel(v)))`` (docs/conventions.md: ``x_S = tan(along) z_S``).
 A pinhole's along-track angle is constant (``line_offset / f``); a table's varies from pixel to pixel
-(smile), so ``g`` depends on ``v_y`` through the pixel. No per-pixel time offset and no calibration
-unknowns of its own (boresight, lever arm and time offset are the mounting's).
+(smile), so ``g`` depends on ``v_y`` through the pixel. No per-pixel time offset. Its own calibration
+unknowns ``AcrossOffset()``, ``AcrossScale()`` (the pixel, and through the smile the condition) and
+``AlongOffset()`` (the condition: the scan plane, and so the time); boresight, lever arm and time
+offset are the mounting's.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from scangeo.adjustment.keys import ScanIndex, ScanScale
+from scangeo.adjustment.keys import AcrossOffset, AcrossScale, AlongOffset, ScanIndex, ScanScale
 from scangeo.lsq.keys import Key
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 
@@ -54,6 +58,11 @@ class WhiskbroomPlane:
         """``g(v)`` (n,) and ``dg/dv`` (n, 3)."""
         return _along_condition(v)
 
+    def condition_with_calibration(self, v: np.ndarray, values) -> tuple[np.ndarray, np.ndarray,
+                                                                       dict[Key, np.ndarray]]:
+        """``g``, ``dg/dv`` and no direct derivatives: the scan errors leave the mirror's plane."""
+        return (*_along_condition(v), {})
+
     def pixel(self, v: np.ndarray, values) -> tuple[np.ndarray, np.ndarray, dict[Key, np.ndarray]]:
         """Pixel (n,), ``dpixel/dv`` (n, 3) and ``{key: dpixel/dkey (n, m)}`` for calibration keys."""
         sen = self.sensor
@@ -72,13 +81,21 @@ class WhiskbroomPlane:
 
 
 class PushbroomPlane:
-    """Scan-plane terms of a pushbroom line sensor (pinhole or look-angle table)."""
+    """Scan-plane terms of a pushbroom line sensor (pinhole or look-angle table) and its calibration.
 
-    calibration_keys: tuple[Key, ...] = ()
+    With the nominal tangents ``T_a(j)``, ``T_x(j)`` of the sensor and the calibration unknowns
+    (``a = AcrossOffset()``, ``s = AcrossScale()``, ``b = AlongOffset()``; ``scangeo.sensors.models.Pushbroom``):
+    the pixel solves ``T_x(pixel) = u`` with ``u = t_c + (v_y / v_z - a - t_c) / (1 + s)``
+    (``t_c = T_x(j_c)``), and the condition is ``g = v_x / v_z - T_a(pixel) - b``.
+    """
+
+    calibration_keys: tuple[Key, ...] = (AcrossOffset(), AcrossScale(), AlongOffset())
     dt_pixel = 0.0
 
     def __init__(self, sensor: Pushbroom) -> None:
-        self.sensor = sensor
+        # the nominal sensor: the calibration comes from the unknowns
+        self.sensor = sensor.with_calibration(across_offset=0.0, across_scale=0.0, along_offset=0.0)
+        self.centre_tangent = self.sensor.centre_tangent
         if not sensor.is_pinhole:
             self._tan_along = np.tan(np.asarray(sensor.along, float))
             self._tan_across = np.tan(np.asarray(sensor.across, float))
@@ -89,7 +106,7 @@ class PushbroomPlane:
         return j, pixel - j
 
     def _pixel_of_tan(self, tx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Pixel of ``tan(across)`` and ``dpixel / dtan(across)``."""
+        """Pixel of the nominal ``T_x`` and ``dpixel / dT_x``."""
         sen = self.sensor
         pixel = sen.pixel_of(np.column_stack([np.zeros_like(tx), tx, np.ones_like(tx)]))
         # pinhole: x_u = x_d (1 + k1 r^2 + k2 r^4) = f tan(across), pixel = x_d / pitch + pp
@@ -103,7 +120,7 @@ class PushbroomPlane:
         return pixel, 1.0 / (self._tan_across[j + 1] - self._tan_across[j])
 
     def _tan_along_of(self, pixel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``tan(along)`` of a pixel and its derivative per pixel."""
+        """Nominal ``T_a`` of a pixel and its derivative per pixel."""
         sen = self.sensor
         if sen.focal_length is not None:  # pinhole
             return np.full_like(pixel, sen.line_offset / sen.focal_length), np.zeros_like(pixel)
@@ -112,17 +129,33 @@ class PushbroomPlane:
         return self._tan_along[j] + u * slope, slope
 
     def pixel(self, v: np.ndarray, values) -> tuple[np.ndarray, np.ndarray, dict[Key, np.ndarray]]:
-        """Pixel (n,), ``dpixel/dv`` (n, 3) and no direct calibration derivatives."""
+        """Pixel (n,), ``dpixel/dv`` (n, 3) and ``{key: dpixel/dkey (n, 1)}`` for the calibration keys."""
+        a = float(values[AcrossOffset()][0])
+        s = float(values[AcrossScale()][0])
+        tc = self.centre_tangent
         tx, dtx_dv = _tan_derivative(v)
-        pixel, dpix_dtx = self._pixel_of_tan(tx)
-        return pixel, dpix_dtx[:, None] * dtx_dv, {}
+        u = tc + (tx - a - tc) / (1 + s)
+        pixel, dpix_du = self._pixel_of_tan(u)
+        direct = {AcrossOffset(): (-dpix_du / (1 + s))[:, None],
+                  AcrossScale(): (-dpix_du * (u - tc) / (1 + s))[:, None],
+                  AlongOffset(): np.zeros((v.shape[0], 1))}
+        return pixel, (dpix_du / (1 + s))[:, None] * dtx_dv, direct
 
     def condition(self, v: np.ndarray, values) -> tuple[np.ndarray, np.ndarray]:
-        """``g = v_x / v_z - tan(along(pixel(v)))`` (n,) and ``dg/dv`` (n, 3)."""
+        """``g = v_x / v_z - T_a(pixel(v)) - b`` (n,) and ``dg/dv`` (n, 3)."""
+        g, dg_dv, _ = self.condition_with_calibration(v, values)
+        return g, dg_dv
+
+    def condition_with_calibration(self, v: np.ndarray, values) -> tuple[np.ndarray, np.ndarray,
+                                                                       dict[Key, np.ndarray]]:
+        """``g`` (n,), ``dg/dv`` (n, 3) and ``{key: dg/dkey (n, 1)}`` (through the pixel's smile and ``b``)."""
         ta_v, dta_dv = _along_condition(v)
-        pixel, dpix_dv, _ = self.pixel(v, values)
+        pixel, dpix_dv, direct = self.pixel(v, values)
         ta, dta_dpix = self._tan_along_of(pixel)
-        return ta_v - ta, dta_dv - dta_dpix[:, None] * dpix_dv
+        b = float(values[AlongOffset()][0])
+        dg = {key: -dta_dpix[:, None] * d for key, d in direct.items()}
+        dg[AlongOffset()] = np.full((v.shape[0], 1), -1.0)
+        return ta_v - ta - b, dta_dv - dta_dpix[:, None] * dpix_dv, dg
 
     def time_offset(self, pixel: np.ndarray) -> np.ndarray:
         return np.zeros_like(pixel)

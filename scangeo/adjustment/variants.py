@@ -17,7 +17,10 @@ from scangeo.io.toml_config import load_toml
 
 STRATEGIES = ("DG", "BE", "SE", "P", "S")
 ROLES = ("control", "check", "height", "planimetric", "tie", "ignore")
-CALIBRATION = ("boresight", "lever_arm", "time_offset", "index_error", "scale_error")
+#: the sensor's own calibration unknowns by kind (``scangeo.sensors.models``)
+WHISKBROOM_CALIBRATION = ("index_error", "scale_error")
+PUSHBROOM_CALIBRATION = ("across_offset", "across_scale", "along_offset")
+CALIBRATION = ("boresight", "lever_arm", "time_offset", *WHISKBROOM_CALIBRATION, *PUSHBROOM_CALIBRATION)
 
 
 @dataclass(frozen=True)
@@ -63,6 +66,9 @@ class Variant:
     constant_sigma_m: float | None = setting(None, gt=0, doc="pseudo-observation for the constant terms")
     constant_sigma_deg: float | None = setting(None, gt=0, doc="the same for attitude constants")
     calibrate: tuple[str, ...] = setting((), choices=CALIBRATION, doc="calibration unknowns")
+    across_offset_sigma_deg: float = setting(0.1, gt=0, doc="prior of a pushbroom's across_offset (docs/adjustment.md)")
+    across_scale_sigma: float = setting(0.005, gt=0, unit="1", doc="prior of a pushbroom's across_scale")
+    along_offset_sigma_deg: float = setting(0.1, gt=0, doc="prior of a pushbroom's along_offset")
     snooping: bool = setting(True, doc="data snooping")
     critical_value: float = setting(3.29, gt=0, unit="1", doc="critical value of the normalised residual w")
     rejections_per_round: int = setting(32, ge=1, unit="1", doc="units removed per re-solution, at most")
@@ -167,4 +173,5 @@ def find_variant(project_root, name: str, variants_file=None) -> Variant:
     return variants[name]
 
 
-__all__ = ["BUILTIN", "StripModels", "Variant", "find_variant", "read_variants"]
+__all__ = ["BUILTIN", "CALIBRATION", "PUSHBROOM_CALIBRATION", "StripModels", "Variant", "WHISKBROOM_CALIBRATION",
+           "find_variant", "read_variants"]

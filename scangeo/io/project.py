@@ -47,16 +47,22 @@ class SensorConfig:
             )
         elif t.look_angles is not None:
             along, across = read_look_angles(root / t.look_angles, t.pixels)
-            model = Pushbroom(pixels=t.pixels, along=along, across=across)
+            model = Pushbroom(pixels=t.pixels, along=along, across=across).with_calibration(**_pushbroom_calibration(t))
         else:
             assert t.focal_length_mm is not None and t.pixel_pitch_um is not None  # SensorKeys.check
             model = Pushbroom(
                 pixels=t.pixels, focal_length=t.focal_length_mm / 1000.0, pitch=t.pixel_pitch_um / 1e6,
                 principal_point=t.principal_point_px, k1=t.k1, k2=t.k2, line_offset=t.line_offset_mm / 1000.0,
-            )
+            ).with_calibration(**_pushbroom_calibration(t))
         mounting = Mounting(lever_arm_B=np.array(t.lever_arm_m), boresight=np.radians(t.boresight_deg),
                             time_offset=t.time_offset_s)
         return cls(t.kind, model, mounting, t.line_rate_hz, t.bands, t.wavelengths_nm)
+
+
+def _pushbroom_calibration(t: SensorKeys) -> dict[str, float]:
+    """A pushbroom's calibration values of [sensor] in the model's units (rad, relative)."""
+    return {"across_offset": float(np.radians(t.across_offset_deg)), "across_scale": t.across_scale,
+            "along_offset": float(np.radians(t.along_offset_deg))}
 
 
 def read_look_angles(path: Path, pixels: int) -> tuple[np.ndarray, np.ndarray]:

@@ -71,6 +71,13 @@ class SensorKeys:
                                                           "+ k2 r^4), r in metres on the focal plane")
     k2: float = setting(0.0, when=_PUSH, unit="1/m^4", doc="pushbroom pinhole: radial distortion (see k1)")
     line_offset_mm: float = setting(0.0, when=_PUSH, doc="pushbroom pinhole: along-track offset of the detector line")
+    across_offset_deg: float = setting(0.0, when=_PUSH, doc="pushbroom calibration: offset of the across-track "
+                                       "look angles' tangents (as an angle near the centre; docs/geometry.md)")
+    across_scale: float = setting(0.0, gt=-0.5, lt=0.5, when=_PUSH, unit="1",
+                                  doc="pushbroom calibration: scale of the across-track tangents about the centre "
+                                      "pixel (0.001 = 0.1 %)")
+    along_offset_deg: float = setting(0.0, when=_PUSH, doc="pushbroom calibration: offset of the along-track "
+                                      "look angles' tangents")
 
     def check(self, where: str) -> None:
         """Keys that depend on each other."""

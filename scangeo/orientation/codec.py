@@ -32,12 +32,13 @@ def _sensor_dict(sensor: SensorModel) -> dict[str, Any]:
         return {"kind": "whiskbroom", "pixels": sensor.pixels, "fov": sensor.fov, "line_rate": sensor.line_rate,
                 "scan_direction": sensor.scan_direction, "per_pixel_timing": sensor.per_pixel_timing,
                 "index_error": sensor.index_error, "scale_error": sensor.scale_error}
+    calibration = {name: float(getattr(sensor, name)) for name in sensor.calibration_names}
     if sensor.is_pinhole:
         return {"kind": "pushbroom_pinhole", "pixels": sensor.pixels, "focal_length": sensor.focal_length,
                 "pitch": sensor.pitch, "principal_point": sensor.principal_point, "k1": sensor.k1, "k2": sensor.k2,
-                "line_offset": sensor.line_offset}
+                "line_offset": sensor.line_offset, **calibration}
     return {"kind": "pushbroom_table", "pixels": sensor.pixels, "along": np.asarray(sensor.along, float).tolist(),
-            "across": np.asarray(sensor.across, float).tolist()}
+            "across": np.asarray(sensor.across, float).tolist(), **calibration}
 
 
 def _timing_dict(timing: LineTiming) -> dict[str, Any]:
@@ -131,13 +132,15 @@ def _read_sensor(r: _Reader, node: Any, where: str = "sensor") -> SensorModel:
         values = {k: r.get(node, k, "sensor", float) for k in ("fov", "line_rate", "index_error", "scale_error")}
         return Whiskbroom(n, scan_direction=r.get(node, "scan_direction", "sensor", int),
                           per_pixel_timing=r.get(node, "per_pixel_timing", "sensor", bool), **values)
+    # a pushbroom's calibration (absent from files written before it existed: none)
+    calibration = {k: r.get(node, k, "sensor", float, 0.0) for k in ("across_offset", "across_scale", "along_offset")}
     if kind == "pushbroom_pinhole":
         values = {k: r.get(node, k, "sensor", float)
                   for k in ("focal_length", "pitch", "principal_point", "k1", "k2", "line_offset")}
-        return Pushbroom(n, **values)
+        return Pushbroom(n, **values, **calibration)
     if kind == "pushbroom_table":
         along, across = (r.array(node, k, "sensor", (n,)) for k in ("along", "across"))
-        return Pushbroom(n, along=along, across=across)
+        return Pushbroom(n, along=along, across=across, **calibration)
     raise r.fail("sensor.kind", f"unknown sensor kind {kind!r} (expected whiskbroom, pushbroom_pinhole or "
                                 "pushbroom_table)")
 

@@ -1,7 +1,8 @@
 """Pairs of unknowns the observations cannot tell apart: correlations above 0.95, with a plain note.
 
 For every GPS/IMU model (``Correction`` key) the correlation matrix of its coefficients, and of the
-calibration unknowns a variant frees (boresight, lever arm, time offset, scan index and scale) with
+calibration unknowns a variant frees (boresight, lever arm, time offset, a whiskbroom's scan index and
+scale, a pushbroom's across-track offset and scale and along-track offset) with
 them, comes from the adjustment's selected inverse (``Statistics.covariance`` of the columns
 together; pairs outside the factor's pattern are not available and not flagged). A pair with
 ``|r| > threshold`` (0.95) is listed with a note in plain language: a shift across track and a roll
@@ -12,10 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.keys import CALIBRATION_KEYS
 from scangeo.orientation.models import Correction
 
-_CALIBRATION = (Boresight(), LeverArm(), TimeOffset(), ScanIndex(), ScanScale())
+_CALIBRATION = tuple(key for key, _, _ in CALIBRATION_KEYS)
 _KIND = {"x": "shift in x", "y": "shift in y", "z": "height shift", "roll": "roll", "pitch": "pitch",
          "heading": "heading", "omega": "rotation"}
 

@@ -116,7 +116,9 @@ def sensor_pixel(kind, sp, table, vy, vz):
     tx = vy / vz
     if kind == 2:
         pp, pitch, f, k1, k2, y0 = sp[0], sp[1], sp[2], sp[3], sp[4], sp[5]
-        xu = tx * f
+        # the calibration inverted: nominal tangent of the calibrated one (sp[6:10], Pushbroom.kernel_params)
+        tc, scale, off = sp[6], sp[7], sp[8]
+        xu = (tc + (tx - off - tc) / (1.0 + scale)) * f
         xd = xu
         for _ in range(30):
             r2 = xd * xd + y0 * y0
@@ -152,7 +154,7 @@ def sensor_along_tan(kind, sp, table, pixel):
     if kind == 0:
         return 0.0
     if kind == 2:
-        return sp[5] / sp[2]
+        return sp[5] / sp[2] + sp[9]
     n = table.shape[0]
     j = int(math.floor(pixel))
     if j < 0:
@@ -176,8 +178,9 @@ def sensor_look(kind, sp, table, pixel, out):
         pp, pitch, f, k1, k2, y0 = sp[0], sp[1], sp[2], sp[3], sp[4], sp[5]
         xd = (pixel - pp) * pitch
         r2 = xd * xd + y0 * y0
-        a = y0 / f
+        a = y0 / f + sp[9]
         b = xd * (1 + k1 * r2 + k2 * r2 * r2) / f
+        b = b + sp[8] + sp[7] * (b - sp[6])
     else:
         n = table.shape[0]
         j = int(math.floor(pixel))

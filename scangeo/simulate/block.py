@@ -22,9 +22,9 @@ from scangeo.dtm import DTM
 from scangeo.errors import ProjectFileError
 from scangeo.frames import Geoid, MapFrame, parse_crs
 from scangeo.progress import no_progress, scaled
-from scangeo.sensors import Mounting, StripGeometry, Whiskbroom
+from scangeo.sensors import Mounting, Pushbroom, StripGeometry, Whiskbroom
 from scangeo.simulate import writer
-from scangeo.simulate.config import SimulationConfig
+from scangeo.simulate.config import SensorConfig, SimulationConfig
 from scangeo.simulate.dynamics import make_dynamics
 from scangeo.simulate.flight import FlightPlan, block_extent, plan_flight, true_stream, truth_spline
 from scangeo.simulate.gpsimu_errors import StripErrors, apply_errors, draw_errors
@@ -152,8 +152,7 @@ def _simulate_into(root: Path, config: SimulationConfig, seed: int, dtm_file, te
     dyn_rng = rng_for(seed, "dynamics")
     dynamics = make_dynamics(flight_cfg.turbulence, dyn_rng)
     crab = np.radians(flight_cfg.turbulence.crab_deg) * dyn_rng.uniform(0.7, 1.0)
-    sensor = Whiskbroom(pixels=sensor_cfg.pixels, fov=np.radians(sensor_cfg.fov_deg), line_rate=sensor_cfg.line_rate_hz,
-                        per_pixel_timing=sensor_cfg.pixel_timing)
+    sensor = true_sensor(sensor_cfg)
     true_boresight = np.radians(np.add(sensor_cfg.boresight_deg, sensor_cfg.boresight_error_deg))
     mounting = Mounting(lever_arm_B=np.array(sensor_cfg.lever_arm_m, float), boresight=true_boresight)
 
@@ -198,6 +197,26 @@ def _simulate_into(root: Path, config: SimulationConfig, seed: int, dtm_file, te
         write_truth_ortho(root / "truth" / "ortho.tif", scene, ortho_extent, config.output.ortho_resolution_m,
                           map_frame.crs.to_wkt(), progress=progress)
     return SimulatedBlock(root, config, seed, map_frame, terrain, plan, strips, points, scene, ortho_extent)
+
+
+def look_angle_table(sensor_cfg: SensorConfig) -> np.ndarray:
+    """A pushbroom's nominal look angles ``(pixels, 3)``: pixel, along_deg, across_deg (``SensorConfig``)."""
+    u = np.linspace(-1.0, 1.0, sensor_cfg.pixels)
+    across = 0.5 * sensor_cfg.fov_deg * u + sensor_cfg.across_cubic_deg * (u**3 - u)
+    along = sensor_cfg.along_deg + sensor_cfg.smile_deg * u**2
+    return np.column_stack([np.arange(sensor_cfg.pixels), along, across])
+
+
+def true_sensor(sensor_cfg: SensorConfig) -> Whiskbroom | Pushbroom:
+    """The sensor the images are rendered with: a pushbroom's nominal table with its true calibration."""
+    if sensor_cfg.kind == "whiskbroom":
+        return Whiskbroom(pixels=sensor_cfg.pixels, fov=np.radians(sensor_cfg.fov_deg),
+                          line_rate=sensor_cfg.line_rate_hz, per_pixel_timing=sensor_cfg.pixel_timing)
+    table = np.radians(look_angle_table(sensor_cfg)[:, 1:])
+    return Pushbroom(sensor_cfg.pixels, along=table[:, 0], across=table[:, 1],
+                     across_offset=float(np.radians(sensor_cfg.across_offset_error_deg)),
+                     across_scale=sensor_cfg.across_scale_error,
+                     along_offset=float(np.radians(sensor_cfg.along_offset_error_deg)))
 
 
 def _stream_of_spline(spline: OrientationSpline, time: np.ndarray, map_frame: MapFrame, strip_id: str) -> GpsImuStream:
@@ -257,6 +276,10 @@ def _write_project(root: Path, config: SimulationConfig, seed: int, map_frame: M
             else None,
             "breaks_lines": list(config.gpsimu_errors.breaks_lines),
             "boresight_error_deg": list(config.sensor.boresight_error_deg),
+            **({"calibration_error": {"across_offset_deg": config.sensor.across_offset_error_deg,
+                                      "across_scale": config.sensor.across_scale_error,
+                                      "along_offset_deg": config.sensor.along_offset_error_deg}}
+               if config.sensor.kind == "pushbroom" else {}),
             "true_boresight_deg": list(np.add(config.sensor.boresight_deg, config.sensor.boresight_error_deg)),
             "crab_deg": float(np.degrees(crab)),
             "position_frame": "project frame P (x east, y north, z up) of project.toml's origin",
@@ -280,6 +303,8 @@ def _write_project(root: Path, config: SimulationConfig, seed: int, map_frame: M
             "strips": [dataclasses.asdict(s) for s in plan.strips],
         },
     )
+    if config.sensor.kind == "pushbroom":
+        writer.write_look_angles(root / "look_angles.csv", look_angle_table(config.sensor))
     text = writer.project_toml(
         crs=map_frame.crs.to_string(),
         origin_deg=origin,

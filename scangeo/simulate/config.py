@@ -36,10 +36,15 @@ class BlockConfig:
 
 @dataclass(frozen=True)
 class SensorConfig:
-    """The scanner (whiskbroom) and its mounting; ``boresight_error_deg`` is the true
-    misalignment that project.toml does not know (uncalibrated), roll/pitch/heading order."""
+    """The scanner (whiskbroom or pushbroom) and its mounting; ``boresight_error_deg`` is the true
+    misalignment that project.toml does not know (uncalibrated), roll/pitch/heading order.
 
-    kind: str = setting("whiskbroom", choices=("whiskbroom",), doc="the simulator renders whiskbroom scanners")
+    A pushbroom's look-angle table (written to ``look_angles.csv``): with ``u`` from -1 to 1 over the
+    pixels, ``across = fov/2 u + across_cubic_deg (u^3 - u)`` and ``along = along_deg + smile_deg u^2``.
+    Its true calibration differs from that table by the ``*_error`` keys (``scangeo.sensors.models.Pushbroom``:
+    offsets of the tangents, degrees; the scale relative)."""
+
+    kind: str = setting("whiskbroom", choices=("whiskbroom", "pushbroom"), doc="the scanner type")
     pixels: int = setting(716, ge=16)
     fov_deg: float = setting(42.9, gt=0, lt=120)
     line_rate_hz: float = setting(25.0, gt=0)
@@ -48,6 +53,12 @@ class SensorConfig:
     lever_arm_m: tuple[float, ...] = setting((0.0, 0.0, 0.0), length=3)
     boresight_error_deg: tuple[float, ...] = setting((0.0, 0.0, 0.0), length=3)
     noise_dn: float = 0.0
+    along_deg: float = setting(0.0, doc="pushbroom: along-track look angle of the centre pixel")
+    smile_deg: float = setting(0.0, doc="pushbroom: along-track look angle at the swath edges minus at the centre")
+    across_cubic_deg: float = setting(0.0, doc="pushbroom: cubic term of the across-track look angles")
+    across_offset_error_deg: float = setting(0.0, doc="pushbroom: true across_offset (project.toml says 0)")
+    across_scale_error: float = setting(0.0, gt=-0.1, lt=0.1, unit="1", doc="pushbroom: true across_scale")
+    along_offset_error_deg: float = setting(0.0, doc="pushbroom: true along_offset")
 
 
 @dataclass(frozen=True)

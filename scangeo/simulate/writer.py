@@ -63,9 +63,9 @@ def project_toml(*, crs: str, origin_deg: tuple[float, float, float], geoid_undu
         "[sensor]",
         f'kind = "{sensor.kind}"',
         f"pixels = {sensor.pixels}",
-        f"fov_deg = {sensor.fov_deg!r}",
+        *([f"fov_deg = {sensor.fov_deg!r}"] if sensor.kind == "whiskbroom" else ['look_angles = "look_angles.csv"']),
         f"line_rate_hz = {sensor.line_rate_hz!r}",
-        f"per_pixel_timing = {'true' if sensor.pixel_timing else 'false'}",
+        *([f"per_pixel_timing = {'true' if sensor.pixel_timing else 'false'}"] if sensor.kind == "whiskbroom" else []),
         f"boresight_deg = [{', '.join(repr(float(v)) for v in sensor.boresight_deg)}]",
         f"lever_arm_m = [{', '.join(repr(float(v)) for v in sensor.lever_arm_m)}]",
         f"bands = [{names}]",
@@ -80,6 +80,12 @@ def project_toml(*, crs: str, origin_deg: tuple[float, float, float], geoid_undu
             f"lines = {s['lines']}",
         ]
     return "\n".join(lines) + "\n"
+
+
+def write_look_angles(path: Path, table: np.ndarray) -> None:
+    """A pushbroom's look-angle table ``pixel,along_deg,across_deg`` (docs/formats.md)."""
+    write_csv(path, ["pixel", "along_deg", "across_deg"],
+              [(int(p), f"{a:.9f}", f"{c:.9f}") for p, a, c in table])
 
 
 def write_points(

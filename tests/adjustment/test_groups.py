@@ -6,7 +6,18 @@ import pytest
 
 from scangeo.adjustment.gpsimu import GpsImuSamples
 from scangeo.adjustment.image import ImageObservations
-from scangeo.adjustment.keys import Boresight, Ground, Knots, LeverArm, ScanIndex, ScanScale, TimeOffset
+from scangeo.adjustment.keys import (
+    AcrossOffset,
+    AcrossScale,
+    AlongOffset,
+    Boresight,
+    Ground,
+    Knots,
+    LeverArm,
+    ScanIndex,
+    ScanScale,
+    TimeOffset,
+)
 from scangeo.lsq.checks import check_jacobian
 from scangeo.orientation.models import Correction, GpsImuModel, ModelSet
 from scangeo.sensors.models import Pushbroom, Whiskbroom
@@ -36,10 +47,13 @@ def wavy_strip(seed=0, lever=(0.5, -0.2, 1.0), bore=(0.002, -0.001, 0.003), toff
     return spline, sensor, timing, mount, pts[ok], line[ok], pixel[ok]
 
 
-def values_of(spline, mount, pts, index=0.0, scale=0.0):
+def values_of(spline, mount, pts, index=0.0, scale=0.0, pushbroom=(0.0, 0.0, 0.0)):
+    """Values of every unknown of the strip; ``pushbroom``: across_offset, across_scale, along_offset."""
     vals = {Knots("A"): spline.coef.ravel().copy(), Boresight(): np.array(mount.boresight, float),
             LeverArm(): np.array(mount.lever_arm_B, float), TimeOffset(): np.array([mount.time_offset]),
-            ScanIndex(): np.array([index]), ScanScale(): np.array([scale])}
+            ScanIndex(): np.array([index]), ScanScale(): np.array([scale]),
+            AcrossOffset(): np.array([pushbroom[0]]), AcrossScale(): np.array([pushbroom[1]]),
+            AlongOffset(): np.array([pushbroom[2]])}
     for i, p in enumerate(pts):
         vals[Ground(f"G{i}")] = p.copy()
     return vals
@@ -164,20 +178,48 @@ def test_pushbroom_image_model_reproduces_ground_to_image(sensor):
 
 @pytest.mark.parametrize("sensor", [PINHOLE, smile_table()], ids=["pinhole", "table"])
 def test_pushbroom_image_jacobian_matches_finite_differences(sensor):
-    spline, timing, mount, pts, line, pixel = pushbroom_strip(sensor, 1)
+    # the points are picked away from pixel centres of the calibrated sensor (the model's pixels)
+    calibration = (0.002, -0.003, 0.0015)
+    calibrated = sensor.with_calibration(**dict(zip(sensor.calibration_names, calibration)))
+    spline, timing, mount, pts, line, pixel = pushbroom_strip(calibrated, 1)
     group = ImageObservations("A", sensor, spline, timing, [f"G{i}" for i in range(len(pts))],
                               line + 0.7, pixel - 1.3, 0.3)
-    # a pushbroom has no scan errors of its own: boresight, lever arm and time offset only
+    # a pushbroom has no scan-mirror errors: its own calibration is the detector line's
     assert not {ScanIndex(), ScanScale()} & set(group.keys())
-    vals = values_of(spline, mount, pts)
+    assert {AcrossOffset(), AcrossScale(), AlongOffset()} <= set(group.keys())
+    vals = values_of(spline, mount, pts, pushbroom=calibration)
     steps = {Knots("A"): np.tile([1e-3, 1e-3, 1e-3, 1e-5, 1e-5, 1e-5], spline.n_coef),
-             Boresight(): 1e-5, LeverArm(): 1e-3, TimeOffset(): 1e-5}
+             Boresight(): 1e-5, LeverArm(): 1e-3, TimeOffset(): 1e-5, AcrossOffset(): 1e-6, AcrossScale(): 1e-6,
+             AlongOffset(): 1e-6}
     for i in range(len(pts)):
         steps[Ground(f"G{i}")] = 1e-3
     # every 7th spline coefficient: each of the 6 components across the knots (the whiskbroom test checks all)
     check = check_jacobian(group, vals, steps, stride={Knots("A"): 7})
     assert check.max_relative_error < 1e-4, check.worst()
     assert len({name for key, name in check.labels if key == Knots("A")}) >= 6 * 3
-    for key in (Knots("A"), Ground("G0"), Boresight(), LeverArm(), TimeOffset()):
+    for key in (Knots("A"), Ground("G0"), Boresight(), LeverArm(), TimeOffset(), AcrossOffset(), AcrossScale(),
+                AlongOffset()):
         cols = [j for j, (k, _) in enumerate(check.labels) if k == key]
         assert np.abs(check.analytic[:, cols]).max() > 0, key
+    # the across-track offset moves the pixel by 1 / IFOV (in tangents) per radian
+    col = {k: j for j, (k, _) in enumerate(check.labels) if k == AcrossOffset()}
+    jac = check.analytic.reshape(-1, 2, check.analytic.shape[1]) * 0.3  # whitened by 0.3 px
+    ifov = 3e-5 / 0.05 if sensor.is_pinhole else 0.66 / 899
+    np.testing.assert_allclose(np.median(np.abs(jac[:, 1, col[AcrossOffset()]])) * ifov, 1.0, rtol=0.15)
+
+
+@pytest.mark.parametrize("sensor", [PINHOLE, smile_table()], ids=["pinhole", "table"])
+def test_pushbroom_calibration_unknowns_are_the_calibrated_sensor(sensor):
+    """The image model of the nominal sensor with calibration unknowns predicts what the compiled
+    ground -> image of the calibrated sensor (as rectification uses it) finds."""
+    calibration = (-0.0025, 0.006, 0.002)
+    calibrated = sensor.with_calibration(**dict(zip(sensor.calibration_names, calibration)))
+    spline, timing, mount, pts, line, pixel = pushbroom_strip(calibrated, 2)
+    assert len(pts) > 15
+    group = ImageObservations("A", sensor, spline, timing, [f"G{i}" for i in range(len(pts))], line, pixel, 0.3)
+    pl, pp = group.predict(values_of(spline, mount, pts, pushbroom=calibration))
+    np.testing.assert_allclose(pl, line, atol=1e-6)
+    np.testing.assert_allclose(pp, pixel, atol=1e-6)
+    # the nominal values miss by pixels across (offset and scale) and by lines along (2 mrad at 2000 m)
+    nl, npx = group.predict(values_of(spline, mount, pts))
+    assert np.abs(npx - pixel).max() > 2.0 and np.abs(nl - line).min() > 0.5
