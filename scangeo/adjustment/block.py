@@ -221,6 +221,7 @@ def build_block(project: Project, variant: Variant, points: ImagePoints, ground:
     _orientation_unknowns(setup, params)
     _calibration_unknowns(setup, params)
     _choose_points(setup)
+    _require_points(setup)
     _ground_unknowns(setup, params)
     groups = _observation_groups(setup)
     for note in setup.notes:
@@ -270,6 +271,20 @@ def _calibration_unknowns(setup: _Setup, params: Parameters) -> None:
                names=["index"])
     params.add(ScanScale(), [scan.scale_error if scan else 0.0], "scale_error" in cal, regularisation_sigma=0.01,
                names=["scale"])
+
+
+def _require_points(setup: _Setup) -> None:
+    """A variant that estimates anything beyond GPS/IMU as measured needs image measurements of ground
+    points: calibration unknowns or corrected GPS/IMU models with no control or tie point have nothing
+    to be determined by (the priors alone would return them unchanged, and no residual would say so)."""
+    v = setup.variant
+    if setup.used or (not v.calibrate and v.strategy == "DG"):
+        return
+    what = f"calibrates {', '.join(v.calibrate)}" if v.calibrate else f"corrects GPS/IMU ({v.strategy})"
+    raise AdjustmentError(
+        f"variant {v.name} {what}, but no control or tie point enters the adjustment (ground.csv has "
+        f"{int(np.isin(setup.ground.role, list(CONTROL_COMPONENTS)).sum())} control points, points.csv "
+        f"{len(setup.points)} measurements): add control points, or use direct georeferencing (DG)")
 
 
 def _choose_points(setup: _Setup) -> None:

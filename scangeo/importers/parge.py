@@ -309,8 +309,6 @@ def _write_points(tmp: Path, st: ParGeStatus, strip: str) -> list[str]:
     n = len(st.gcps)
     width = max(2, len(str(n)))
     ids = [f"GCP{k + 1:0{width}d}" for k in range(n)]
-    if not n:
-        return ids
     roles = np.where(st.gcps.used, "control", "check")
     GroundPoints(np.array(ids, dtype=object), st.gcps.xyz, np.full(n, GCP_SIGMA_XY_M), np.full(n, GCP_SIGMA_Z_M),
                  np.array(roles, dtype=object), np.arange(n)).write(tmp / "ground.csv")
@@ -329,12 +327,12 @@ crs = {json.dumps(st.crs_wkt)}
 dtm = {json.dumps(dtm_name)}
 {geoid_line}
 origin = [{origin[0]:.9f}, {origin[1]:.9f}, {origin[2]:.3f}]
-knot_spacing_s = {1.0 / rate:.9g}   # one knot per navigation record (one per line)
+knot_spacing_s = {1.0 / rate!r}   # one knot per navigation record (one per line)
 
 [sensor]
 kind = "pushbroom"
 pixels = {st.pixels}
-line_rate_hz = {rate:.9g}
+line_rate_hz = {rate!r}
 look_angles = "sensor/look_angles.csv"   # from {look_source}
 # PARGE's boresight in scangeo's convention
 boresight_deg = [{boresight_deg[0]:.6f}, {boresight_deg[1]:.6f}, {boresight_deg[2]:.6f}]
@@ -342,7 +340,7 @@ boresight_deg = [{boresight_deg[0]:.6f}, {boresight_deg[1]:.6f}, {boresight_deg[
 [[strips]]
 id = {json.dumps(strip)}
 trajectory = "nav/{strip}.csv"
-first_line_time = {st.start_seconds:.6f}
+first_line_time = {st.start_seconds!r}
 lines = {st.lines}
 """
     write_text(tmp / "project.toml", text)
@@ -447,7 +445,7 @@ calibrate = ["boresight"]
 
 [variants.CALIBRATED]
 description = "boresight, the pushbroom's look angles (across offset and scale, along offset) and the time offset"
-calibrate = ["boresight", "across_scale", "along_offset", "time_offset"]
+calibrate = ["boresight", "time_offset"]
 """
 
 

@@ -1,7 +1,8 @@
 """Plausibility checks of a strip's GPS/IMU trajectory before anything is computed with it.
 
 * **Coverage** (error): every image line's navigation times (line time + mounting time offset, +- the
-  scan's per-pixel time offsets) must lie within the trajectory's first and last record.
+  scan's per-pixel time offsets) must lie within the trajectory's first and last record, to the
+  ``TIME_RESOLUTION_S`` that trajectory and project files give times to.
 * **Gaps** (error): no interval between records longer than ``max(MIN_GAP_S, GAP_FACTOR x median
   interval)`` over the strip's lines (a gap outside them, in a turn, does no harm).
 * **Attitudes** (warning): the heading is compared with the course over ground from the positions
@@ -28,6 +29,10 @@ MIN_SPEED = 15.0  # m/s: slower samples (taxiing, hovering) are not compared wit
 MAX_CRAB_DEG = 30.0
 MAX_ROLL_DEG = 60.0
 MAX_PITCH_DEG = 30.0
+#: Times in trajectory CSVs and project.toml are written to the microsecond: a line that ends within it
+#: of the last record is covered (one navigation record per line, as imported lines have, ends exactly
+#: at the last line).
+TIME_RESOLUTION_S = 1e-6
 
 _warned: set[str] = set()
 
@@ -64,7 +69,7 @@ def check_coverage(stream: GpsImuStream, strip: StripTimes) -> None:
     first = strip.line_times + strip.offset - strip.half_scan
     last = strip.line_times + strip.offset + strip.half_scan
     t0, t1 = float(stream.time[0]), float(stream.time[-1])
-    out = np.flatnonzero((first < t0) | (last > t1))
+    out = np.flatnonzero((first < t0 - TIME_RESOLUTION_S) | (last > t1 + TIME_RESOLUTION_S))
     if out.size:
         raise TrajectoryError(
             f"trajectory {stream.source} does not cover lines {_ranges(out)} of strip {strip.strip_id} "
