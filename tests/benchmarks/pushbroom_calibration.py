@@ -57,8 +57,8 @@ def main() -> None:
         ok = r.checks.status == 0
         rms = (math.sqrt(np.mean(r.checks.line[ok] ** 2)), math.sqrt(np.mean(r.checks.pixel[ok] ** 2)))
         s = calibration_summary(r)
-        print(f"\n{label}: sigma0 {r.adjustment.statistics.sigma0:.2f}, check rms {rms[0]:.3f} lines / {rms[1]:.3f} px, "
-              f"regularised {len(r.adjustment.solution.regularisation)}")
+        print(f"\n{label}: sigma0 {r.adjustment.statistics.sigma0:.2f}, check rms {rms[0]:.3f} lines / "
+              f"{rms[1]:.3f} px, regularised {len(r.adjustment.solution.regularisation)}")
         for p in s["parameters"]:
             if p["calibrate"] in CAL:
                 print(f"  {p['name']:<14}{p['value']:+.4f} +- {p['sigma']:.4f} (truth {truth[p['name']]:+.4f}), "
