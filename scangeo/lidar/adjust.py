@@ -185,7 +185,14 @@ def _patches(ties: list[TiePatch], given: GivenPatches | None, found: dict[str, 
 
 
 def _anchors(block: LaserBlock, members: list, prior: float) -> None:
-    """The four anchors of every member, per strip (``block.anchors``), in map and work coordinates."""
+    """The four anchors of every member, per strip (``block.anchors``), in map and work coordinates.
+
+    Each anchor's sigma is ``2 sigma / sqrt(n)`` (:func:`~scangeo.lidar.planes.anchors`), ``sigma`` the
+    plane fit's a posteriori sigma but at least the a priori one, the range noise along the normal
+    (``prior`` times the cosine of the incidence, :func:`_incidence_cosine`): estimated from 13-40
+    returns, the a posteriori sigma scatters by 11-20 % (chi-square with ``n - 3`` degrees of freedom),
+    and a patch it puts low would weigh more than its returns' noise allows (docs/lidar.md, 6.5b).
+    """
     per_strip: dict[str, list] = {s: [] for s in block.found}
     for p, mem in enumerate(members):
         for sid, src, i in mem:
@@ -197,13 +204,15 @@ def _anchors(block: LaserBlock, members: list, prior: float) -> None:
         f = block.found[sid]
         rows_cells = np.array([i for _, src, i in items if src == "cells"], int)
         rows_given = np.array([i for _, src, i in items if src == "given"], int)
-        pts, times, sig = [], [], []
+        pts, times, sig, fit = [], [], [], []
         for planes, rows in ((f.patches.planes, rows_cells), (f.given, rows_given)):
             if rows.size and planes is not None:
                 a, t, s = anchors(planes.take(rows))
                 pts.append(a)
                 times.append(t)
-                sig.append(np.maximum(s, 0.25 * prior * 2.0 / np.sqrt(planes.count[rows])))
+                floor = prior * _incidence_cosine(block, sid, a, planes.time[rows])
+                sig.append(np.maximum(s, floor * 2.0 / np.sqrt(planes.count[rows])))
+                fit.append(s)
         patch = np.array([p for p, src, _ in items if src == "cells"] + [p for p, src, _ in items if src == "given"])
         a_map = np.concatenate(pts).reshape(-1, 3)
         block.anchors[sid] = {
@@ -212,18 +221,36 @@ def _anchors(block: LaserBlock, members: list, prior: float) -> None:
             "work": block.to_work(a_map),
             "time": np.concatenate(times).ravel(),
             "sigma": np.repeat(np.concatenate(sig), ANCHORS),
+            "fit_sigma": np.repeat(np.concatenate(fit), ANCHORS),
         }
 
 
+def _incidence_cosine(block: LaserBlock, strip: str, anchors_map: np.ndarray, time: np.ndarray) -> np.ndarray:
+    """``|cos|`` of the angle between each patch's normal and the beam from the strip's trajectory at the
+    patch's mean time (1 without a trajectory): the share of the range noise along the normal.
+
+    ``anchors_map`` (m, 4, 3): the four anchors of each patch (map coordinates); ``time`` (m,) seconds.
+    """
+    sampler = block.samplers.get(strip)
+    if sampler is None:
+        return np.ones(anchors_map.shape[0])
+    w = block.to_work(anchors_map.reshape(-1, 3)).reshape(anchors_map.shape)
+    n = np.cross(w[:, 0] - w[:, 1], w[:, 2] - w[:, 3])
+    beam = w.mean(axis=1) - sampler.at(time)[0]
+    cos = np.abs(np.einsum("ij,ij->i", n, beam)) / (np.linalg.norm(n, axis=1) * np.linalg.norm(beam, axis=1))
+    return np.where(np.isfinite(cos), cos, 1.0)
+
+
 def _frames(ids: list[str], anchor_data: dict[str, dict]) -> PatchFrames:
-    """Patch frames (reference point and normal) from the most precise member's anchors."""
+    """Patch frames (reference point and normal) from the anchors of the member whose plane fit was the
+    most precise (by the fit's own sigma, before the a priori floor of :func:`_anchors`)."""
     centre = np.zeros((len(ids), 3))
     normal = np.zeros((len(ids), 3))
     best = np.full(len(ids), np.inf)
     for adata in anchor_data.values():
         w = adata["work"].reshape(-1, ANCHORS, 3)
         pat = adata["patch"][::ANCHORS]
-        s = adata["sigma"][::ANCHORS]
+        s = adata["fit_sigma"][::ANCHORS]
         n = np.cross(w[:, 0] - w[:, 1], w[:, 2] - w[:, 3])
         n *= np.where(n[:, 2] < 0, -1.0, 1.0)[:, None]
         for k, p in enumerate(pat):
