@@ -195,11 +195,17 @@ def content_hash(path: str | os.PathLike, root: str | os.PathLike | None = None)
     return _HASHES.get(str(path.resolve()), [path], compute)
 
 
+def relative_name(path: str | os.PathLike, root: str | os.PathLike) -> str:
+    """``path`` relative to the project folder ``root`` (posix), or its name when it lies outside."""
+    return _relative(Path(path), Path(root)) or Path(path).name
+
+
 def content_stamp(path: str | os.PathLike, root: str | os.PathLike) -> tuple[str, int | None, str | None]:
     """What a fingerprint records of a file: where it lies relative to the project ``root`` (outside it:
-    its name), its size and its SHA-256; ``(name, None, None)`` for a missing or unreadable file."""
+    its name, :func:`relative_name`), its size and its SHA-256; ``(name, None, None)`` for a missing or
+    unreadable file."""
     p = Path(path)
-    where = _relative(p, Path(root)) or p.name
+    where = relative_name(p, root)
     try:
         return where, p.stat().st_size, content_hash(p, root)
     except OSError:
@@ -207,4 +213,4 @@ def content_stamp(path: str | os.PathLike, root: str | os.PathLike) -> tuple[str
 
 
 __all__ = ["HASH_CACHE", "SMALL_FILE", "FileCache", "caches", "clear_all", "content_hash", "content_stamp",
-           "stamp", "stamps"]
+           "relative_name", "stamp", "stamps"]

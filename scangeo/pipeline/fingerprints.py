@@ -14,28 +14,17 @@ import json
 from pathlib import Path
 from typing import Any
 
-from scangeo.filecache import content_hash
+from scangeo.filecache import content_stamp, relative_name
 from scangeo.version import __version__
 
 
-def relative_name(path: Path, root: Path) -> str:
-    """``path`` relative to the project folder (posix), or its name when it lies outside."""
-    try:
-        return Path(path).resolve().relative_to(root.resolve()).as_posix()
-    except ValueError:
-        return Path(path).name
-
-
 def file_stamps(paths: list[Path], root: Path) -> dict[str, dict[str, Any]]:
-    """Per file (by its name relative to the project): size and SHA-256; a missing file is ``None``."""
+    """Per file (by its name relative to the project): size and SHA-256 (:func:`scangeo.filecache.content_stamp`);
+    a missing file is ``None``."""
     out: dict[str, dict[str, Any]] = {}
     for path in paths:
-        path = Path(path)
-        name = relative_name(path, root)
-        try:
-            out[name] = {"size": path.stat().st_size, "sha256": content_hash(path, root)}
-        except FileNotFoundError:
-            out[name] = {"size": None, "sha256": None}
+        name, size, sha = content_stamp(path, root)
+        out[name] = {"size": size, "sha256": sha}
     return out
 
 

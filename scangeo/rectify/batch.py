@@ -76,11 +76,6 @@ def output_folder(project: Project, variant: str) -> Path:
     return results_folder(project, variant) / "ortho"
 
 
-def _file_stamp(path: Path, root: Path) -> list:
-    """Where a file lies relative to the project (outside it: its name) and what it holds (size, hash)."""
-    return list(content_stamp(path, root))
-
-
 def fingerprint(project: Project, source: Orientation, strip_id: str, options: RectifyOptions) -> str:
     """A hash of everything a strip's outputs depend on: the input files (paths relative to the project,
     sizes and content hashes: the same for a copied or moved project), the settings and the version."""
@@ -93,7 +88,7 @@ def fingerprint(project: Project, source: Orientation, strip_id: str, options: R
         "variant": source.variant,
         "strip": strip_id,
         "options": asdict(options),
-        "files": [_file_stamp(Path(f), project.root) for f in files if f is not None],
+        "files": [list(content_stamp(Path(f), project.root)) for f in files if f is not None],
     }
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:24]
 
