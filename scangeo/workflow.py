@@ -25,10 +25,10 @@ from scangeo.adjustment.diagnosis.refine import DEFAULT_REFINE
 from scangeo.adjustment.outputs import write_results
 from scangeo.adjustment.results import VariantResult, run_variant
 from scangeo.adjustment.summary import Comparison
+from scangeo.adjustment.variants import find_variant
 from scangeo.errors import ProjectFileError
 from scangeo.io.project import Project
 from scangeo.lidar.result import LaserResult
-from scangeo.lidar.workflow import adjust_laser
 from scangeo.match.options import MatchOptions
 from scangeo.match.run import MatchResult, match_project
 from scangeo.orientation.file import Orientation, load_orientation
@@ -45,6 +45,7 @@ from scangeo.simulate.config import load_preset, merge, preset_path
 from scangeo.simulate.laser import is_laser_preset, load_laser_config, simulate_laser
 from scangeo.strategy.comparison import compare_project
 from scangeo.strategy.default_variants import ProblemStrip, write_variants_file
+from scangeo.strategy.laser import adjust_laser_variant
 
 
 @dataclass
@@ -65,7 +66,8 @@ def simulate_project(out: str | Path, preset: str | Path = "small", *, seed: int
 
     ``overrides`` : nested preset keys, e.g. ``{"flight": {"lines": 1200}}``; ``images=False`` skips
     the images and the truth orthoimage. A laser preset (one with a ``[laser]`` table) takes only
-    ``{"laser": {...}}`` overrides and gives a :class:`LaserSimulation`.
+    ``{"laser": {...}}`` overrides, ``seed`` and ``overwrite`` (the image arguments ``images``, ``dtm`` and
+    ``texture`` are errors naming them) and gives a :class:`LaserSimulation`.
     """
     overrides = dict(overrides or {})
     path = preset_path(preset)
@@ -73,10 +75,18 @@ def simulate_project(out: str | Path, preset: str | Path = "small", *, seed: int
         laser = dict(overrides.pop("laser", {}))
         if overrides:
             raise ProjectFileError(f"a laser preset has only [laser] keys; cannot set {', '.join(overrides)}")
+        given = [name for name, value, default in (("images", images, True), ("dtm", dtm, None),
+                                                   ("texture", texture, None)) if value != default]
+        if given:
+            raise ProjectFileError(f"{path}: a laser preset has no images, DTM or texture; cannot use "
+                                   f"{', '.join(given)} (laser presets take seed, overwrite and [laser] keys)")
+        target = Path(out)
+        if target.exists() and any(target.iterdir()) and not overwrite:
+            raise ProjectFileError(f"{target}: the folder exists and is not empty (choose another or overwrite it)")
         if seed is not None:
             laser["seed"] = seed
         config = load_laser_config(path, laser)
-        return LaserSimulation(Path(out), config.seed, simulate_laser(out, config))
+        return LaserSimulation(target, config.seed, simulate_laser(target, config))
     if not images:
         overrides = merge(overrides, {"output": {"images": False, "truth_ortho": False}})
     return _simulate_block(out, load_preset(preset, overrides), seed=seed, dtm_file=dtm, texture=texture,
@@ -200,12 +210,18 @@ def read_orientation(project: str | Path, variant: str) -> Orientation:
     return load_orientation(Project.load(project), variant)
 
 
-def lidar_adjust(project: str | Path, out: str | Path | None = None, *, ground: str | Path | None = None,
-                 write_strips: bool = True, progress: ProgressCallback = no_progress, **options) -> LaserResult:
-    """Adjust a laser project's strips (``scangeo lidar adjust``, docs/lidar.md); ``options`` replace
-    ``[adjustment]`` settings. Writes the results, corrected strips and report to ``out`` when given."""
-    return adjust_laser(project, Path(out) if out is not None else None, Path(ground) if ground is not None else None,
-                        progress, write_strips, **options)
+def lidar_adjust(project: str | Path, variant: str = "strip", *, strips: str | Path | None = None,
+                 progress: ProgressCallback = no_progress, **options) -> LaserResult:
+    """Adjust a laser project's strips with one variant (docs/lidar.md; ``scangeo run`` adjusts them all).
+
+    ``variant`` : a variant of PROJECT/variants.toml or, without it, of the paper's models (``strip``,
+    ``mission``, ``block``). ``strips`` : a folder to write the corrected strips to (``ID.laz``).
+    ``options`` : replace ``[adjustment]`` (patch search) settings. Ground control: PROJECT/ground.csv.
+    """
+    loaded = Project.load(project)
+    chosen = find_variant(loaded.root, variant, sensor="laser")
+    return adjust_laser_variant(loaded, chosen, out=Path(strips) if strips is not None else None,
+                                callback=progress, **options).result
 
 
 __all__ = ["Adjustment", "ComparisonRun", "DiagnosisRun", "LaserResult", "LaserSimulation", "adjust", "compare",

@@ -31,18 +31,27 @@ from scangeo.adjustment.keys import (
     ScanScale,
     TimeOffset,
 )
-from scangeo.adjustment.variants import PUSHBROOM_CALIBRATION, WHISKBROOM_CALIBRATION, Variant
+from scangeo.adjustment.priors import (
+    ANGLE_REGULARISATION_RAD,
+    LEVER_ARM_REGULARISATION_M,
+    SCALE_REGULARISATION,
+    TIME_OFFSET_REGULARISATION_S,
+    add_calibration,
+    correction_sigmas,
+    snooping_options,
+)
+from scangeo.adjustment.variants import IMAGE_CALIBRATION, PUSHBROOM_CALIBRATION, WHISKBROOM_CALIBRATION, Variant
 from scangeo.errors import AdjustmentError
 from scangeo.filecache import FileCache
 from scangeo.io.point_checks import check_points
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
-from scangeo.lsq.engine import Adjustment, SnoopingOptions, adjust
+from scangeo.lsq.engine import Adjustment, adjust
 from scangeo.lsq.keys import Key
 from scangeo.lsq.observations import ObservationGroup
 from scangeo.lsq.parameters import Parameters
 from scangeo.lsq.solver import SolverOptions
-from scangeo.orientation.models import GpsImuModel, ModelSet, coefficient_priors, group_model, strip_models
+from scangeo.orientation.models import GpsImuModel, ModelSet, group_model, strip_models
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.sensors.strip import StripGeometry
@@ -149,12 +158,19 @@ def build_models(project: Project, variant: Variant, strips: dict[str, StripData
     """The GPS/IMU models of a variant (none for DG)."""
     if variant.strategy == "DG":
         return ModelSet([])
-    if variant.strategy == "BE":
-        t0 = min(s.epochs[0] for s in strips.values())
-        t1 = max(s.epochs[-1] for s in strips.values())
-        centre = np.mean(np.vstack([s.gpsimu[:, :3] for s in strips.values()]), axis=0)
-        return ModelSet([group_model("block", strips, t0, t1, variant.position_degree, variant.attitude_degree,
-                                     variant.rotation, centre)])
+    if variant.strategy in ("BE", "ME"):
+        groups: dict[str, list[str]] = {}
+        for sid in strips:
+            groups.setdefault("block" if variant.strategy == "BE" else f"mission {project.strip(sid).mission}",
+                              []).append(sid)
+        out = []
+        for name, sids in groups.items():
+            t0 = min(strips[s].epochs[0] for s in sids)
+            t1 = max(strips[s].epochs[-1] for s in sids)
+            centre = np.mean(np.vstack([strips[s].gpsimu[:, :3] for s in sids]), axis=0)
+            out.append(group_model(name, sids, t0, t1, variant.position_degree, variant.attitude_degree,
+                                   variant.rotation, centre))
+        return ModelSet(out)
     models = []
     for sid, s in strips.items():
         cfg = variant.strip_models(sid)
@@ -171,13 +187,10 @@ def build_models(project: Project, variant: Variant, strips: dict[str, StripData
 
 
 def _correction_block(params: Parameters, m: GpsImuModel, v: Variant) -> None:
-    names, deg, angular = m.names(), m.degrees(), m.angular()
-    sig_coef = np.where(angular, np.radians(v.coefficient_sigma_deg), v.coefficient_sigma_m)
-    prior = coefficient_priors(m, v.coefficient_sigma_m, v.coefficient_sigma_deg, v.constant_sigma_m,
-                               v.constant_sigma_deg)
+    names = m.names()
+    prior, regularisation = correction_sigmas(m, v)
     params.add(m.key, np.zeros(len(names)), True, prior_sigma=prior, prior_values=np.zeros(len(names)),
-               regularisation_sigma=np.where(deg < 0, 1e-3, np.minimum(sig_coef, np.where(angular, 0.01, 10.0))),
-               names=names, conditions=m.conditions)
+               regularisation_sigma=regularisation, names=names, conditions=m.conditions)
 
 
 @dataclass
@@ -256,6 +269,10 @@ def _calibration_unknowns(setup: _Setup, params: Parameters) -> None:
             raise AdjustmentError(f"variant {v.name}: calibrate {', '.join(wrong)} is a {kind} parameter, but the "
                                   f"project's sensor is a {project.sensor.kind}")
     scan = sensor if isinstance(sensor, Whiskbroom) else None
+    laser_only = sorted(cal - set(IMAGE_CALIBRATION))
+    if laser_only:
+        raise AdjustmentError(f"variant {v.name}: calibrate {', '.join(laser_only)} is a laser scanner's parameter, "
+                              f"but the project's sensor is a {project.sensor.kind}")
     push = sensor if isinstance(sensor, Pushbroom) else None
     for key, name, sigma in ((AcrossOffset(), "across_offset", np.radians(v.across_offset_sigma_deg)),
                              (AcrossScale(), "across_scale", v.across_scale_sigma),
@@ -263,14 +280,13 @@ def _calibration_unknowns(setup: _Setup, params: Parameters) -> None:
         value = float(getattr(push, name)) if push else 0.0
         params.add(key, [value], name in cal, prior_sigma=[sigma], prior_values=[value], regularisation_sigma=sigma,
                    names=[name])
-    params.add(Boresight(), mount.boresight, "boresight" in cal, regularisation_sigma=0.01,
-               names=["roll", "pitch", "heading"])
-    params.add(LeverArm(), mount.lever_arm_B, "lever_arm" in cal, regularisation_sigma=0.5, names=["x", "y", "z"])
-    params.add(TimeOffset(), [mount.time_offset], "time_offset" in cal, regularisation_sigma=0.01, names=["dt"])
-    params.add(ScanIndex(), [scan.index_error if scan else 0.0], "index_error" in cal, regularisation_sigma=0.01,
-               names=["index"])
-    params.add(ScanScale(), [scan.scale_error if scan else 0.0], "scale_error" in cal, regularisation_sigma=0.01,
-               names=["scale"])
+    add_calibration(params, [
+        ("boresight", Boresight(), mount.boresight, ("roll", "pitch", "heading"), ANGLE_REGULARISATION_RAD),
+        ("lever_arm", LeverArm(), mount.lever_arm_B, ("x", "y", "z"), LEVER_ARM_REGULARISATION_M),
+        ("time_offset", TimeOffset(), [mount.time_offset], ("dt",), TIME_OFFSET_REGULARISATION_S),
+        ("index_error", ScanIndex(), [scan.index_error if scan else 0.0], ("index",), ANGLE_REGULARISATION_RAD),
+        ("scale_error", ScanScale(), [scan.scale_error if scan else 0.0], ("scale",), SCALE_REGULARISATION),
+    ], cal)
 
 
 def _require_points(setup: _Setup) -> None:
@@ -390,9 +406,7 @@ def adjust_block(block: Block, snooping: bool | None = None, start: Mapping[Key,
     for key, values in (start or {}).items():
         if key in block.parameters and block.parameters[key].values.size == np.size(values):
             block.parameters[key].values[:] = values
-    options = SnoopingOptions(enabled=v.snooping if snooping is None else snooping, critical_value=v.critical_value,
-                              per_round=max(1, v.rejections_per_round), independent=v.independent_rejections,
-                              method=v.snooping_method)
+    options = snooping_options(v, snooping)
     if max_rejections is not None:
         options = replace(options, max_rejections=max_rejections)
     return adjust(block.parameters, block.groups, SolverOptions(max_iterations=v.max_iterations, backend=v.backend),

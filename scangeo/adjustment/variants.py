@@ -1,26 +1,44 @@
 """Adjustment variants (strategies) read from ``variants.toml`` (format in docs/adjustment.md).
 
-A variant says how GPS/IMU is corrected (strategy DG, BE, SE, P, S and per-strip overrides with
+A variant says how GPS/IMU is corrected (strategy DG, BE, ME, SE, P, S and per-strip overrides with
 degrees and break epochs), which points play which role (patterns on point ids), whether tie points
 carry DTM heights, the sigmas, the regularisation, the calibration unknowns and data snooping.
+
+One kind of variant serves both sensors. A laser project's variants are read with the laser's
+defaults (:data:`LASER_DEFAULTS`: the tighter priors of Kager's strip adjustment) under the file's
+``[defaults]``; without a variants.toml a laser project compares the paper's models
+(``scangeo/data/laser_variants.toml``: per strip, per mission, for the block).
 """
 from __future__ import annotations
 
 import fnmatch
 from collections.abc import Iterable
 from dataclasses import dataclass
+from importlib.resources import files
 from pathlib import Path
 
 from scangeo.errors import MissingFileError, ProjectFileError
 from scangeo.io.schema import check, read, setting
 from scangeo.io.toml_config import load_toml
 
-STRATEGIES = ("DG", "BE", "SE", "P", "S")
+STRATEGIES = ("DG", "BE", "ME", "SE", "P", "S")
 ROLES = ("control", "check", "height", "planimetric", "tie", "ignore")
 #: the sensor's own calibration unknowns by kind (``scangeo.sensors.models``)
 WHISKBROOM_CALIBRATION = ("index_error", "scale_error")
 PUSHBROOM_CALIBRATION = ("across_offset", "across_scale", "along_offset")
-CALIBRATION = ("boresight", "lever_arm", "time_offset", *WHISKBROOM_CALIBRATION, *PUSHBROOM_CALIBRATION)
+#: Calibration unknowns of a line scanner and of a laser scanner.
+IMAGE_CALIBRATION = ("boresight", "lever_arm", "time_offset", *WHISKBROOM_CALIBRATION, *PUSHBROOM_CALIBRATION)
+LASER_CALIBRATION = ("boresight", "lever_arm", "range_offset", "index_error")
+CALIBRATION = (*IMAGE_CALIBRATION, "range_offset")
+#: The keys a laser variant takes by default (beneath a variants file's [defaults]): the priors of the
+#: paper's strip adjustment (correction coefficients of degree >= 1 and attitude constants "= 0" within
+#: 0.5 m / 0.01 deg), the boresight calibrated, data snooping 4 units a round.
+LASER_DEFAULTS: dict[str, object] = {
+    "coefficient_sigma_m": 0.5, "coefficient_sigma_deg": 0.01, "constant_sigma_deg": 0.01,
+    "calibrate": ["boresight"], "rejections_per_round": 4, "independent_rejections": False, "max_iterations": 30,
+}
+#: The variants file of a laser project without one (the paper's models).
+LASER_VARIANTS = "laser_variants.toml"
 
 
 @dataclass(frozen=True)
@@ -46,7 +64,8 @@ class Variant:
     """One adjustment strategy; every field is a key of a ``[variants.NAME]`` table."""
 
     name: str = setting(internal=True)
-    strategy: str = setting("SE", choices=STRATEGIES, doc="DG, BE, SE, P or S (docs/adjustment.md)")
+    strategy: str = setting("SE", choices=STRATEGIES, doc="DG, BE, ME, SE, P or S (docs/adjustment.md); ME: one "
+                                                          "GPS/IMU model per mission ([[strips]] mission)")
     description: str = setting("", doc="one line for tables and reports")
     position_degree: int = setting(0, ge=-1, le=10, unit="1", doc="polynomial degree of every position model")
     attitude_degree: int = setting(0, ge=-1, le=10, unit="1", doc="polynomial degree of every attitude model")
@@ -134,18 +153,30 @@ def _roles(value: dict, where: str) -> tuple[tuple[str, str], ...]:
     return tuple(value.items())
 
 
-def _variant(table: dict, path: Path, name: str, defaults: dict) -> Variant:
+def _variant(table: dict, path: Path, name: str, defaults: dict, sensor: str = "image") -> Variant:
     where = f"variants.{name}"
     if not isinstance(table, dict):
         raise ProjectFileError(f"{path} [{where}]: expected a table, found {table!r}")
     variant = read(Variant, {**defaults, **table}, str(path), where, name=name)
-    if variant.strategy in ("DG", "BE") and any(s.breaks_lines or s.breaks_times for s in variant.strips):
+    if variant.strategy in ("DG", "BE", "ME") and any(s.breaks_lines or s.breaks_times for s in variant.strips):
         raise ProjectFileError(f"{path} [{where}.strip]: breaks need per-strip models (strategy SE, P or S)")
+    allowed = LASER_CALIBRATION if sensor == "laser" else IMAGE_CALIBRATION
+    other = [c for c in variant.calibrate if c not in allowed]
+    if other:
+        raise ProjectFileError(f"{path} [{where}.calibrate]: {other[0]!r} is not a calibration unknown of "
+                               f"{'a laser' if sensor == 'laser' else 'an image'} project (expected one of "
+                               f"{', '.join(allowed)})")
+    if sensor == "laser" and any(s.breaks_lines for s in variant.strips):
+        raise ProjectFileError(f"{path} [{where}.strip]: breaks_lines of a laser strip (it has no lines): "
+                               "give breaks_times")
     return variant
 
 
-def read_variants(path) -> dict[str, Variant]:
-    """All variants of a ``variants.toml``: ``[defaults]`` merged into every ``[variants.NAME]``."""
+def read_variants(path, sensor: str = "image") -> dict[str, Variant]:
+    """All variants of a ``variants.toml``: ``[defaults]`` merged into every ``[variants.NAME]``.
+
+    ``sensor`` ``"laser"``: the variants of a laser project, :data:`LASER_DEFAULTS` beneath ``[defaults]``.
+    """
     path = Path(path)
     data = load_toml(path)
     for key in data:
@@ -157,15 +188,42 @@ def read_variants(path) -> dict[str, Variant]:
     raw = data.get("variants", {})
     if not isinstance(raw, dict) or not raw:
         raise ProjectFileError(f"{path}: expected at least one [variants.NAME] table")
-    return {name: _variant(t, path, name, defaults) for name, t in raw.items()}
+    base = dict(LASER_DEFAULTS) if sensor == "laser" else {}
+    return {name: _variant(t, path, name, {**base, **defaults}, sensor) for name, t in raw.items()}
 
 
-def find_variant(project_root, name: str, variants_file=None) -> Variant:
-    """A variant by name from ``variants_file`` (default PROJECT/variants.toml) or the built-in ones."""
+def laser_variants(project_root) -> tuple[Path, dict[str, Variant]]:
+    """A laser project's variants file and variants: ``PROJECT/variants.toml``, else the paper's models
+    (module docstring)."""
+    path = Path(project_root) / "variants.toml"
+    if not path.exists():
+        path = Path(str(files("scangeo.data") / LASER_VARIANTS))
+    return path, read_variants(path, "laser")
+
+
+def laser_variant(name: str = "strip", **keys) -> Variant:
+    """A laser variant from keys of a ``[variants.NAME]`` table over :data:`LASER_DEFAULTS` (default: per
+    strip, degree 1 in position and attitude, the paper's model), every key checked; a key given as
+    None is left out (a default's prior removed: ``constant_sigma_deg=None``)."""
+    table = {**LASER_DEFAULTS, "strategy": "SE", "position_degree": 1, "attitude_degree": 1, **keys}
+    return _variant({k: list(v) if isinstance(v, tuple) else v for k, v in table.items() if v is not None},
+                    Path("variant"), name, {}, "laser")
+
+
+def builtin_variants(sensor: str = "image") -> dict[str, Variant]:
+    """The variants available without a variants.toml: DG, BE, SE; for a laser, the paper's models."""
+    if sensor == "laser":
+        return read_variants(Path(str(files("scangeo.data") / LASER_VARIANTS)), "laser")
+    return dict(BUILTIN)
+
+
+def find_variant(project_root, name: str, variants_file=None, sensor: str = "image") -> Variant:
+    """A variant by name from ``variants_file`` (default PROJECT/variants.toml) or the built-in ones
+    (a laser project's: the paper's models)."""
     path = Path(variants_file) if variants_file else Path(project_root) / "variants.toml"
-    variants = dict(BUILTIN)
+    variants = builtin_variants(sensor)
     if path.exists():
-        variants.update(read_variants(path))
+        variants.update(read_variants(path, sensor))
     elif variants_file:
         raise MissingFileError(f"{path}: no such variants file")
     if name not in variants:
@@ -173,5 +231,6 @@ def find_variant(project_root, name: str, variants_file=None) -> Variant:
     return variants[name]
 
 
-__all__ = ["BUILTIN", "CALIBRATION", "PUSHBROOM_CALIBRATION", "StripModels", "Variant", "WHISKBROOM_CALIBRATION",
-           "find_variant", "read_variants"]
+__all__ = ["BUILTIN", "CALIBRATION", "IMAGE_CALIBRATION", "LASER_CALIBRATION", "LASER_DEFAULTS",
+           "PUSHBROOM_CALIBRATION", "StripModels", "Variant", "WHISKBROOM_CALIBRATION", "builtin_variants",
+           "find_variant", "laser_variant", "laser_variants", "read_variants"]

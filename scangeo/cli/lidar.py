@@ -1,7 +1,9 @@
-"""``scangeo lidar``: laser-scanner error model, calibration flights, strip adjustment, budget, real data.
+"""``scangeo lidar``: the laser scanner's analysis tools: error model, calibration flights, budget,
+network design, real data.
 
-A thin shell over :mod:`scangeo.lidar`: parse options (degrees and centimetres at this edge), call
-the library, print a table or JSON.
+A thin shell over :mod:`scangeo.lidar`: parse options (degrees, and centimetres for the budget's
+sigmas, at this edge), call the library, print a table or JSON. The strip adjustment of a laser
+project is ``scangeo run PROJECT`` (stages patches, clean, compare, apply, report; docs/run.md).
 """
 from __future__ import annotations
 
@@ -121,7 +123,7 @@ def _add_budget(sub, common) -> None:
     )
     p.add_argument("--points", type=int, required=True, help="number of points in the area")
     p.add_argument("--pieces", type=int, required=True, help="number of ~100 m strip pieces in the area")
-    p.add_argument("--strips", type=int, required=True, help="number of strips covering the area")
+    p.add_argument("--n-strips", type=int, required=True, help="number of strips covering the area")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--alpha", type=float, default=None, help="offset reduction factor (default 1)")
     g.add_argument("--offset-covariance", metavar="FILE",
@@ -144,7 +146,7 @@ def run_budget(args: argparse.Namespace) -> int:
         alpha = alpha_from_covariance(args.offset_covariance, sigmas.offset)
     else:
         alpha = 1.0 if args.alpha is None else args.alpha
-    result = area_mean_budget(args.points, args.pieces, args.strips, alpha, sigmas)
+    result = area_mean_budget(args.points, args.pieces, args.n_strips, alpha, sigmas)
     table = _scenario_table(sigmas) if args.scenarios else None
     if args.json:
         out = {"total_cm": result["total_cm"], "components": result["components"]}
@@ -152,7 +154,7 @@ def run_budget(args: argparse.Namespace) -> int:
             out["scenarios"] = table
         _print_json(out)
         return 0
-    print(f"mean height of an area: {args.points} points, {args.pieces} strip pieces, {args.strips} strips, "
+    print(f"mean height of an area: {args.points} points, {args.pieces} strip pieces, {args.n_strips} strips, "
           f"alpha {alpha:.3f}")
     for name, cm in result["components"].items():
         print(f"  {name:<9} {cm:7.3f} cm")
@@ -189,13 +191,14 @@ def _add_network(sub, common) -> None:
         "without and with cross strips, with 4 corner control areas or control at both ends of every "
         "4th strip.",
     )
-    p.add_argument("--strips", type=int, default=21, help="parallel strips (default 21)")
+    p.add_argument("--n-strips", type=int, default=21, help="number of parallel strips (default 21)")
     p.add_argument("--cross", type=int, default=4, help="cross strips (default 4)")
     p.add_argument("--length", type=float, default=20000.0, help="strip length, m (default 20000)")
     p.add_argument("--swath", type=float, default=1000.0, help="swath width, m (default 1000)")
     p.add_argument("--overlap", type=float, default=0.3, help="side overlap fraction (default 0.3)")
-    p.add_argument("--sigma-tie", type=float, default=3.0, metavar="CM", help="tie-area sigma, cm (default 3)")
-    p.add_argument("--sigma-control", type=float, default=3.0, metavar="CM", help="control-area sigma, cm (default 3)")
+    p.add_argument("--sigma-tie", type=float, default=0.03, metavar="M", help="tie-area sigma, m (default 0.03)")
+    p.add_argument("--sigma-control", type=float, default=0.03, metavar="M",
+                   help="control-area sigma, m (default 0.03)")
     p.add_argument("--plot", metavar="PNG", help="write the design plot")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run_network)
@@ -206,13 +209,13 @@ def run_network(args: argparse.Namespace) -> int:
     from scangeo.lidar.network import BlockLayout, design_scenarios, plot_design
 
     layout = BlockLayout(
-        n_strips=args.strips,
+        n_strips=args.n_strips,
         n_cross=args.cross,
         length=args.length,
         swath=args.swath,
         overlap=args.overlap,
-        sigma_tie=args.sigma_tie / 100,
-        sigma_control=args.sigma_control / 100,
+        sigma_tie=args.sigma_tie,
+        sigma_control=args.sigma_control,
     )
     scenarios = plot_design(layout, args.plot) if args.plot else design_scenarios(layout)
     table = {name: [round(100 * float(v), 3) for v in sig] for name, sig in scenarios.items()}
@@ -345,18 +348,13 @@ def run_forward_reverse(args: argparse.Namespace) -> int:
 
 def add_parser(subparsers, common) -> None:
     """Add ``scangeo lidar`` and its sub-commands."""
-    parser = subparsers.add_parser("lidar", help="laser scanners: error model, strip adjustment, budget")
+    parser = subparsers.add_parser("lidar", help="laser scanners: error model, calibration flights, budget, network")
     sub = parser.add_subparsers(dest="lidar_command", metavar="SUBCOMMAND")
     _add_errors(sub, common)
     _add_budget(sub, common)
     _add_network(sub, common)
     _add_forward_reverse(sub, common)
     _add_check(sub, common)
-    # here, not at the top: start-up cost (see scangeo.cli)
-    from scangeo.cli.lidar_adjust import add_adjust, add_compare
-
-    add_adjust(sub, common)
-    add_compare(sub, common)
     parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
 
 

@@ -12,9 +12,10 @@ import sys
 
 #: Exit codes of ``scangeo run`` (docs/run.md).
 EXIT_DONE, EXIT_FAILED, EXIT_USAGE, EXIT_LOCKED, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
-#: The stages, for --from and --until (scangeo.pipeline.stages.NAMES; listed here so that --help
-#: does not import the pipeline).
+#: The stages, for --from and --until (scangeo.pipeline.stages.NAMES and, of a laser project,
+#: scangeo.pipeline.laser.LASER_NAMES; listed here so that --help does not import the pipeline).
 STAGE_NAMES = ("check", "match", "clean", "diagnose", "compare", "rectify", "report")
+LASER_STAGE_NAMES = ("check", "patches", "clean", "compare", "apply", "report")
 
 
 def add_parser(subparsers, common) -> None:
@@ -23,6 +24,8 @@ def add_parser(subparsers, common) -> None:
         description="Run the stages on a project in order: check the inputs (as scangeo info), match tie points "
                     "(when points.csv has none, or with --match), clean blunders, diagnose problem strips and breaks, "
                     "compare the strategies, rectify the recommended one (with the mosaic) and write the report. "
+                    "A laser project's stages: check, patches, clean, compare, apply (the corrected strips as LAZ) "
+                    "and report. "
                     "A rerun does only what changed since the last run; a killed run resumes where it stopped "
                     "(PROJECT/results/run.json, docs/run.md). Settings: PROJECT/run.toml or --config with "
                     "[match], [rectify] and [compare] tables. Exit codes: 0 done, 1 a stage failed, 2 usage, "
@@ -33,9 +36,10 @@ def add_parser(subparsers, common) -> None:
                    help="reference orthoimage(s) for control points (the match stage)")
     p.add_argument("--reference-dtm", default=None, metavar="DTM",
                    help="heights of the matched control points (default: the project's DTM)")
-    p.add_argument("--from", dest="from_stage", choices=STAGE_NAMES, default=None, metavar="STAGE",
+    names = tuple(dict.fromkeys(STAGE_NAMES + LASER_STAGE_NAMES))
+    p.add_argument("--from", dest="from_stage", choices=names, default=None, metavar="STAGE",
                    help="rerun this stage and every later one (OpenDroneMap's --rerun-from)")
-    p.add_argument("--until", choices=STAGE_NAMES, default=None, metavar="STAGE",
+    p.add_argument("--until", choices=names, default=None, metavar="STAGE",
                    help="stop after this stage (OpenDroneMap's --end-with)")
     p.add_argument("--match", action="store_true", help="match tie points even though points.csv has some")
     p.add_argument("--config", default=None, help="TOML settings file (default PROJECT/run.toml when it exists)")
@@ -72,7 +76,9 @@ def summary_lines(result) -> list[str]:
     for o in result.stages:
         detail = f" ({o.seconds:.0f} s; {o.reason})" if o.status == "ran" else (f" ({o.reason})" if o.reason else "")
         lines.append(f"{o.name:9s} {o.status}{detail}")
-    clean = result.summary_of("clean")
+    laser = any(o.name == "patches" for o in result.stages)
+    lines += laser_summary_lines(result) if laser else []
+    clean = result.summary_of("clean") if not laser else {}
     if clean:
         r = clean["rejected"]
         lines.append(f"blunders removed: {r['image']} image measurements, {r['ground']} ground coordinates"
@@ -86,7 +92,7 @@ def summary_lines(result) -> list[str]:
         lines.append("problem strips: " + ("; ".join(
             f"{s} (breaks at lines {', '.join(f'{b:g}' for b in breaks) or 'none'})" for s, breaks in problems.items())
             or "none"))
-    compare = result.summary_of("compare")
+    compare = result.summary_of("compare") if not laser else {}
     if compare:
         name = compare["recommended"]
         v = compare["variants"].get(name, {})
@@ -105,4 +111,30 @@ def summary_lines(result) -> list[str]:
     if report:
         lines.append(f"report: {result.root / report['html']}")
     lines.append(f"manifest: {result.manifest} ({result.seconds:.0f} s)")
+    return lines
+
+
+def _cm(figure) -> str:
+    """``before -> after`` of an evaluation figure (metres) in cm."""
+    if not figure:
+        return "-"
+    return f"{100 * figure['before']:.2f} -> {100 * figure['after']:.2f} cm"
+
+
+def laser_summary_lines(result) -> list[str]:
+    """A laser project's figures: cleaning, recommended variant, strip differences, corrected strips."""
+    lines = []
+    clean = result.summary_of("clean")
+    if clean:
+        lines.append(f"blunders set aside: {clean['rejected']} patch observations (results/cleaning/)")
+    compare = result.summary_of("compare")
+    if compare:
+        lines.append(f"recommended variant: {compare['recommended']} ({compare['why']})")
+    applied = result.summary_of("apply")
+    if applied:
+        lines.append(f"strip differences {_cm(applied.get('strip_differences_rms_m'))}; on flat cells "
+                     f"{_cm(applied.get('strip_differences_flat_rms_m'))}; check patches "
+                     f"{_cm(applied.get('check_patches_rms_m'))}")
+        lines.append(f"corrected strips: {result.root / applied['folder']} ({len(applied['strips'])} LAZ, "
+                     "STAC items beside them)")
     return lines

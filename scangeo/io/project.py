@@ -1,4 +1,11 @@
-"""The project folder: ``project.toml`` (docs/formats.md) and access to its DTM, strips and points."""
+"""The project folder: ``project.toml`` (docs/formats.md) and access to its DTM, strips and points.
+
+One schema for both kinds of sensor: a line scanner (whiskbroom, pushbroom) whose strips are images
+with their line times, or a laser scanner (``[sensor] kind = "laser"``) whose strips are LAS/LAZ files
+of returns (``las``), with an optional trajectory each and no DTM needed. :attr:`Project.sensor` is
+the line scanner, :attr:`Project.laser` the laser scanner; asking a project for the other kind's is a
+:class:`~scangeo.errors.ProjectFileError` naming the file.
+"""
 from __future__ import annotations
 
 import logging
@@ -9,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from scangeo.dtm import DTM
-from scangeo.errors import MissingFileError, ProjectFileError
+from scangeo.errors import InputFileError, MissingFileError, ProjectFileError
 from scangeo.frames import Geoid, MapFrame, ProjectFrame, parse_crs
 from scangeo.io.project_schema import SensorKeys, StripKeys, read_project_file
 from scangeo.io.toml_config import load_toml
@@ -38,6 +45,7 @@ class SensorConfig:
     def from_keys(cls, t: SensorKeys, root: Path) -> SensorConfig:
         """The sensor model and mounting of a checked [sensor] table."""
         model: Whiskbroom | Pushbroom
+        assert t.pixels is not None and t.line_rate_hz is not None  # SensorKeys.check
         if t.kind == "whiskbroom":
             assert t.fov_deg is not None  # SensorKeys.check
             model = Whiskbroom(
@@ -65,6 +73,40 @@ def _pushbroom_calibration(t: SensorKeys) -> dict[str, float]:
             "along_offset": float(np.radians(t.along_offset_deg))}
 
 
+@dataclass(frozen=True)
+class LaserSensor:
+    """The [sensor] table of a laser scanner: nominal calibration (degrees and metres as in the file)
+    and precision; ``info`` the informative scan-pattern keys that were given."""
+
+    boresight_deg: tuple[float, float, float]
+    lever_arm_m: tuple[float, float, float]
+    range_sigma_m: float = 0.02
+    angle_sigma_deg: float = 0.005
+    range_offset_m: float = 0.0
+    index_error_deg: float = 0.0
+    info: dict = field(default_factory=dict)
+
+    @classmethod
+    def from_keys(cls, t: SensorKeys) -> LaserSensor:
+        info = {k: getattr(t, k) for k in ("fov_deg", "pulse_rate_hz", "scan_rate_hz", "scan_pattern")}
+        return cls(t.boresight_deg, t.lever_arm_m, t.range_sigma_m, t.angle_sigma_deg, t.range_offset_m,
+                   t.index_error_deg, {k: v for k, v in info.items() if v is not None})
+
+
+def las_extent(path: Path) -> tuple[float, float, float, float]:
+    """x min, y min, x max, y max of a LAS/LAZ file's returns, from its header."""
+    import laspy  # start-up cost: laspy loads when a laser project's files are read
+
+    try:
+        with laspy.open(str(path)) as f:
+            h = f.header
+            return float(h.mins[0]), float(h.mins[1]), float(h.maxs[0]), float(h.maxs[1])
+    except FileNotFoundError as exc:
+        raise MissingFileError(f"{path}: no such LAS/LAZ file") from exc
+    except (OSError, ValueError, laspy.errors.LaspyException) as exc:
+        raise InputFileError(f"{path}: cannot read the LAS header ({exc})") from exc
+
+
 def read_look_angles(path: Path, pixels: int) -> tuple[np.ndarray, np.ndarray]:
     """``pixel,along_deg,across_deg`` CSV -> (along, across) radians."""
     try:
@@ -78,7 +120,7 @@ def read_look_angles(path: Path, pixels: int) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True)
 class StripConfig:
-    """One [[strips]] entry."""
+    """One [[strips]] entry: an image strip (image, line times) or a laser strip (LAS/LAZ files)."""
 
     id: str
     image: Path | None
@@ -86,29 +128,77 @@ class StripConfig:
     first_line_time: float | None
     line_times: Path | None
     lines: int | None
+    las: tuple[Path, ...] = ()
+    point_source_id: int | None = None
+    mission: str = "1"
+    has_trajectory: bool = True
 
     @classmethod
     def from_keys(cls, t: StripKeys, root: Path) -> StripConfig:
-        """A strip of a checked [[strips]] entry (paths relative to the project folder)."""
-        return cls(t.id, root / t.image if t.image else None, root / t.trajectory, t.first_line_time,
-                   root / t.line_times if t.line_times else None, t.lines)
+        """A strip of a checked [[strips]] entry (paths relative to the project folder); a laser strip
+        without a trajectory has ``has_trajectory`` False (its ``trajectory`` is then the folder)."""
+        return cls(t.id, root / t.image if t.image else None, root / (t.trajectory or ""), t.first_line_time,
+                   root / t.line_times if t.line_times else None, t.lines,
+                   tuple(root / n for n in (t.las or ())), t.point_source_id, t.mission, t.trajectory is not None)
 
 
 @dataclass(frozen=True)
 class Project:
-    """A project folder read from ``project.toml``."""
+    """A project folder read from ``project.toml`` (module docstring)."""
 
     root: Path
     crs: str
-    dtm_path: Path
+    dtm_file: Path | None
     geoid: Geoid
     origin: tuple[float, float, float] | None
-    sensor: SensorConfig
+    scanner: SensorConfig | LaserSensor
     strips: tuple[StripConfig, ...]
     knot_spacing: float = 0.2
     dtm_sigma: float = 1.5
     trajectory_crs: str | None = None
     extra: dict = field(default_factory=dict)
+    adjustment: dict = field(default_factory=dict)  # a laser project's [adjustment] table (unchecked here)
+
+    @property
+    def kind(self) -> str:
+        """``whiskbroom``, ``pushbroom`` or ``laser``."""
+        return "laser" if isinstance(self.scanner, LaserSensor) else self.scanner.kind
+
+    @property
+    def is_laser(self) -> bool:
+        return isinstance(self.scanner, LaserSensor)
+
+    @property
+    def file(self) -> Path:
+        return self.root / "project.toml"
+
+    @property
+    def sensor(self) -> SensorConfig:
+        """The line scanner (whiskbroom or pushbroom) of an image project."""
+        if isinstance(self.scanner, LaserSensor):
+            raise ProjectFileError(f"{self.file} [sensor.kind]: a laser project; this needs a line scanner's images "
+                                   "(whiskbroom or pushbroom)")
+        return self.scanner
+
+    @property
+    def laser(self) -> LaserSensor:
+        """The laser scanner of a laser project."""
+        if not isinstance(self.scanner, LaserSensor):
+            raise ProjectFileError(f"{self.file} [sensor.kind]: a {self.scanner.kind} project; this needs a laser "
+                                   "project (kind = \"laser\", strips with las)")
+        return self.scanner
+
+    @property
+    def dtm_path(self) -> Path:
+        """The DTM raster (an error naming the key when the project has none: a laser project)."""
+        if self.dtm_file is None:
+            raise ProjectFileError(f"{self.file} [project.dtm]: missing (this step needs a DTM)")
+        return self.dtm_file
+
+    @property
+    def has_trajectories(self) -> bool:
+        """Every strip has a trajectory (a laser project without them is adjusted trajectory-free)."""
+        return all(s.has_trajectory for s in self.strips)
 
     @classmethod
     def load(cls, path) -> Project:
@@ -124,18 +214,24 @@ class Project:
         if p.trajectory_crs is not None:
             parse_crs(p.trajectory_crs, f"{file} [project.trajectory_crs]")
         geoid = Geoid.from_raster(root / p.geoid) if p.geoid else Geoid(p.geoid_undulation_m or 0.0)
-        sensor = SensorConfig.from_keys(keys.sensor, root)
+        scanner: SensorConfig | LaserSensor = (LaserSensor.from_keys(keys.sensor) if keys.sensor.kind == "laser"
+                                               else SensorConfig.from_keys(keys.sensor, root))
         strips = tuple(StripConfig.from_keys(s, root) for s in keys.strips)
-        return cls(root, p.crs, root / p.dtm, geoid, p.origin, sensor, strips, p.knot_spacing_s, p.dtm_sigma_m,
-                   p.trajectory_crs)
+        return cls(root, p.crs, root / p.dtm if p.dtm else None, geoid, p.origin, scanner, strips, p.knot_spacing_s,
+                   p.dtm_sigma_m, p.trajectory_crs, adjustment=dict(keys.adjustment or {}))
 
     # --- frames and DTM -------------------------------------------------------------------------
     @cached_property
     def map_frame(self) -> MapFrame:
-        """Map CRS <-> project frame; the origin is [project] origin or the DTM's centre."""
+        """Map CRS <-> project frame; the origin is [project] origin, the DTM's centre or, in a laser
+        project without a DTM, the centre of the strips' returns (their LAS headers)."""
         if self.origin is not None:
             lat, lon, h = self.origin
             return MapFrame(self.crs, ProjectFrame.from_origin(lat, lon, h), self.geoid)
+        if self.dtm_file is None:
+            b = np.array([las_extent(f) for s in self.strips for f in s.las])
+            cx, cy = 0.5 * (b[:, 0].min() + b[:, 2].max()), 0.5 * (b[:, 1].min() + b[:, 3].max())
+            return MapFrame.centred_on(self.crs, float(cx), float(cy), 0.0, self.geoid)
         import rasterio
 
         try:
@@ -166,9 +262,13 @@ class Project:
         )
 
     def stream(self, strip_id: str, check: bool = True):
-        """The strip's GPS/IMU stream as measured; ``check``: coverage and gaps (scangeo.trajectory.checks)."""
-        stream = read_trajectory(self.strip(strip_id).trajectory, crs=self.trajectory_crs or self.crs)
-        if check:
+        """The strip's GPS/IMU stream as measured; ``check`` (image strips): coverage and gaps
+        (scangeo.trajectory.checks)."""
+        strip = self.strip(strip_id)
+        if not strip.has_trajectory:
+            raise ProjectFileError(f"{self.file}: strip {strip_id} has no trajectory")
+        stream = read_trajectory(strip.trajectory, crs=self.trajectory_crs or self.crs)
+        if check and not self.is_laser:
             check_strip_trajectory(stream, strip_times_of(self, strip_id))  # coverage, gaps: errors naming lines
         return stream
 

@@ -126,8 +126,8 @@ def setting(default: Any = REQUIRED, *, unit: str = "", doc: str = "", ge: float
     choices : the allowed values of a string (of every element of a list).
     length : the number of elements of a list.
     key : the key's name in the file when it differs from the field's.
-    when : ``(other_key, value)``: the key exists only when another key of the table has that value
-        (e.g. ``("kind", "whiskbroom")``); given otherwise, it is an unknown key.
+    when : ``(other_key, value)``: the key exists only when another key of the table has that value, or
+        one of a tuple of values (e.g. ``("kind", "whiskbroom")``); given otherwise, it is an unknown key.
     internal : not a key of the file (filled in by the program).
     parse : custom conversion ``(value, where) -> value`` after the type check.
     default_doc : how the docs show the default, when its value does not say it.
@@ -281,6 +281,11 @@ def _plain(value: Any) -> Any:
     return value
 
 
+def _applies(when: tuple[str, Any], value: Any) -> bool:
+    """Whether a key conditioned on ``when = (other_key, value or tuple of values)`` exists."""
+    return value in when[1] if isinstance(when[1], tuple) else value == when[1]
+
+
 def read(cls: type, table: Any, file: str, path: str = "", **internal: Any) -> Any:
     """A settings dataclass from a parsed TOML table; every key checked.
 
@@ -297,13 +302,14 @@ def read(cls: type, table: Any, file: str, path: str = "", **internal: Any) -> A
             dep = by_name[k.setting.when[0]]
             convert(table[dep.name], dep.hint, dep.setting, _where(file, path, dep.name), file, _join(path, dep.name))
     applicable = {k.name for k in known if k.setting.when is None
-                  or table.get(k.setting.when[0], _default_of(by_name, k.setting.when[0])) == k.setting.when[1]}
+                  or _applies(k.setting.when, table.get(k.setting.when[0], _default_of(by_name, k.setting.when[0])))}
     unknown = [name for name in table if name not in applicable]
     if unknown:
         name = unknown[0]
         if name in by_name:
             other, value = by_name[name].setting.when  # type: ignore[misc]
-            raise ProjectFileError(f"{_where(file, path, name)}: not a key when {other} is not {value!r}")
+            expected = (f"one of {', '.join(map(repr, value))}" if isinstance(value, tuple) else repr(value))
+            raise ProjectFileError(f"{_where(file, path, name)}: not a key when {other} is not {expected}")
         what = f"table [{_join(path, name)}]" if isinstance(table[name], Mapping) else f"key {name!r}"
         raise ProjectFileError(f"{where_table}: unknown {what} (expected one of {', '.join(sorted(applicable))})")
     values = dict(internal)

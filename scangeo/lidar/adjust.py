@@ -2,18 +2,20 @@
 
 Set-up (:func:`build`): patch finding in every strip (in parallel with ``workers``), homologous tie
 patches, control and check patches from ground.csv, anchors (three per patch and strip, with their
-original observations recovered from the trajectory and the nominal calibration), GPS/IMU models
-(correction polynomials per strip, for the block, or split at breaks), priors (preventive
-regularisation: coefficients of degree >= 1, and optionally the constants, = 0 with a sigma), the
-calibration blocks, the observation groups of ``groups.py``. Then :func:`scangeo.adjustment.adjust`
-with data snooping. Two modes:
+original observations recovered from the trajectory and the nominal calibration), the variant's
+GPS/IMU models (correction polynomials per strip, split at breaks, per mission or for the block; a
+:class:`~scangeo.adjustment.variants.Variant` as for images), its priors (preventive regularisation:
+coefficients of degree >= 1, and optionally the constants, = 0 with a sigma;
+:mod:`scangeo.adjustment.priors`), the calibration blocks, the observation groups of ``groups.py``.
+Then :func:`scangeo.lsq.engine.adjust` with the variant's data snooping. Two modes:
 
 - ``trajectory``: every strip has a trajectory; unknowns are the position and attitude correction
   polynomials, boresight (and optionally lever arm, range offset, scan-angle index), the planes;
 - ``points`` (the paper's provisional solution): point clouds with GPS time only; per strip an XYZ
   correction polynomial in time, added to the points, in the map CRS's units.
 
-``[adjustment]`` keys of project.toml (all optional) are the fields of :class:`LaserOptions`.
+``[adjustment]`` keys of project.toml (all optional, the patch search) are the fields of
+:class:`LaserOptions`; what is adjusted is the variant's.
 """
 
 from __future__ import annotations
@@ -26,21 +28,30 @@ import numpy as np
 import pyproj
 
 from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex
+from scangeo.adjustment.priors import (
+    ANGLE_REGULARISATION_RAD,
+    LEVER_ARM_REGULARISATION_M,
+    RANGE_OFFSET_REGULARISATION_M,
+    add_calibration,
+    correction_sigmas,
+    snooping_options,
+)
+from scangeo.adjustment.variants import Variant
 from scangeo.errors import LidarError
+from scangeo.io.project import LaserSensor, Project, StripConfig
 from scangeo.lidar.control import GivenPatches, read_patch_ground
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, georeference, recover
 from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors
 from scangeo.lidar.keys import RangeOffset
 from scangeo.lidar.options import LaserOptions
-from scangeo.lidar.patches import TiePatch, grid_name, homologous
+from scangeo.lidar.patches import PatchOptions, TiePatch, grid_name, homologous
 from scangeo.lidar.planes import ANCHORS, anchors
-from scangeo.lidar.project import LaserProject, LaserStrip
 from scangeo.lidar.search import MIN_RETURNS_PER_LINE, StripFound, find_all, seed_name
-from scangeo.lsq.engine import Adjustment, SnoopingOptions, adjust
+from scangeo.lsq.engine import Adjustment, adjust
 from scangeo.lsq.observations import ObservationGroup
 from scangeo.lsq.parameters import Parameters
 from scangeo.lsq.solver import SolverOptions
-from scangeo.orientation.models import ModelSet, coefficient_priors, group_model, strip_models
+from scangeo.orientation.models import ModelSet, group_model, strip_models
 from scangeo.progress import ProgressCallback, no_progress
 
 log = logging.getLogger(__name__)
@@ -49,8 +60,9 @@ log = logging.getLogger(__name__)
 class LaserBlock:
     """The adjustment problem and what is needed to apply its result."""
 
-    project: LaserProject
+    project: Project
     options: LaserOptions
+    variant: Variant
     mode: str
     found: dict[str, StripFound]
     ties: list[TiePatch]
@@ -77,47 +89,55 @@ class LaserBlock:
         return p + self.reference
 
 
-def _models(found: dict[str, StripFound], options: LaserOptions, mode: str, missions: dict[str, str]) -> ModelSet:
-    """GPS/IMU models (the shared builder of :mod:`scangeo.orientation.models`): one per strip (split
-    at its breaks), one per mission, or one for the block."""
-    adeg = options.attitude_degree if mode == "trajectory" else -1
-    pdeg = options.position_degree
-    if options.models in ("block", "mission"):
+def _models(found: dict[str, StripFound], variant: Variant, mode: str, missions: dict[str, str]) -> ModelSet:
+    """The variant's GPS/IMU models (the shared builder of :mod:`scangeo.orientation.models`): none (DG),
+    one for the block (BE), one per mission (ME), or one per strip split at its breaks (SE, P, S)."""
+    if variant.strategy == "DG":
+        return ModelSet([])
+    if variant.strategy in ("BE", "ME"):
+        adeg = variant.attitude_degree if mode == "trajectory" else -1
         groups: dict[str, list[str]] = {}
         for sid in found:
-            groups.setdefault("block" if options.models == "block" else f"mission {missions[sid]}", []).append(sid)
+            groups.setdefault("block" if variant.strategy == "BE" else f"mission {missions[sid]}", []).append(sid)
         return ModelSet([
             group_model(gid, sids, min(found[s].t_start for s in sids), max(found[s].t_end for s in sids) + 1e-6,
-                        pdeg, adeg)
+                        variant.position_degree, adeg)
             for gid, sids in groups.items()
         ])
     models = []
     for sid, f in found.items():
-        edges = [f.t_start] + sorted(float(b) for b in (options.breaks or {}).get(sid, [])) + [f.t_end + 1e-6]
-        models += strip_models(sid, edges, pdeg, adeg)
+        cfg = variant.strip_models(sid)
+        pdeg = variant.position_degree if cfg.position_degree is None else cfg.position_degree
+        adeg = variant.attitude_degree if cfg.attitude_degree is None else cfg.attitude_degree
+        edges = [f.t_start] + sorted(float(b) for b in cfg.breaks_times) + [f.t_end + 1e-6]
+        models += strip_models(sid, edges, pdeg, adeg if mode == "trajectory" else -1)
     return ModelSet(models)
 
 
-def _priors(params: Parameters, models: ModelSet, o: LaserOptions, unit: float, mode: str) -> None:
-    const_m = o.constant_sigma_m if o.constant_sigma_m is not None else (0.0 if mode == "trajectory" else 0.3)
+def _priors(params: Parameters, models: ModelSet, variant: Variant, unit: float, mode: str) -> None:
+    """The correction coefficients with the variant's priors (:func:`scangeo.adjustment.priors.correction_sigmas`);
+    without a trajectory the constant position terms are held within 0.3 m unless the variant says
+    otherwise (flat patches do not determine horizontal shifts)."""
     for m in models:
         names = m.names()
-        prior = coefficient_priors(m, o.coefficient_sigma_m / unit, o.coefficient_sigma_deg, const_m / unit,
-                                   o.constant_sigma_deg)
-        params.add(
-            m.key,
-            np.zeros(len(names)),
-            True,
-            prior_sigma=prior,
-            prior_values=np.zeros(len(names)),
-            regularisation_sigma=np.where(m.angular(), np.radians(0.01), 0.1 / unit),
-            names=names,
-            conditions=m.conditions,
-        )
+        prior, regularisation = correction_sigmas(m, variant, unit, None if mode == "trajectory" else 0.3)
+        params.add(m.key, np.zeros(len(names)), True, prior_sigma=prior, prior_values=np.zeros(len(names)),
+                   regularisation_sigma=regularisation, names=names, conditions=m.conditions)
 
 
-def _sampler(project: LaserProject, strip: LaserStrip, f: StripFound) -> TrajectorySampler:
-    sampler = TrajectorySampler(project.trajectory(strip), str(strip.trajectory))
+def nominal_calibration(sensor: LaserSensor) -> Calibration:
+    """The scanner's calibration as project.toml gives it (radians and metres)."""
+    return Calibration.of(np.radians(sensor.boresight_deg), sensor.lever_arm_m, sensor.range_offset_m,
+                          np.radians(sensor.index_error_deg))
+
+
+def strip_trajectory(project: Project, strip: StripConfig):
+    """The strip's GPS/IMU in the project frame (ProjectTrajectory)."""
+    return project.stream(strip.id).to_project(project.map_frame.frame)
+
+
+def _sampler(project: Project, strip: StripConfig, f: StripFound) -> TrajectorySampler:
+    sampler = TrajectorySampler(strip_trajectory(project, strip), str(strip.trajectory))
     lo, hi = sampler.span
     if f.t_start < lo or f.t_end > hi:
         raise LidarError(
@@ -133,12 +153,12 @@ def map_unit(crs) -> float:
     return float(info[0].unit_conversion_factor) if info else 1.0
 
 
-def _mode(project: LaserProject, options: LaserOptions) -> str:
+def _mode(project: Project, options: LaserOptions) -> str:
     mode = options.mode
     if mode == "auto":
         mode = "trajectory" if project.has_trajectories else "points"
     if mode == "trajectory" and not project.has_trajectories:
-        missing = [s.id for s in project.strips if s.trajectory is None]
+        missing = [s.id for s in project.strips if not s.has_trajectory]
         raise LidarError(f"mode trajectory: strip {missing[0]} has no trajectory in project.toml")
     return mode
 
@@ -261,22 +281,16 @@ def _frames(ids: list[str], anchor_data: dict[str, dict]) -> PatchFrames:
 
 def _parameters(block: LaserBlock, unit: float) -> Parameters:
     """Correction coefficients (with their priors), calibration blocks and the patch planes."""
-    options, nominal, mode = block.options, block.nominal, block.mode
+    variant, nominal, mode = block.variant, block.nominal, block.mode
     params = Parameters()
-    _priors(params, block.models, options, unit, mode)
-    cal = set(options.calibrate) if mode == "trajectory" else set()
-    params.add(
-        Boresight(),
-        nominal.boresight,
-        "boresight" in cal,
-        regularisation_sigma=np.radians(0.01),
-        names=["roll", "pitch", "heading"],
-    )
-    params.add(LeverArm(), nominal.lever_arm, "lever_arm" in cal, regularisation_sigma=0.1, names=["x", "y", "z"])
-    params.add(RangeOffset(), [nominal.range_offset], "range_offset" in cal, regularisation_sigma=0.05, names=["dr"])
-    params.add(
-        ScanIndex(), [nominal.scan_index], "scan_index" in cal, regularisation_sigma=np.radians(0.01), names=["index"]
-    )
+    _priors(params, block.models, variant, unit, mode)
+    cal = set(variant.calibrate) if mode == "trajectory" else set()
+    add_calibration(params, [
+        ("boresight", Boresight(), nominal.boresight, ("roll", "pitch", "heading"), ANGLE_REGULARISATION_RAD),
+        ("lever_arm", LeverArm(), nominal.lever_arm, ("x", "y", "z"), LEVER_ARM_REGULARISATION_M),
+        ("range_offset", RangeOffset(), [nominal.range_offset], ("dr",), RANGE_OFFSET_REGULARISATION_M),
+        ("index_error", ScanIndex(), [nominal.scan_index], ("index",), ANGLE_REGULARISATION_RAD),
+    ], cal)
     for key, kind in zip(block.frames.keys, block.kinds):
         if kind == "check":
             continue
@@ -284,12 +298,14 @@ def _parameters(block: LaserBlock, unit: float) -> Parameters:
     return params
 
 
-def _groups(block: LaserBlock, ids: list[str], unit: float) -> list[ObservationGroup]:
-    """The anchors of every strip and the surveyed points of the control and height patches."""
+def _groups(block: LaserBlock, ids: list[str], unit: float,
+            exclude: frozenset[tuple[str, str]] = frozenset()) -> list[ObservationGroup]:
+    """The anchors of every strip (less the ``(strip, patch)`` pairs of ``exclude``) and the surveyed
+    points of the control and height patches."""
     groups: list[ObservationGroup] = []
     kinds, given = block.kinds, block.given
     for sid, adata in block.anchors.items():
-        use = np.array([kinds[p] != "check" for p in adata["patch"]])
+        use = np.array([kinds[p] != "check" and (sid, ids[p]) not in exclude for p in adata["patch"]])
         if not use.any():
             continue
         patch, work, t, sig = adata["patch"][use], adata["work"][use], adata["time"][use], adata["sigma"][use]
@@ -311,15 +327,8 @@ def _groups(block: LaserBlock, ids: list[str], unit: float) -> list[ObservationG
     return groups
 
 
-def build(
-    project: LaserProject,
-    options: LaserOptions,
-    ground: Path | None = None,
-    callback: ProgressCallback = no_progress,
-    found: dict[str, StripFound] | None = None,
-) -> LaserBlock:
-    """Find patches (or reuse ``found`` of an earlier set-up), set up unknowns and observation groups."""
-    mode = _mode(project, options)
+def _search_settings(project: Project, options: LaserOptions, mode: str) -> tuple[float, PatchOptions, float]:
+    """Metres per work unit, the patch options in work units, the plane fits' a priori sigma."""
     unit = 1.0 if mode == "trajectory" else map_unit(project.crs)
     popt = replace(
         options.patches,
@@ -328,7 +337,33 @@ def build(
         max_offset=options.max_offset / unit,
         thin_cell=options.thin_cell / unit,
     )
-    prior = project.sensor.range_sigma_m / unit
+    return unit, popt, project.laser.range_sigma_m / unit
+
+
+def find_patches(project: Project, options: LaserOptions, ground: Path | None = None,
+                 callback: ProgressCallback = no_progress) -> dict[str, StripFound]:
+    """The patch search over every strip (:func:`scangeo.lidar.search.find_all`), with the control and
+    check patches of ``ground`` (a ground.csv) fitted in every strip too."""
+    _, popt, prior = _search_settings(project, options, _mode(project, options))
+    given = read_patch_ground(ground) if ground is not None and Path(ground).exists() else None
+    return find_all(project, popt, prior, given, options.workers, callback, options.patch_search, options.scheduler)
+
+
+def build(
+    project: Project,
+    options: LaserOptions,
+    variant: Variant,
+    ground: Path | None = None,
+    callback: ProgressCallback = no_progress,
+    found: dict[str, StripFound] | None = None,
+    exclude: frozenset[tuple[str, str]] = frozenset(),
+) -> LaserBlock:
+    """Find patches (or reuse ``found`` of an earlier set-up), set up the variant's unknowns and the
+    observation groups; ``exclude``: ``(strip, patch)`` observations left out (set aside by cleaning)."""
+    if variant.strategy in ("P", "S", "SE") and any(m.breaks_lines for m in variant.strips):
+        raise LidarError(f"variant {variant.name}: breaks_lines of a laser strip (it has no lines): give breaks_times")
+    mode = _mode(project, options)
+    unit, popt, prior = _search_settings(project, options, mode)
     given = read_patch_ground(ground) if ground is not None and Path(ground).exists() else None
     if found is None:
         found = find_all(project, popt, prior, given, options.workers, callback, options.patch_search,
@@ -341,23 +376,24 @@ def build(
     ids, kinds, members = _patches(ties, given, found, notes)
     all_xyz = np.vstack([f.cells.planes.centroid for f in found.values()])
     reference = np.round(np.median(all_xyz, axis=0), -1 if unit == 1.0 else 0)
-    block = LaserBlock(project, options, mode, found, ties, given, PatchFrames.from_points([], np.zeros((0, 3)),
-                       np.zeros((0, 3))), kinds, ModelSet([]), Parameters(), [], samplers,
-                       project.sensor.calibration(), reference, {}, notes)
+    empty = PatchFrames.from_points([], np.zeros((0, 3)), np.zeros((0, 3)))
+    block = LaserBlock(project, options, variant, mode, found, ties, given, empty, kinds, ModelSet([]), Parameters(),
+                       [], samplers, nominal_calibration(project.laser), reference, {}, notes)
     _anchors(block, members, prior)
     block.frames = _frames(ids, block.anchors)
-    block.models = _models(found, options, mode, {st.id: st.mission for st in project.strips})
+    block.models = _models(found, variant, mode, {st.id: st.mission for st in project.strips})
     block.parameters = _parameters(block, unit)
-    block.groups = _groups(block, ids, unit)
+    block.groups = _groups(block, ids, unit, exclude)
     for note in notes:
         log.info("%s", note)
     return block
 
 
 def run(block: LaserBlock, callback: ProgressCallback = no_progress) -> Adjustment:
-    """Adjust the block with data snooping."""
-    snooping = SnoopingOptions(enabled=block.options.snooping, critical_value=block.options.critical_value, per_round=4)
-    return adjust(block.parameters, block.groups, SolverOptions(), snooping, callback)
+    """Adjust the block with the variant's data snooping."""
+    v = block.variant
+    return adjust(block.parameters, block.groups, SolverOptions(max_iterations=v.max_iterations, backend=v.backend),
+                  snooping_options(v), callback)
 
 
 def calibration_of(values) -> Calibration:
@@ -408,4 +444,6 @@ def anchor_points(block: LaserBlock, strip: str, values) -> np.ndarray:
     return a["work"] + c[:, :3]
 
 
-__all__ = ["LaserOptions", "LaserBlock", "build", "run", "corrector", "anchor_points", "Polar"]
+__all__ = ["LaserOptions", "LaserBlock", "anchor_points", "build", "corrector", "find_patches", "nominal_calibration",
+           "run",
+           "strip_trajectory", "Polar"]

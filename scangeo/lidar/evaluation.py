@@ -30,7 +30,12 @@ def _options(block: LaserBlock):
     popt = replace(
         o.patches, size=o.patch_size / unit, max_sigma=o.max_patch_sigma / unit, max_offset=o.max_offset / unit
     )
-    return popt, block.project.sensor.range_sigma_m / unit
+    return popt, block.project.laser.range_sigma_m / unit
+
+
+def corrected_path(folder: Path, strip_id: str) -> Path:
+    """The corrected strip's file: ``FOLDER/ID.laz``."""
+    return Path(folder) / f"{strip_id}.laz"
 
 
 def block_unit(block: LaserBlock) -> float:
@@ -40,7 +45,7 @@ def block_unit(block: LaserBlock) -> float:
 def apply(
     block: LaserBlock, values, out: Path | None = None, callback: ProgressCallback = no_progress
 ) -> dict[str, StripPatches]:
-    """Correct every strip under ``values``, streamed chunk by chunk (written to ``out/strips`` when
+    """Correct every strip under ``values``, streamed chunk by chunk (written to ``out/ID.laz`` when
     given); the planar grid cells of the corrected strips (:class:`~scangeo.lidar.cells.GridCellStream`)."""
     popt, prior = _options(block)
     found = {}
@@ -48,16 +53,14 @@ def apply(
         correct = corrector(block, strip.id, values)
         grid = GridCellStream(strip.id, popt, prior)
         if out is not None:
-            (out / "strips").mkdir(parents=True, exist_ok=True)
+            out.mkdir(parents=True, exist_ok=True)
 
             def keep(xyz, t, correct=correct, grid=grid):
                 new = correct(xyz, t)
                 grid.feed(new, t)
                 return new
 
-            write_corrected(
-                strip.las, strip.point_source_id, out / "strips" / f"{strip.id}{strip.las[0].suffix.lower()}", keep
-            )
+            write_corrected(strip.las, strip.point_source_id, corrected_path(out, strip.id), keep)
         else:
             for xyz, t, _ in iter_returns(strip.las, strip.point_source_id, block.project.crs):
                 grid.feed(correct(xyz, t), t)
@@ -137,6 +140,8 @@ class Evaluation:
                 "after": _rms(self.points_after.values()) * u,
                 "count": len(self.points_after),
             },
+            "check_patches": {k: [v * u, self.checks_after[k] * u] for k, v in self.checks_before.items()},
+            "control_check_points": {k: [v * u, self.points_after[k] * u] for k, v in self.points_before.items()},
             "pairs_after": {
                 k: {kk: (vv * u if kk != "cells" else vv) for kk, vv in v.items()}
                 for k, v in self.after.per_pair().items()

@@ -1,23 +1,28 @@
-"""Options of ``scangeo lidar adjust``: the ``[adjustment]`` table of a laser project.toml, every key
-typed (:mod:`scangeo.io.schema`; docs/formats.md "Laser projects" is generated from it)."""
+"""The patch search's settings: the ``[adjustment]`` table of a laser project.toml, every key typed
+(:mod:`scangeo.io.schema`; docs/formats.md "Laser projects" is generated from it).
+
+What is adjusted (the GPS/IMU models, their degrees and priors, the calibration unknowns, data
+snooping) is a variant's (``variants.toml``, :class:`scangeo.adjustment.variants.Variant`); these
+settings are the project's: how patches are found, in which mode, with how many workers."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from scangeo.errors import LidarError
+from scangeo.errors import LidarError, ProjectFileError
 from scangeo.io.schema import read, setting
 from scangeo.lidar.patches import PatchOptions
 from scangeo.lidar.search import METHODS
 
 MODES = ("auto", "trajectory", "points")
-MODELS = ("strip", "mission", "block")
-CALIBRATE = ("boresight", "lever_arm", "range_offset", "scan_index")
+#: Keys that are a variant's (variants.toml), not the project's: the error names where they went.
+VARIANT_KEYS = ("models", "breaks", "position_degree", "attitude_degree", "calibrate", "coefficient_sigma_m",
+                "coefficient_sigma_deg", "constant_sigma_m", "constant_sigma_deg", "snooping", "critical_value")
 
 
 @dataclass(frozen=True)
 class LaserOptions:
-    """Options of ``scangeo lidar adjust`` (``[adjustment]`` in project.toml; lengths in metres)."""
+    """The patch search of a laser project (``[adjustment]`` in project.toml; lengths in metres)."""
 
     mode: str = setting("auto", choices=MODES, doc="trajectory (GPS/IMU corrections), points (trajectory-free) "
                         "or auto (trajectory when every strip has one)")
@@ -32,25 +37,6 @@ class LaserOptions:
     max_angle_deg: float = setting(5.0, gt=0, doc="homologous patches: angle between the normals, at most")
     max_offset: float = setting(1.0, gt=0, unit="m", doc="homologous patches: distance along the normal, at most")
     thin_cell: float = setting(40.0, gt=0, unit="m", doc="one tie patch per exposition class per square of this size")
-    models: str = setting("strip", choices=MODELS, doc="GPS/IMU models: one per strip (split at its breaks), "
-                          "one per mission ([[strips]] mission), or one for the block")
-    breaks: dict[str, tuple[float, ...]] | None = setting(
-        None, unit="s", default_doc="none",
-        doc="per strip id, GPS times at which its model is split (C0-continuous sub-models)",
-    )
-    position_degree: int = setting(1, ge=-1, le=10, unit="1", doc="degree of the position correction polynomials")
-    attitude_degree: int = setting(1, ge=-1, le=10, unit="1", doc="degree of the attitude correction polynomials")
-    calibrate: tuple[str, ...] = setting(("boresight",), choices=CALIBRATE, doc="calibration unknowns to estimate")
-    coefficient_sigma_m: float = setting(0.5, gt=0, doc="prior '= 0' of position coefficients of degree >= 1")
-    coefficient_sigma_deg: float = setting(0.01, gt=0, doc="prior '= 0' of attitude coefficients of degree >= 1")
-    #: prior sigma of the constant position terms; None: none with a trajectory, 0.3 m without one (flat
-    #: patches do not determine horizontal shifts: the provisional solution keeps them near 0 unless tied)
-    constant_sigma_m: float | None = setting(
-        None, ge=0, default_doc="none; 0.3 without trajectory", doc="prior '= 0' of the constant position terms"
-    )
-    constant_sigma_deg: float = setting(0.01, ge=0, doc="prior '= 0' of the constant attitude terms (0: none)")
-    snooping: bool = setting(True, doc="data snooping of the patch observations")
-    critical_value: float = setting(3.29, gt=0, unit="1", doc="data snooping: critical value of |w|")
     workers: int = setting(1, ge=1, unit="1", doc="strips searched for patches at once (processes)")
     scheduler: str | None = setting(None, default_doc="none",
                                     doc="address of a Dask scheduler: the patch search runs there, a task per strip")
@@ -58,11 +44,6 @@ class LaserOptions:
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise LidarError(f"mode must be one of {', '.join(MODES)}, not {self.mode!r}")
-        if self.models not in MODELS:
-            raise LidarError(f"models must be one of {', '.join(MODELS)}, not {self.models!r}")
-        bad = sorted(set(self.calibrate) - set(CALIBRATE))
-        if bad:
-            raise LidarError(f"calibrate: unknown {', '.join(bad)} (known: {', '.join(CALIBRATE)})")
 
     @property
     def patches(self) -> PatchOptions:
@@ -81,5 +62,9 @@ class LaserOptions:
     def from_table(cls, table: dict, where: str, **overrides) -> LaserOptions:
         """The ``[adjustment]`` table (every key checked; errors ``FILE [adjustment.key]: ...``), then
         ``overrides`` (None: keep)."""
+        moved = [k for k in table if k in VARIANT_KEYS]
+        if moved:
+            raise ProjectFileError(f"{where} [adjustment.{moved[0]}]: a key of the variants (variants.toml "
+                                   "[variants.NAME], docs/formats.md), not of the project")
         options = read(cls, table, where, "adjustment")
         return replace(options, **{k: v for k, v in overrides.items() if v is not None})

@@ -15,9 +15,12 @@ from pathlib import Path
 import numpy as np
 
 from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex
+from scangeo.lidar.adjust import LaserBlock
+from scangeo.lidar.evaluation import Evaluation, block_unit
 from scangeo.lidar.keys import Plane, RangeOffset
 from scangeo.lsq.engine import Adjustment
 from scangeo.lsq.keys import Key
+from scangeo.lsq.reliability import delta0
 from scangeo.orientation.models import Correction
 
 CALIBRATION = (Boresight, LeverArm, RangeOffset, ScanIndex)
@@ -60,10 +63,15 @@ class Regularised:
 
 @dataclass(frozen=True)
 class Rejection:
+    """A patch observation (one strip's anchors of one patch) data snooping removed: its normalised
+    residual ``w`` when it was removed, and its MDB (m) in the final solution (``sigma delta0 sqrt(1 + h)``
+    with the leverage ``h`` it would have were it put back)."""
+
     group: str
     patch: str
     w: float
     round: int
+    mdb: float = float("nan")
 
 
 @dataclass(frozen=True)
@@ -77,7 +85,8 @@ class TiltTests:
 
 @dataclass
 class LaserResult:
-    """What ``scangeo lidar adjust`` found (:func:`scangeo.lidar.workflow.adjust_laser`)."""
+    """What the adjustment of one laser variant found (:func:`laser_result`); :meth:`to_dict` is its
+    ``results.json``."""
 
     mode: str
     mode_description: str
@@ -95,6 +104,17 @@ class LaserResult:
     folder: Path | None = None
     variant: str = ""
     options: dict = field(default_factory=dict)
+    #: every patch of the adjustment: id, kind, x, y (map), the strips it was found in
+    patch_map: list[dict] = field(default_factory=list)
+
+    @property
+    def strips_per_patch(self) -> dict[str, int]:
+        """The block's connectivity: how many tie patches were found in 2, 3, ... strips."""
+        counts: dict[str, int] = {}
+        for p in self.patch_map:
+            if p["kind"] == "tie":
+                counts[str(p["strips"])] = counts.get(str(p["strips"]), 0) + 1
+        return dict(sorted(counts.items(), key=lambda kv: int(kv[0])))
 
     @property
     def calibration(self) -> list[Estimate]:
@@ -123,7 +143,25 @@ class LaserResult:
             "notes": self.notes,
             "evaluation": self.evaluation,
             "options": self.options,
+            "strips_per_patch": self.strips_per_patch,
+            "patch_map": self.patch_map,
         }
+
+
+def rejected_mdb(result: Adjustment) -> dict[tuple[str, str], float]:
+    """The MDB (m) of every rejected observation unit, ``(group, unit id) -> MDB`` (:class:`Rejection`)."""
+    sol, h = result.solution, result.statistics.leverages
+    d0 = delta0()
+    out: dict[tuple[str, str], float] = {}
+    for g, act, sl in zip(sol.groups, sol.active, sol.system.row_slices):
+        if act.all() or g.kind != "observation":
+            continue
+        rows = np.flatnonzero(~act)
+        mdb = np.asarray(g.sigma, float)[rows] * d0 * np.sqrt(1.0 + np.maximum(h[sl][rows], 0.0))
+        for r, m in zip(rows, mdb):
+            key = (g.name, str(g.ids[r]))
+            out[key] = max(out.get(key, 0.0), float(m))
+    return out
 
 
 def estimates(result: Adjustment, keys: list[Key], unit: float) -> list[Estimate]:
@@ -156,3 +194,51 @@ def tilt_tests(result: Adjustment, planes: list[Plane]) -> TiltTests:
         significant += any(c.significant for c in tests)
         max_t = max(max_t, *(c.t for c in tests))
     return TiltTests(n, significant, max_t)
+
+
+def _patch_map(block: LaserBlock) -> list[dict]:
+    """Every patch of the block: id, kind, map position of its reference point, how many strips have it."""
+    strips = np.zeros(len(block.kinds), int)
+    for a in block.anchors.values():
+        strips[np.unique(a["patch"])] += 1
+    xy = block.to_map(block.frames.c0) if len(block.kinds) else np.zeros((0, 3))
+    return [{"id": pid, "kind": kind, "x": round(float(xy[i, 0]), 3), "y": round(float(xy[i, 1]), 3),
+             "strips": int(strips[i])} for i, (pid, kind) in enumerate(zip(block.frames.ids, block.kinds))]
+
+
+def laser_result(block: LaserBlock, result: Adjustment, evaluation: Evaluation | None) -> LaserResult:
+    """The typed result of an adjusted laser block (its variant's name included)."""
+    st = result.statistics
+    keys = [m.key for m in block.models] + [Boresight(), LeverArm(), RangeOffset(), ScanIndex()]
+    planes = [Plane(i) for i, kind in zip(block.frames.ids, block.kinds) if kind != "check"]
+    mdb = rejected_mdb(result)
+    v = block.variant
+    return LaserResult(
+        mode=block.mode,
+        mode_description=(
+            "trajectory: GPS/IMU correction polynomials, calibration, tie planes"
+            if block.mode == "trajectory"
+            else "points (provisional solution, no trajectory): XYZ correction polynomials in time per strip"
+        ),
+        strips={
+            s: {"returns": f.count, "t_start": f.t_start, "t_end": f.t_end, "planar_cells": int(f.cells.cells.size),
+                "patches": int(f.patches.cells.size)}
+            for s, f in block.found.items()
+        },
+        patches={k: int(sum(1 for x in block.kinds if x == k)) for k in ("tie", "control", "height", "check")},
+        sigma0=st.sigma0,
+        accounting=st.accounting.as_dict(),
+        converged=result.solution.converged,
+        estimates=estimates(result, keys, block_unit(block)),
+        tilts=tilt_tests(result, planes),
+        regularised=[Regularised(r.key, r.component, r.sigma, r.reason) for r in result.solution.regularisation],
+        rejections=[Rejection(r.group, r.id, r.w, r.round, mdb.get((r.group, r.id), float("nan")))
+                    for r in result.rejections],
+        notes=list(block.notes),
+        evaluation=evaluation.summary() if evaluation is not None else None,
+        variant=v.name,
+        options={"strategy": v.strategy, "description": v.description, "position_degree": v.position_degree,
+                 "attitude_degree": v.attitude_degree, "calibrate": list(v.calibrate),
+                 "patch_search": block.options.patch_search},
+        patch_map=_patch_map(block),
+    )

@@ -24,12 +24,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from scangeo.errors import InputFileError
+from scangeo.io.project import Project, StripConfig
 from scangeo.lidar.cells import BoxStream, GridCellStream
 from scangeo.lidar.control import GivenPatches
 from scangeo.lidar.lasio import iter_returns
 from scangeo.lidar.patches import PatchOptions, StripPatches
 from scangeo.lidar.planes import Planes
-from scangeo.lidar.project import LaserProject, LaserStrip
 from scangeo.lidar.rowbuffer import Candidates, RowBuffer
 from scangeo.lidar.seeded import Seeds, fit_seeds, members
 from scangeo.parallel import run_tasks
@@ -90,7 +90,7 @@ def _pass2(args):
 
 
 def find_all(
-    project: LaserProject,
+    project: Project,
     options: PatchOptions,
     prior: float,
     given: GivenPatches | None,
@@ -102,7 +102,7 @@ def find_all(
     """Both passes over every strip: in this process, in ``workers`` local processes, or on the Dask
     scheduler at ``scheduler`` (:func:`scangeo.parallel.run_tasks`; a task is one strip, and carries
     its file paths, not its returns)."""
-    strips: list[LaserStrip] = list(project.strips)
+    strips: list[StripConfig] = list(project.strips)
     steps = len(strips) * (2 if method == "rows" else 1)
     tasks = [(s, project.crs, options, prior, given, method) for s in strips]
     found_list = run_tasks(_pass1, tasks, workers, scheduler,

@@ -1,6 +1,7 @@
-"""``scangeo run``: one call from a project's raw files to the orthoimages and report of the recommended variant.
+"""``scangeo run``: one call from a project's raw files to the outputs and report of the recommended variant.
 
-:func:`run` takes the stages of :mod:`scangeo.pipeline.stages` in order. Each stage's inputs are
+:func:`run` takes the stages of :mod:`scangeo.pipeline.stages` in order (a laser project's:
+:mod:`scangeo.pipeline.laser`, up to the corrected strips). Each stage's inputs are
 fingerprinted (:mod:`scangeo.pipeline.fingerprints`); a stage runs when its fingerprint differs from
 the one recorded in ``PROJECT/results/run.json`` (:mod:`scangeo.pipeline.manifest`), when it never
 finished, when an output it recorded is gone, when a stage whose results it reads ran in this call,
@@ -24,6 +25,7 @@ from scangeo.errors import ProjectFileError, ScangeoError
 from scangeo.io.project import Project
 from scangeo.match.options import MatchOptions
 from scangeo.pipeline.fingerprints import changes, file_stamps, relative_name, stage_fingerprint
+from scangeo.pipeline.laser import LASER_NAMES, LASER_STAGES
 from scangeo.pipeline.manifest import Manifest
 from scangeo.pipeline.stages import NAMES, STAGES, Context, RunSettings, Stage, tie_points
 from scangeo.progress import ProgressCallback, no_progress, scaled
@@ -129,6 +131,11 @@ def _look_angles(root: Path) -> str | None:
     return str(table) if table else None
 
 
+def stages_of(project: Project) -> tuple[tuple[Stage, ...], tuple[str, ...]]:
+    """The stages of a project and their names: an image project's or a laser project's."""
+    return (LASER_STAGES, LASER_NAMES) if project.is_laser else (STAGES, NAMES)
+
+
 def _forward_only(progress: ProgressCallback) -> ProgressCallback:
     """The run's one bar never moves back (a stage's library calls may restart their own counts)."""
     high = 0.0
@@ -141,8 +148,12 @@ def _forward_only(progress: ProgressCallback) -> ProgressCallback:
     return inner
 
 
-def _plan(root: Path, settings: RunSettings, manifest: Manifest, until: str | None) -> tuple[list[Stage], str]:
+def _plan(root: Path, settings: RunSettings, manifest: Manifest, until: str | None,
+          stages: tuple[Stage, ...] = STAGES) -> tuple[list[Stage], str]:
     """The stages of this call, and why match is in or out."""
+    if stages is not STAGES:
+        plan = list(stages)
+        return (plan[: [s.name for s in plan].index(until) + 1] if until is not None else plan), ""
     if settings.force_match:
         why = "--match"
     elif manifest.stages.get("match"):
@@ -158,12 +169,13 @@ def _plan(root: Path, settings: RunSettings, manifest: Manifest, until: str | No
     return plan, why
 
 
-def _check_names(from_stage: str | None, until: str | None) -> None:
+def _check_names(from_stage: str | None, until: str | None, names: tuple[str, ...] = NAMES, kind: str = "") -> None:
+    what = f" of a {kind} project" if kind else ""
     for flag, name in (("--from", from_stage), ("--until", until)):
-        if name is not None and name not in NAMES:
-            raise ProjectFileError(f"{flag} {name}: not a stage (stages: {', '.join(NAMES)})")
-    if from_stage and until and NAMES.index(from_stage) > NAMES.index(until):
-        raise ProjectFileError(f"--from {from_stage} comes after --until {until} (stages: {', '.join(NAMES)})")
+        if name is not None and name not in names:
+            raise ProjectFileError(f"{flag} {name}: not a stage{what} (stages: {', '.join(names)})")
+    if from_stage and until and names.index(from_stage) > names.index(until):
+        raise ProjectFileError(f"--from {from_stage} comes after --until {until} (stages: {', '.join(names)})")
 
 
 def run(project, *, references=(), reference_dtm=None, from_stage: str | None = None, until: str | None = None,
@@ -185,14 +197,18 @@ def run(project, *, references=(), reference_dtm=None, from_stage: str | None = 
     started = time.perf_counter()
     root = Path(project)
     root = root.parent if root.name == "project.toml" else root
-    _check_names(from_stage, until)
+    loaded = Project.load(root)
+    stages, names = stages_of(loaded)
+    _check_names(from_stage, until, names, loaded.kind if loaded.is_laser else "")
+    if loaded.is_laser and (references or reference_dtm or match):
+        raise ProjectFileError(f"{root / 'project.toml'}: a laser project has no match stage (--reference, "
+                               "--reference-dtm and --match are for images)")
     if settings_file is None and (root / SETTINGS_FILE).exists():
         settings_file = root / SETTINGS_FILE
     settings = read_settings(Path(settings_file) if settings_file else None, references, reference_dtm, match)
-    loaded = Project.load(root)
     manifest = Manifest.load(root)
     previous = dict(manifest.stages)
-    plan, match_why = _plan(root, settings, manifest, until)
+    plan, match_why = _plan(root, settings, manifest, until, stages)
     if from_stage == "match" and not match_why:
         raise ProjectFileError(f"--from match: {root / 'points.csv'} has tie points; add --match to match again")
     manifest.started = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
@@ -200,7 +216,7 @@ def run(project, *, references=(), reference_dtm=None, from_stage: str | None = 
                         **settings.as_dict()}
     manifest.recommended = None
     ctx = Context(root, loaded, settings, {}, previous, _look_angles(root))
-    forced = set(NAMES[NAMES.index(from_stage):]) if from_stage else set()
+    forced = set(names[names.index(from_stage):]) if from_stage else set()
     progress = _forward_only(progress)
     total, edge = sum(s.weight for s in plan), 0.0
     outcomes: list[StageOutcome] = []
@@ -214,12 +230,12 @@ def run(project, *, references=(), reference_dtm=None, from_stage: str | None = 
             if outcome.status == "ran":
                 ran.add(stage.name)
             outcomes.append(outcome)
-    for name in NAMES:
+    for name in names:
         if name not in {o.name for o in outcomes}:
             why = ("tie points in points.csv (--match matches anyway)" if name == "match" and not match_why
                    else f"after --until {until}")
             outcomes.append(StageOutcome(name, "not run", reason=why))
-    outcomes.sort(key=lambda o: NAMES.index(o.name))
+    outcomes.sort(key=lambda o: names.index(o.name))
     manifest.recommended = _recommended(ctx)
     manifest.finished = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
     path = manifest.save()
@@ -290,6 +306,10 @@ def _recommended(ctx: Context) -> dict[str, Any] | None:
     if rectify and rectify.get("variant") == name:
         out["orthoimages"] = rectify["orthoimages"]
         out["stac_items"] = rectify["stac_items"]
+    applied = ctx.records.get("apply", {}).get("summary")
+    if applied and applied.get("variant") == name:
+        out["corrected_strips"] = applied["strips"]
+        out["stac_items"] = applied["stac_items"]
     return out
 
 

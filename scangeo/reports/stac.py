@@ -1,4 +1,4 @@
-"""STAC Items of the orthoimages: one JSON file beside each orthoimage and the mosaic.
+"""STAC Items of the orthoimages and of the corrected laser strips: one JSON file beside each file.
 
 An item (STAC 1.1, written with pystac; docs/run.md) holds the raster's footprint as a WGS 84
 polygon and bbox (the grid's edges, densified, so a projected grid's curved edges stay inside), one
@@ -18,6 +18,7 @@ import numpy as np
 import pystac
 import rasterio
 from pyproj import CRS, Transformer
+from pystac.extensions.pointcloud import PhenomenologyType, PointcloudExtension, Schema, SchemaType
 from pystac.extensions.projection import ProjectionExtension
 
 from scangeo.atomic import write_text
@@ -90,4 +91,57 @@ def write_stac_items(project_root: Path, variant: str, rasters: list[Path], time
     return out
 
 
-__all__ = ["SUFFIX", "item_path", "stac_item", "write_stac_items"]
+def _schema_type(dtype) -> SchemaType:
+    kind = np.dtype(dtype).kind
+    return SchemaType.FLOATING if kind == "f" else (SchemaType.SIGNED if kind == "i" else SchemaType.UNSIGNED)
+
+
+def pointcloud_item(path: Path, project_name: str, variant: str, crs: str, properties: dict | None = None
+                    ) -> pystac.Item:
+    """The STAC Item of one corrected laser strip (module docstring)."""
+    import laspy  # start-up cost: laspy loads when a point cloud is described
+
+    with laspy.open(str(path)) as f:
+        h = f.header
+        count = int(h.point_count)
+        xmin, ymin, xmax, ymax = float(h.mins[0]), float(h.mins[1]), float(h.maxs[0]), float(h.maxs[1])
+        dims = [(d.name, d.num_bits // 8 if d.num_bits else np.dtype(d.dtype).itemsize, d.dtype)
+                for d in h.point_format.dimensions if d.dtype is not None]
+    map_crs = CRS.from_user_input(crs)
+    geometry, bbox = _footprint((xmin, ymin, xmax, ymax), map_crs)
+    now = datetime.datetime.now(datetime.UTC).replace(microsecond=0)
+    props = {"scangeo:project": project_name, "scangeo:variant": variant, "scangeo:strip": path.stem,
+             **(properties or {})}
+    item = pystac.Item(f"{project_name}-{variant}-{path.stem}", geometry, bbox, now, props)
+    item.common_metadata.created = now
+    laz = path.suffix.lower() == ".laz"
+    item.add_asset("data", pystac.Asset(f"./{path.name}", title=f"{variant} {path.stem}",
+                                        media_type="application/vnd.laszip" if laz else "application/vnd.las",
+                                        roles=["data"]))
+    pc = PointcloudExtension.ext(item, add_if_missing=True)
+    pc.apply(count=count, type=PhenomenologyType.LIDAR, encoding="LASzip" if laz else "LAS",
+             schemas=[Schema({"name": n, "size": int(size), "type": _schema_type(dt)}) for n, size, dt in dims])
+    proj = ProjectionExtension.ext(item, add_if_missing=True)
+    authority = map_crs.to_authority()
+    proj.apply(code=":".join(authority) if authority else None, wkt2=None if authority else map_crs.to_wkt(),
+               bbox=[xmin, ymin, xmax, ymax])
+    return item
+
+
+def write_pointcloud_items(project_root: Path, variant: str, files: list[Path], crs: str,
+                           time_spans: dict | None = None) -> list[Path]:
+    """Write ``NAME.stac.json`` beside every corrected strip (atomically); returns the item files.
+
+    time_spans : per strip id, the GPS times of its first and last return (s).
+    """
+    out = []
+    for path in map(Path, files):
+        extra = {"scangeo:time_span_s": list(time_spans[path.stem])} if time_spans and path.stem in time_spans else {}
+        item = pointcloud_item(path, Path(project_root).resolve().name, variant, crs, extra)
+        target = item_path(path)
+        write_text(target, json.dumps(item.to_dict(include_self_link=False), indent=1) + "\n")
+        out.append(target)
+    return out
+
+
+__all__ = ["SUFFIX", "item_path", "pointcloud_item", "stac_item", "write_pointcloud_items", "write_stac_items"]

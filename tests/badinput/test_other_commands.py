@@ -233,7 +233,7 @@ def test_match(bad, small_block, tmp_path, capsys):
     run_bad(["match", "{p}", "--no-progress"], bad, small_block, tmp_path, capsys)
 
 
-# ---------------------------------------------------------------------------------- lidar adjust
+# --------------------------------------------------------------------------- scangeo run on a laser project
 LAS1 = "strips/1.las"
 
 
@@ -278,5 +278,5 @@ def _las_without_gps_time_at(path):
 
 
 @pytest.mark.parametrize("bad", LIDAR_ADJUST)
-def test_lidar_adjust(bad, laser_block, tmp_path, capsys):
-    run_bad(["lidar", "adjust", "{p}", "--no-progress"], bad, laser_block, tmp_path, capsys)
+def test_laser_run(bad, laser_block, tmp_path, capsys):
+    run_bad(["run", "{p}", "--no-progress"], bad, laser_block, tmp_path, capsys, kept="results/")

@@ -191,7 +191,8 @@ def test_variants_file(tmp_path):
     assert list(read_variants(path)) == ["SE", "P2", "S2"]
     text = path.read_text()
     for old, new, expected in [
-        ('strategy = "SE"', 'strategy = "XX"', "[variants.SE.strategy]: expected one of DG, BE, SE, P, S, found 'XX'"),
+        ('strategy = "SE"', 'strategy = "XX"',
+         "[variants.SE.strategy]: expected one of DG, BE, ME, SE, P, S, found 'XX'"),
         ("dtm_heights = true", 'dtm_heights = "true"', "[variants.P2.dtm_heights]: expected true or false"),
         ("position_degree = 4", "position_degree = 11", "[variants.P2.strip[0].position_degree]: expected an integer"),
         ('"K1*" = "control"', '"K1*" = "boss"', "[variants.S2.roles.K1*]: expected one of control"),

@@ -15,7 +15,7 @@ def test_budget_hand_computed_example(run_lidar_json):
     # short 4, long 6, offset 5
     # contributions: 3, 2, 10/10 = 1, 5/10 = 0.5, 4/2 = 2, 6/sqrt(2) = 4.2426, 0.4*5 = 2
     # total = sqrt(9 + 4 + 1 + 0.25 + 4 + 18 + 4) = sqrt(40.25) = 6.3443
-    out = run_lidar_json(["lidar", "budget", "--points", "100", "--pieces", "4", "--strips", "2",
+    out = run_lidar_json(["lidar", "budget", "--points", "100", "--pieces", "4", "--n-strips", "2",
                           "--alpha", "0.4", "--sigma-seasonal", "3", "--sigma-daily", "2", "--sigma-local", "10",
                           "--sigma-noise", "5", "--sigma-short", "4", "--sigma-long", "6", "--sigma-offset", "5"])
     assert set(out) == {"total_cm", "components"}
@@ -40,7 +40,7 @@ def test_alpha_from_offset_covariance(tmp_path, run_lidar_json):
     np.savetxt(path, C)
     # sigma of the mean offset = sqrt(4 + 2 + 2) / 2 = 1.4142 cm -> alpha = 1.4142 / 5
     assert alpha_from_covariance(path, 5.0) == pytest.approx(math.sqrt(8) / 2 / 5)
-    out = run_lidar_json(["lidar", "budget", "--points", "1", "--pieces", "1", "--strips", "1",
+    out = run_lidar_json(["lidar", "budget", "--points", "1", "--pieces", "1", "--n-strips", "1",
                           "--offset-covariance", str(path), "--sigma-seasonal", "0", "--sigma-daily", "0",
                           "--sigma-local", "0", "--sigma-noise", "0", "--sigma-short", "0", "--sigma-long", "0"])
     assert out["components"]["offset"] == pytest.approx(math.sqrt(2), rel=1e-9)
@@ -56,7 +56,7 @@ def test_budget_rejects_bad_input(tmp_path):
 
 
 def test_scenario_table_flying_twice_beats_denser_points(run_lidar_json):
-    out = run_lidar_json(["lidar", "budget", "--points", "100", "--pieces", "1", "--strips", "1", "--scenarios"])
+    out = run_lidar_json(["lidar", "budget", "--points", "100", "--pieces", "1", "--n-strips", "1", "--scenarios"])
     rows = {r["name"]: r for r in out["scenarios"]}
     base, dense = rows["1 pt/m2, 4 control areas"], rows["4 pt/m2, 4 control areas"]
     twice = rows["flown twice, 2 pt/m2, 4 control areas"]

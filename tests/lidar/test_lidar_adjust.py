@@ -5,18 +5,17 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 
-import laspy
 import numpy as np
 import pytest
 
 from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex
-from scangeo.cli import main
+from scangeo.adjustment.variants import laser_variant
+from scangeo.io.project import Project
 from scangeo.lidar.adjust import LaserOptions, build, run
 from scangeo.lidar.evaluation import apply, evaluate
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, georeference, recover
 from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors
 from scangeo.lidar.keys import Plane, RangeOffset
-from scangeo.lidar.project import LaserProject
 from scangeo.lsq.checks import check_jacobian
 from scangeo.lsq.engine import SnoopingOptions, adjust
 from scangeo.lsq.solver import SolverOptions
@@ -38,8 +37,8 @@ def block_dir(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def adjusted(block_dir):
-    project = LaserProject.load(block_dir)
-    block = build(project, LaserOptions(), block_dir / "ground.csv")
+    project = Project.load(block_dir)
+    block = build(project, LaserOptions(), laser_variant(), block_dir / "ground.csv")
     return block, run(block)
 
 
@@ -155,42 +154,12 @@ def test_moved_roof_is_found_by_data_snooping(block_dir, adjusted):
 
 
 def test_too_high_degree_completes_with_a_regularisation_note(block_dir, adjusted):
-    project = LaserProject.load(block_dir)
-    options = LaserOptions(
-        position_degree=8,
-        attitude_degree=8,
-        coefficient_sigma_m=1e6,
-        coefficient_sigma_deg=1e6,
-        constant_sigma_deg=0,
-        calibrate=("boresight", "lever_arm"),
-        snooping=False,
-    )
-    block = build(project, options, found=adjusted[0].found)  # no control: the datum is undetermined too
+    project = Project.load(block_dir)
+    variant = laser_variant(position_degree=8, attitude_degree=8, coefficient_sigma_m=1e6, coefficient_sigma_deg=1e6,
+                            constant_sigma_deg=None, calibrate=("boresight", "lever_arm"), snooping=False)
+    block = build(project, LaserOptions(), variant, found=adjusted[0].found)  # no control: the datum is undetermined
     # the notes come from the first factorisation; a few iterations suffice to see them
     result = adjust(block.parameters, block.groups, SolverOptions(max_iterations=3), SnoopingOptions(enabled=False))
     names = {r.key for r in result.solution.regularisation}
     assert any(isinstance(k, (Correction, Boresight, LeverArm)) for k in names)
     assert not any(isinstance(k, Plane) for k in names)
-
-
-def test_cli_writes_corrected_strips_and_report(block_dir, tmp_path, capsys):
-    out = tmp_path / "adjusted"
-    assert main(["lidar", "adjust", str(block_dir), "--out", str(out)]) == 0
-    text = capsys.readouterr().out
-    assert "mode: trajectory" in text and "check patches rms" in text
-    results = json.loads((out / "results.json").read_text())
-    assert results["mode"] == "trajectory" and results["evaluation"]["check_patches_rms_m"]["after"] < 0.03
-    original = laspy.read(block_dir / "strips" / "2.las")
-    corrected = laspy.read(out / "strips" / "2.las")
-    assert corrected.header.point_format.id == original.header.point_format.id
-    assert corrected.header.parse_crs() == original.header.parse_crs()
-    assert np.array_equal(corrected.gps_time, original.gps_time)
-    assert np.array_equal(corrected.scan_angle, original.scan_angle)
-    shift = np.hypot(corrected.x - original.x, corrected.z - original.z)
-    assert 0.01 < np.median(shift) < 1.0
-    import rasterio
-
-    with rasterio.open(out / "differences.tif") as src:
-        assert src.count == 2 and src.descriptions == ("before", "after")
-    assert (out / "report.html").read_text().count("<table>") >= 5
-    assert not list(out.rglob("*.part*")) and not list(out.rglob(".*.tmp*"))

@@ -8,9 +8,10 @@ import os
 import numpy as np
 import pytest
 
+from scangeo.adjustment.variants import laser_variant
+from scangeo.io.project import Project
 from scangeo.lidar.adjust import LaserOptions, build, run
 from scangeo.lidar.evaluation import apply, evaluate
-from scangeo.lidar.project import LaserProject
 from scangeo.resources import preset_file
 from scangeo.simulate.laser import load_laser_config, simulate_laser
 from tests.lidar.test_lidar_adjust import truth_values
@@ -23,7 +24,7 @@ def test_laser_preset_block(tmp_path):
     reduced = {} if FULL else {"pulse_rate_hz": 8000.0, "strip_length": 600.0}
     config = load_laser_config(preset_file("laser"), reduced)
     simulate_laser(tmp_path, config)
-    block = build(LaserProject.load(tmp_path), LaserOptions(), tmp_path / "ground.csv")
+    block = build(Project.load(tmp_path), LaserOptions(), laser_variant(), tmp_path / "ground.csv")
     result = run(block)
     truth = truth_values(block, json.loads((tmp_path / "truth.json").read_text())["truth"])
     values, stats = result.parameters.values(), result.statistics

@@ -11,13 +11,13 @@ import shutil
 import numpy as np
 import pytest
 
-from scangeo.cli import main
+from scangeo.adjustment.variants import laser_variant, read_variants
 from scangeo.errors import ProjectFileError
+from scangeo.io.project import Project
 from scangeo.lidar.adjust import LaserOptions, build, run
 from scangeo.lidar.evaluation import control_check_points
-from scangeo.lidar.project import LaserProject
-from scangeo.lidar.variants import read_variants
 from scangeo.orientation.models import Correction
+from scangeo.strategy.laser import compare_laser, write_laser_comparison
 from tests.session_projects import laser_block  # noqa: F401  (session fixture)
 
 
@@ -35,19 +35,20 @@ def with_missions(src, dst, missions: dict[str, str]):
 def found(laser_block):  # noqa: F811
     """The patches of the session's laser block, found once for every variant below."""
     logging.getLogger("scangeo.lsq.solver").setLevel(logging.ERROR)
-    return build(LaserProject.load(laser_block), LaserOptions(), laser_block / "ground.csv").found
+    return build(Project.load(laser_block), LaserOptions(), laser_variant(), laser_block / "ground.csv").found
 
 
-def estimate(root, found, **options):
-    project = LaserProject.load(root)
-    block = build(project, LaserOptions(position_degree=0, attitude_degree=0, **options), root / "ground.csv",
-                  found=found)
+def estimate(root, found, models):
+    project = Project.load(root)
+    strategy = {"strip": "SE", "mission": "ME", "block": "BE"}[models]
+    variant = laser_variant(models, strategy=strategy, position_degree=0, attitude_degree=0)
+    block = build(project, LaserOptions(), variant, root / "ground.csv", found=found)
     return block, run(block)
 
 
 def test_one_strip_per_mission_is_the_strip_model(laser_block, found, tmp_path):  # noqa: F811
     root = with_missions(laser_block, tmp_path / "p", {"1": "A", "2": "B"})
-    assert [s.mission for s in LaserProject.load(root).strips] == ["A", "B"]
+    assert [s.mission for s in Project.load(root).strips] == ["A", "B"]
     by_strip, r_strip = estimate(root, found, models="strip")
     by_mission, r_mission = estimate(root, found, models="mission")
     assert [m.id for m in by_mission.models] == ["mission A", "mission B"]
@@ -58,7 +59,7 @@ def test_one_strip_per_mission_is_the_strip_model(laser_block, found, tmp_path):
 
 
 def test_one_mission_for_all_strips_is_the_block_model(laser_block, found):  # noqa: F811
-    project = LaserProject.load(laser_block)  # no mission keys: every strip in mission "1"
+    project = Project.load(laser_block)  # no mission keys: every strip in mission "1"
     assert {s.mission for s in project.strips} == {"1"}
     block_b, r_block = estimate(laser_block, found, models="block")
     block_m, r_mission = estimate(laser_block, found, models="mission")
@@ -77,7 +78,7 @@ def test_a_mission_that_is_not_a_name_is_an_error(laser_block, tmp_path):  # noq
     text = text.replace('[[strips]]\nid = "1"\n', '[[strips]]\nid = "1"\nmission = [1]\n')
     (root / "project.toml").write_text(text)
     with pytest.raises(ProjectFileError, match=r"mission"):
-        LaserProject.load(root)
+        Project.load(root)
 
 
 def test_fourth_roof_point_as_check_and_height_control_planes(laser_block, found, tmp_path):  # noqa: F811
@@ -94,7 +95,7 @@ def test_fourth_roof_point_as_check_and_height_control_planes(laser_block, found
         out.append(",".join(cells))
     ground = tmp_path / "ground.csv"
     ground.write_text("\n".join(out) + "\n")
-    block = build(LaserProject.load(laser_block), LaserOptions(), ground, found=found)
+    block = build(Project.load(laser_block), LaserOptions(), laser_variant(), ground, found=found)
     kinds = dict(zip(block.frames.ids, block.kinds))
     assert kinds.get("C3") == "height" and kinds.get("C1") == "control"
     assert {g.name for g in block.groups} >= {"control patches", "height control planes"}
@@ -106,25 +107,24 @@ def test_fourth_roof_point_as_check_and_height_control_planes(laser_block, found
     assert rms < 0.02 and np.sqrt(np.mean(np.square(list(before.values())))) > 2 * rms
 
 
-def test_variants_side_by_side(laser_block, tmp_path, capsys):  # noqa: F811
-    """``scangeo lidar compare``: the paper's variants on the same patches, one table."""
+def test_variants_side_by_side(laser_block, found, tmp_path):  # noqa: F811
+    """The paper's variants on the same patches, one table (strategy.laser; scangeo run's compare stage)."""
     variants = tmp_path / "variants.toml"
-    variants.write_text('[mission]\nmodels = "mission"\nposition_degree = 0\nattitude_degree = 0\n\n'
-                        '[strip]\nmodels = "strip"\n')
-    out = tmp_path / "cmp"
-    assert main(["lidar", "compare", str(laser_block), "--variants", str(variants), "--out", str(out),
-                 "--no-progress"]) == 0
-    assert "comparison.html" in capsys.readouterr().out
-    saved = json.loads((out / "comparison.json").read_text())
-    assert list(saved) == ["mission", "strip"]
-    assert saved["mission"]["options"]["models"] == "mission"
-    keys = [p["key"] for p in saved["mission"]["parameters"] if p["component"] == "x0"]
+    variants.write_text('[variants.mission]\nstrategy = "ME"\nposition_degree = 0\nattitude_degree = 0\n\n'
+                        '[variants.strip]\nstrategy = "SE"\nposition_degree = 1\nattitude_degree = 1\n')
+    comparison = compare_laser(laser_block, read_variants(variants, "laser"), found=found)
+    write_laser_comparison(tmp_path, comparison)
+    saved = json.loads((tmp_path / "results" / "comparison.json").read_text())
+    assert list(saved["variants"]) == ["mission", "strip"] and saved["sensor"] == "laser"
+    assert saved["variants"]["mission"]["options"]["strategy"] == "ME"
+    keys = [p["key"] for p in saved["variants"]["mission"]["parameters"] if p["component"] == "x0"]
     assert keys == ["Correction(model=mission 1)"]
     # one shift and misalignment for both strips leaves more of the strip differences than a model per strip
-    flat = {n: r["evaluation"]["strip_differences_flat_rms_m"]["after"] for n, r in saved.items()}
+    flat = {n: r["evaluation"]["strip_differences_flat_rms_m"]["after"] for n, r in saved["variants"].items()}
     assert flat["strip"] < flat["mission"]
-    assert (out / "comparison.html").read_text().count("<tr>") == 3
+    assert saved["recommended"] == "strip" and "strip differences" in saved["why"]
+    assert (tmp_path / "results" / "strip" / "results.json").exists()
     bad = tmp_path / "bad.toml"
-    bad.write_text("[x]\nmodel = \"strip\"\n")
-    with pytest.raises(ProjectFileError, match=r"bad.toml \[x\].*model"):
-        read_variants(bad)
+    bad.write_text('[variants.x]\nstrategy = "SE"\ncalibrate = ["time_offset"]\n')
+    with pytest.raises(ProjectFileError, match=r"bad.toml \[variants.x.calibrate\].*laser"):
+        read_variants(bad, "laser")

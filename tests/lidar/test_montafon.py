@@ -13,10 +13,11 @@ import pytest
 from scipy.stats import norm
 
 from scangeo.adjustment.keys import Boresight
+from scangeo.adjustment.variants import laser_variant
 from scangeo.errors import ProjectFileError
+from scangeo.io.project import Project
 from scangeo.lidar.adjust import LaserOptions, build, run
 from scangeo.lidar.evaluation import apply, evaluate
-from scangeo.lidar.project import LaserProject
 from scangeo.orientation.models import Correction
 from scangeo.resources import preset_file
 from scangeo.simulate.laser import load_laser_config, simulate_laser
@@ -72,8 +73,9 @@ def montafon(tmp_path_factory):
     root = tmp_path_factory.mktemp("montafon")
     simulate_laser(root, load_laser_config(preset_file("montafon"), {} if FULL else REDUCED))
     logging.getLogger("scangeo.lsq.solver").setLevel(logging.ERROR)
-    project = LaserProject.load(root)
-    block = build(project, LaserOptions.from_table(project.adjustment, str(root / "project.toml")), root / "ground.csv")
+    project = Project.load(root)
+    block = build(project, LaserOptions.from_table(project.adjustment, str(root / "project.toml")), laser_variant(),
+                  root / "ground.csv")
     return root, block, run(block)
 
 

@@ -9,6 +9,8 @@ import logging
 import numpy as np
 import pytest
 
+from scangeo.adjustment.variants import laser_variant
+from scangeo.io.project import Project
 from scangeo.lidar.adjust import LaserOptions, build, run
 from scangeo.lidar.cells import BoxStream, GridCellStream
 from scangeo.lidar.control import read_patch_ground
@@ -16,7 +18,6 @@ from scangeo.lidar.evaluation import apply, evaluate
 from scangeo.lidar.lasio import StripCloud, iter_returns
 from scangeo.lidar.patches import PatchOptions, find_strip_patches
 from scangeo.lidar.plane_kernel import fit_planes
-from scangeo.lidar.project import LaserProject
 from scangeo.lidar.rowbuffer import RowBuffer, search_strip
 from scangeo.lidar.search import find_all
 from scangeo.lidar.seeded import Seeds, fit_seeds, members
@@ -138,11 +139,11 @@ def test_rows_and_grid_side_by_side_on_the_laser_block(laser_block):  # noqa: F8
     """The strip differences after either search, on all planar cells and on the cells that are not the
     grid route's own tie patches (there the grid route adjusts the very cells it is measured on)."""
     logging.getLogger("scangeo.lsq.solver").setLevel(logging.ERROR)
-    project = LaserProject.load(laser_block)
+    project = Project.load(laser_block)
     truth = json.loads((laser_block / "truth.json").read_text())["truth"]
     after, independent, noise, tie_cells = {}, {}, None, set()
     for method in ("grid", "rows"):
-        block = build(project, LaserOptions(patch_search=method), laser_block / "ground.csv")
+        block = build(project, LaserOptions(patch_search=method), laser_variant(), laser_block / "ground.csv")
         result = run(block)
         ev = evaluate(block, result, apply(block, result.parameters.values()))
         if noise is None:
@@ -164,8 +165,8 @@ def test_dask_route_gives_the_same_patches(laser_block):  # noqa: F811
     pytest.importorskip("dask.distributed")
     from dask.distributed import LocalCluster
 
-    project = LaserProject.load(laser_block)
-    options, prior = LaserOptions().patches, project.sensor.range_sigma_m
+    project = Project.load(laser_block)
+    options, prior = LaserOptions().patches, project.laser.range_sigma_m
     local = find_all(project, options, prior, None)
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster:
         remote = find_all(project, options, prior, None, scheduler=cluster.scheduler_address)
@@ -180,7 +181,7 @@ def test_dask_route_gives_the_same_patches(laser_block):  # noqa: F811
 def test_streamed_cells_and_boxes_equal_the_whole_strip(laser_block):  # noqa: F811
     """Grid cells and control boxes fitted from chunks of 4000 returns, cells let go 1 s after the strip
     left them, are the fits of the whole strip at once; the stream never held half the strip."""
-    project = LaserProject.load(laser_block)
+    project = Project.load(laser_block)
     strip = project.strips[0]
     options = LaserOptions().patches
     given = read_patch_ground(laser_block / "ground.csv")
