@@ -6,10 +6,11 @@ function made linear. Refitting the whole block for each, as :func:`~.patterns.e
 a dense least-squares solve over every strip's functions, so the selection grew with about the cube
 of the block. A tie row couples only the strips that see its point, so the change is local.
 
-Per channel, with ``A`` the current design (all strips' columns), take its QR factorisation
-``A = Q R`` once. Removing strip ``s``'s columns ``S`` leaves the others ``O``; the part of
-``range(A)`` they lose is spanned by ``Q V``, ``V`` an orthonormal basis of ``R^-T E_S`` (orthogonal
-to every column of ``R`` in ``O``). So the residual without strip ``s`` and its square sum are
+Per channel, with ``A`` the current design (all strips' columns), take the triangle ``R`` of its QR
+factorisation ``A = Q R`` once (Householder; ``Q = A R^-1`` is formed only on the rows a probe
+needs). Removing strip ``s``'s columns ``S`` leaves the others ``O``; the part of ``range(A)`` they
+lose is spanned by ``Q V``, ``V`` an orthonormal basis of ``R^-T E_S`` (orthogonal to every column of
+``R`` in ``O``). So the residual without strip ``s`` and its square sum are
 
     r_O = r + Q V V^T Q^T y,        RSS_O = RSS + |V^T Q^T y|^2,
 
@@ -21,11 +22,13 @@ and the projection on ``range(A_O)`` is ``Q (I - V V^T) Q^T``. A candidate's col
 and the rank grows by the columns of ``Z``. So a candidate costs the rows of its strip, and the
 block's size enters once per current model (one QR factorisation per channel).
 
-Everything is computed from orthonormal factors, never from the normal equations ``A^T A``: their
+Everything is computed from the QR factors, never from the normal equations ``A^T A``: their
 rounding alone perturbs ``(A^T A)^-1`` by ``eps cond(A)^2`` of itself, and a nearly unobservable
-common shift of the strips makes ``cond(A)`` about 1e4 (the test block), so the criterion then
-depended on the BLAS kernel at 1e-5. The QR factors' rounding is a change of ``A`` of ``eps``, which
-moves these projections by about ``eps cond(A)``: the result is :func:`~.patterns.evaluate`'s to
+common shift of the strips makes ``cond(A)`` about 1e4 on the test block, where a criterion from
+the normal equations differs between BLAS kernels by 1e-5. Householder's ``R`` is exact for a
+change of ``A`` of ``eps``, which moves these projections by about ``eps cond(A)``; the fit itself
+comes from the corrected semi-normal equations, as accurate for ``cond(A) < eps^-1/2``, which
+:data:`CONDITION` ensures. The result is :func:`~.patterns.evaluate`'s to
 about 1e-9 of the criterion on the test blocks, on every kernel, when both the current design and
 ``H`` are well conditioned. Where they are not, the rank that ``numpy.linalg.lstsq`` would find is in
 doubt, and :meth:`StripProbe.bic` returns None: the caller fits that model with
@@ -116,9 +119,10 @@ class BlockIndex:
 class _Channel:
     """The current model's fit of one channel."""
 
-    Q: np.ndarray  # A = Q R (rows of the channel, used columns)
-    R: np.ndarray
-    c: np.ndarray  # Q^T y
+    A: sp.csr_matrix  # rows of the channel, used columns
+    R: np.ndarray  # A = Q R
+    Rinv: np.ndarray  # R^-1
+    c: np.ndarray  # Q^T y (= R x)
     r: np.ndarray  # the residual y - A x
     rss: float  # r^T r
     n_used: int
@@ -158,15 +162,23 @@ class CurrentFit:
             A.eliminate_zeros()
             used = np.flatnonzero(np.diff(A.indptr) > 0)
             y = data.value[crow]
-            Q, R = np.zeros((crow.size, 0)), np.zeros((0, 0))
+            A = A[:, used].tocsr()
+            R, Rinv, x = np.zeros((0, 0)), np.zeros((0, 0)), np.zeros(used.size)
             good = 0 < used.size <= crow.size
             if good:
-                Q, R = np.linalg.qr(A[:, used].toarray())
+                R = scipy.linalg.qr(A.toarray(), mode="r", check_finite=False)[0][: used.size]
                 sv = np.linalg.svd(R, compute_uv=False)
                 good = bool(sv[-1] > CONDITION * sv[0])
-            c = Q.T @ y
-            r = y - Q @ c if good else y.copy()
-            self.channels.append(_Channel(Q, R, c, r, float(r @ r), used.size, owners[used], consts[used], good))
+            r = y.copy()
+            if good:
+                Rinv = scipy.linalg.solve_triangular(R, np.eye(used.size), check_finite=False)
+                # corrected semi-normal equations: one step of refinement makes them as accurate as
+                # solving with Q for cond(A) < eps^-1/2, which CONDITION ensures
+                for _ in range(2):
+                    x += Rinv @ (Rinv.T @ (A.T @ r))
+                    r = y - A @ x
+            self.channels.append(_Channel(A, R, Rinv, R @ x, r, float(r @ r), used.size, owners[used], consts[used],
+                                          good))
 
     def bic(self, rho: dict[str, float] | None, n_breaks: int) -> float | None:
         """The current model's BIC as :func:`~.patterns.evaluate` computes it; None when a channel's
@@ -232,11 +244,9 @@ class StripProbe:
                 self.parts.append((ch.rss, ch.n_used))
                 continue
             # V: the part of range(R) that strip s's columns S add to the others' (orthogonal to R[:, O])
-            E_S = np.zeros((ch.n_used, S.size))
-            E_S[S, np.arange(S.size)] = 1.0
-            V = np.linalg.qr(scipy.linalg.solve_triangular(ch.R, E_S, trans="T", check_finite=False))[0]
+            V = np.linalg.qr(ch.Rinv[S].T)[0]  # an orthonormal basis of R^-T E_S
             cV = V.T @ ch.c
-            Q_R = ch.Q[R]
+            Q_R = np.asarray(ch.A[R] @ ch.Rinv)  # the rows R of Q = A R^-1
             QV_R = Q_R @ V
             self.parts.append(_Local(R, Q_R - QV_R @ V.T, ch.r[R] + QV_R @ cV, ch.rss + float(cV @ cV),
                                      ch.n_used - S.size))
