@@ -24,11 +24,12 @@ from pathlib import Path
 
 import numpy as np
 
+from scangeo.adjustment.variants import laser_variant
+from scangeo.io.project import Project
 from scangeo.lidar.adjust import LaserOptions, build, run
 from scangeo.lidar.control import read_patch_ground
 from scangeo.lidar.lasio import StripCloud, iter_returns
 from scangeo.lidar.patches import find_strip_patches
-from scangeo.lidar.project import LaserProject
 from scangeo.lidar.rowbuffer import search_strip
 from scangeo.lidar.search import _pass1, find_all
 from scangeo.lidar.seeded import Seeds, fit_seeds
@@ -66,9 +67,9 @@ def main() -> None:
         f"block: {len(truth['strips'])} strips, {returns / 1e6:.2f} M returns "
         f"({returns / len(truth['strips']) / 1e6:.2f} M per strip)"
     )
-    project = LaserProject.load(root)
+    project = Project.load(root)
     options = LaserOptions(workers=a.workers)
-    popt, prior = options.patches, project.sensor.range_sigma_m
+    popt, prior = options.patches, project.laser.range_sigma_m
     search_throughput(project, popt, prior)
     if a.search_only:
         return
@@ -89,7 +90,7 @@ def main() -> None:
         f"(serial estimate {n * one:.1f} s, ratio {n * one / par:.2f}); target < 60 s"
     )
     t, c = time.perf_counter(), time.process_time()
-    block = build(project, options, root / "ground.csv", found=found)
+    block = build(project, options, laser_variant(), root / "ground.csv", found=found)
     setup = time.perf_counter() - t
     t = time.perf_counter()
     result = run(block)

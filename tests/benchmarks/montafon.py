@@ -27,9 +27,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from scangeo.adjustment.keys import Boresight  # noqa: E402
+from scangeo.adjustment.variants import laser_variant  # noqa: E402
+from scangeo.io.project import Project  # noqa: E402
 from scangeo.lidar.adjust import LaserOptions, build, run  # noqa: E402
 from scangeo.lidar.evaluation import apply, evaluate  # noqa: E402
-from scangeo.lidar.project import LaserProject  # noqa: E402
 from scangeo.orientation.models import Correction  # noqa: E402
 from scangeo.resources import preset_file  # noqa: E402
 from scangeo.simulate.laser import load_laser_config, simulate_laser  # noqa: E402
@@ -49,8 +50,9 @@ def main() -> None:
         simulate_laser(root, load_laser_config(preset_file("montafon"), overrides))
         print(f"simulated in {time.process_time() - t:.0f} s CPU")
     t0 = time.process_time()
-    project = LaserProject.load(root)
-    block = build(project, LaserOptions.from_table(project.adjustment, str(root / "project.toml")), root / "ground.csv")
+    project = Project.load(root)
+    block = build(project, LaserOptions.from_table(project.adjustment, str(root / "project.toml")), laser_variant(),
+                  root / "ground.csv")
     t1 = time.process_time()
     result = run(block)
     t2 = time.process_time()

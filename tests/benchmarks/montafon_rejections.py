@@ -34,10 +34,11 @@ from scipy.stats import norm
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
+from scangeo.adjustment.variants import laser_variant  # noqa: E402
+from scangeo.io.project import Project  # noqa: E402
 from scangeo.lidar.adjust import LaserOptions, anchor_points, build, run  # noqa: E402
 from scangeo.lidar.groups import FOUR_TO_THREE, StripAnchors  # noqa: E402
 from scangeo.lidar.planes import ANCHORS  # noqa: E402
-from scangeo.lidar.project import LaserProject  # noqa: E402
 from scangeo.resources import preset_file  # noqa: E402
 from scangeo.simulate.laser import load_laser_config, simulate_laser  # noqa: E402
 from scangeo.simulate.laser_plan import block_half_extent, valley_of  # noqa: E402
@@ -215,13 +216,13 @@ def main() -> None:
                                                 else __import__("dataclasses").asdict(cfg))):
         print("note: DIR was simulated with another configuration than --laser gives; the scene may differ")
     t0 = time.process_time()
-    project = LaserProject.load(root)
+    project = Project.load(root)
     options = LaserOptions.from_table(project.adjustment, str(root / "project.toml"))
-    block = build(project, options, root / "ground.csv")
+    block = build(project, options, laser_variant(), root / "ground.csv")
     result = run(block)
     print(f"set-up and adjustment {time.process_time() - t0:.0f} s CPU; sigma0 {result.statistics.sigma0:.3f}")
     table = units_table(block, result, saved["truth"], scene_of(cfg))
-    summary = report(table, options.critical_value)
+    summary = report(table, block.variant.critical_value)
     if args.json:
         args.json.write_text(json.dumps({"summary": summary, "units": {k: v.tolist() for k, v in table.items()}}))
 
