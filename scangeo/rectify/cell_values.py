@@ -29,11 +29,11 @@ def resample_tile(run: StripRun, w: Window, dst, lay, glt: GltWriter | None) -> 
         valid &= seen
     resampling = run.options.resampling
     _, radius = RESAMPLING[resampling]
-    lw = line_window(line, valid, g.lines, radius)
+    lw = line_window(line, valid, g.lines, radius, pixel, g.pixels)
     if lw is None:
         out = np.full((src.count,) + line.shape, run.nodata, dtype=np.dtype(src.dtypes[0]))
     else:
-        data = src.read(window=lw.window(g.pixels))
+        data = run.reader.read(lw.window(g.pixels))
         out = remap_bands(data, line, pixel, lw, resampling)
         if src.nodata is not None:
             valid &= ~source_nodata_mask(data, src.nodata, line, pixel, lw, resampling)

@@ -14,8 +14,9 @@ the final file is assembled from the spool in the cloud-optimised order:
 * the blocks, the smallest overview level first and the full resolution last, row-major within a
   level, each preceded by its size (4 bytes) and followed by its last 4 bytes repeated.
 
-Pixel-interleaved, predictor 2 (horizontal differencing) for integer types, deflate level 1 by
-default. The georeferencing and metadata tags (GeoKeys, pixel scale and tie point, GDAL's nodata and
+Pixel-interleaved, predictor 2 (horizontal differencing) for integer types and predictor 3 (the
+floating-point predictor: byte planes, then differencing) for floats, deflate level 1 by default.
+The georeferencing and metadata tags (GeoKeys, pixel scale and tie point, GDAL's nodata and
 metadata with the band descriptions, the software tag) are GDAL's own: they are copied from a
 one-cell GeoTIFF that GDAL writes in memory with the same CRS, transform, bands and tags, so a
 reader sees what GDAL's COG driver would have written; only the pixel blocks are scangeo's.
@@ -195,17 +196,18 @@ class CogWriter:
         :meth:`finish` and :meth:`close`).
     level : deflate level (ISA-L's 0-3; ``None``: 1); ``compress="none"`` stores the blocks raw.
     threads : encoding threads.
+    backlog_bytes : blocks waiting for an encoder, bytes at most (but two blocks).
     """
 
     def __init__(self, spool: Path, *, width: int, height: int, count: int, dtype, nodata, crs,
                  transform: Affine, blocksize: int = 512, factors: list[int] | None = None,
                  compress: str = "deflate", level: int | None = None, predictor: bool = True,
-                 threads: int = 2) -> None:
+                 threads: int = 2, backlog_bytes: int = BACKLOG_BYTES) -> None:
         self.dtype = np.dtype(dtype)
         if compress not in ("deflate", "none"):
             raise ValueError(f"CogWriter: compress {compress!r} is not deflate or none")
-        if predictor and not np.issubdtype(self.dtype, np.integer):
-            raise ValueError("CogWriter: the predictor is for integer types only (GDAL writes floats)")
+        if predictor and not (np.issubdtype(self.dtype, np.integer) or np.issubdtype(self.dtype, np.floating)):
+            raise ValueError(f"CogWriter: no predictor for {self.dtype}")
         self.width, self.height, self.count = width, height, count
         self.nodata, self.crs, self.transform = nodata, crs, transform
         self.bs = blocksize
@@ -232,7 +234,7 @@ class CogWriter:
         #: encoded during the next strip's pass 1), at most BACKLOG_BYTES of them (5.8 MB a block
         #: of 11 bands of uint16, 117 MB one of 224 bands), but 2
         block_bytes = count * blocksize * blocksize * self.dtype.itemsize
-        self._slots = threading.BoundedSemaphore(max(2, min(4 * max(1, threads) + 4, BACKLOG_BYTES // block_bytes)))
+        self._slots = threading.BoundedSemaphore(max(2, min(4 * max(1, threads) + 4, backlog_bytes // block_bytes)))
         self._futures: list[Future] = []
         self._submitted: set[tuple[int, int]] = set()
 
@@ -286,9 +288,12 @@ class CogWriter:
 
     # -- encoding (worker threads) --------------------------------------------------------------
     def encode(self, block: np.ndarray) -> bytes:
-        """A block (bands, bs, bs) as the TIFF stores it: pixel-interleaved, differenced, deflated."""
+        """A block (bands, bs, bs) as the TIFF stores it: pixel-interleaved, differenced (integers:
+        predictor 2; floats: predictor 3), deflated."""
         t = block.transpose(1, 2, 0)
-        if self.predictor:
+        if self.predictor and self.dtype.kind == "f":
+            d = floating_point_predictor(t)
+        elif self.predictor:
             d = np.empty(t.shape, self.dtype)
             d[:, 0] = t[:, 0]
             np.subtract(t[:, 1:], t[:, :-1], out=d[:, 1:])
@@ -352,7 +357,7 @@ class CogWriter:
                 Tag.of(325, off_type, *[self._where[(k, i)][1] for i in range(n)]),
             ]
             if self.compress != "none":  # as GDAL: 1 (none) when compressed without the predictor
-                tags.append(Tag.of(317, SHORT, 2 if self.predictor else 1))
+                tags.append(Tag.of(317, SHORT, (3 if self.dtype.kind == "f" else 2) if self.predictor else 1))
             keep = (lambda c: c not in _STRUCTURE) if k == 0 else (lambda c: c in _OVERVIEW_TAGS)
             tags += [t for c, t in template.items() if keep(c)]
             if k:
@@ -405,6 +410,22 @@ class CogWriter:
         if not self._spool.closed:
             self._spool.close()
         self._spool_path.unlink(missing_ok=True)
+
+
+def floating_point_predictor(rows: np.ndarray) -> np.ndarray:
+    """TIFF predictor 3 (Adobe's floating-point predictor, as libtiff's ``fpDiff``) of pixel-interleaved
+    rows ``(rows, cols, samples)`` of floats: each row's values split into byte planes, the most
+    significant byte of every value first, then each byte minus the byte ``samples`` before it
+    (modulo 256). Returns the bytes, ``(rows, cols * samples * itemsize)`` uint8."""
+    n_rows, cols, samples = rows.shape
+    size = rows.dtype.itemsize
+    values = np.ascontiguousarray(rows, dtype=rows.dtype.newbyteorder("<")).reshape(n_rows, cols * samples)
+    planes = values.view(np.uint8).reshape(n_rows, cols * samples, size)[:, :, ::-1]   # big-endian bytes
+    b = np.ascontiguousarray(planes.transpose(0, 2, 1)).reshape(n_rows, size * cols * samples)
+    out = np.empty_like(b)
+    out[:, :samples] = b[:, :samples]
+    np.subtract(b[:, samples:], b[:, :-samples], out=out[:, samples:])  # uint8: modulo 256
+    return out
 
 
 def _copy(src, dst, offset: int, n: int) -> None:

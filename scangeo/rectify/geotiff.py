@@ -14,7 +14,7 @@ import math
 import os
 import shutil
 import uuid
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +26,7 @@ from rasterio.windows import Window
 from scangeo.atomic import commit
 from scangeo.errors import RectifyOptionsError
 from scangeo.io.schema import Rule, check, setting
-from scangeo.rectify.cog_writer import CogWriter
+from scangeo.rectify.cog_writer import BACKLOG_BYTES, CogWriter
 from scangeo.rectify.output_grid import OutputGrid
 from scangeo.rectify.overviews import with_overviews
 
@@ -41,6 +41,8 @@ def _thread_count(value: str | int) -> bool:
 
 _THREADS = Rule(_thread_count, "ALL_CPUS or a number >= 1")
 _WRITERS = ("scangeo", "gdal")
+#: A pixel-interleaved block holds at most this many bytes, uncompressed (:meth:`GeoTiffProfile.for_image`)
+BLOCK_BYTES = 16 * 2**20
 #: With ``overviews = "auto"`` an output whose larger side exceeds this many cells gets internal
 #: overviews: a viewer (QGIS) zoomed out on a larger raster reads every cell without them
 #: (docs/rectify.md, the cost measured in docs/performance.md).
@@ -66,8 +68,8 @@ class GeoTiffProfile:
     threads : compression threads (``ALL_CPUS`` or a number).
     writer : who compresses and lays out a COG. ``"scangeo"`` (default):
         :class:`~scangeo.rectify.cog_writer.CogWriter`, deflate by ISA-L (levels 1-3) as the tiles
-        are made, for every case it covers (:meth:`scangeo_writes`: deflate or none, predictor on
-        integers only); GDAL's COG driver for the rest. ``"gdal"``: GDAL's COG driver always
+        are made, for every case it covers (:meth:`scangeo_writes`: deflate or none, integers and
+        floats); GDAL's COG driver for the rest. ``"gdal"``: GDAL's COG driver always
         (deflate by libdeflate after the tiles are written; the benchmark's 10,000-line 11-band
         strip took 7.18 CPU s per pipelined strip that way against 5.33, docs/performance.md).
     """
@@ -95,19 +97,31 @@ class GeoTiffProfile:
 
     def scangeo_writes(self, dtype) -> bool:
         """Whether scangeo's own COG writer writes an output of ``dtype`` with this profile: a COG,
-        deflate at level 1-3 or no compression, the horizontal predictor only on integers."""
+        deflate at level 1-3 or no compression, integers or floats."""
         if self.writer != "scangeo" or not self.cog or self.compress not in ("deflate", "none"):
             return False
         if self.compress == "deflate" and self.level is not None and self.level > 3:
             return False
-        return not (self.predictor and self.compress != "none" and not np.issubdtype(np.dtype(dtype), np.integer))
+        return np.dtype(dtype).kind in "uif"
+
+    def for_image(self, count: int, dtype, block_bytes: float = BLOCK_BYTES) -> GeoTiffProfile:
+        """This profile for an output of ``count`` bands of ``dtype``: the block size halved (to 64 at
+        least) while a pixel-interleaved block holds more than ``block_bytes`` (:data:`BLOCK_BYTES`),
+        so that the blocks in memory (the COG writer's, GDAL's) stay bounded for cubes of hundreds of
+        bands (182 bands of float32: 128-cell blocks of 12 MB instead of 512-cell ones of 191 MB)."""
+        size = self.blocksize
+        while size > 64 and count * size * size * np.dtype(dtype).itemsize > block_bytes:
+            size //= 2
+        return self if size == self.blocksize else replace(self, blocksize=size)
 
     def cog_writer(self, spool: Path, width: int, height: int, count: int, dtype, nodata, crs, transform,
-                   factors: list[int]) -> CogWriter:
-        """scangeo's COG writer of an output with this profile (when :meth:`scangeo_writes`)."""
+                   factors: list[int], backlog_bytes: int = BACKLOG_BYTES) -> CogWriter:
+        """scangeo's COG writer of an output with this profile (when :meth:`scangeo_writes`);
+        ``backlog_bytes``: blocks waiting for an encoder at most (a strip's memory budget bounds it)."""
         return CogWriter(spool, width=width, height=height, count=count, dtype=dtype, nodata=nodata, crs=crs,
                          transform=transform, blocksize=self.blocksize, factors=factors, compress=self.compress,
-                         level=self.level, predictor=self.predictor, threads=self.thread_count())
+                         level=self.level, predictor=self.predictor, threads=self.thread_count(),
+                         backlog_bytes=backlog_bytes)
 
     def wants_overviews(self, width: int, height: int) -> bool:
         """Whether an output of ``width`` x ``height`` cells gets internal overviews."""
@@ -251,6 +265,7 @@ def finalise(working: Path, final: Path, profile: GeoTiffProfile, dtype, levels_
     tmp = partial_path(final, ".tif")
     driver = "COG" if profile.cog else "GTiff"
     with rasterio.open(working) as src:
+        profile = profile.for_image(src.count, dtype)
         factors = overviews_of(profile, src.width, src.height)
         if profile.scangeo_writes(dtype):
             _write_cog(src, final, tmp, profile, factors)

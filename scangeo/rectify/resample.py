@@ -2,8 +2,8 @@
 
 OpenCV's remap takes float32 maps of source (x = pixel, y = line) positions, pixel centres at
 integers: the same convention as scangeo's image coordinates, so no half-pixel shift is involved.
-Only the line window a tile needs (plus the kernel's reach) is read from the image, through a
-rasterio window, so memory is bounded by the tile size, not by the strip length.
+Only the window a tile needs (its lines and, of those, its pixels, plus the kernel's reach) is read
+from the image, so memory is bounded by the tile size, not by the strip's length or width.
 """
 from __future__ import annotations
 
@@ -33,23 +33,37 @@ def check_resampling(name: str) -> str:
 
 @dataclass(frozen=True)
 class LineWindow:
-    """Image lines ``start .. stop - 1`` of a tile (all pixels of each line)."""
+    """Image lines ``start .. stop - 1`` of a tile, and of each line the pixels ``first .. last - 1``
+    (``last`` None: to the line's end)."""
 
     start: int
     stop: int
+    first: int = 0
+    last: int | None = None
 
     def window(self, pixels: int) -> Window:
-        return Window(0, self.start, pixels, self.stop - self.start)
+        last = pixels if self.last is None else self.last
+        return Window(self.first, self.start, last - self.first, self.stop - self.start)
 
 
-def line_window(line: np.ndarray, valid: np.ndarray, lines: int, radius: int) -> LineWindow | None:
-    """The image lines cells ``valid`` need, widened by the kernel radius; None when none."""
+def line_window(line: np.ndarray, valid: np.ndarray, lines: int, radius: int, pixel: np.ndarray | None = None,
+                pixels: int | None = None) -> LineWindow | None:
+    """The image lines cells ``valid`` need, widened by the kernel radius; None when none. With
+    ``pixel`` and ``pixels``, also the pixels of those lines they need (a tile across a wide swath
+    reads its part of the lines only)."""
     if not valid.any():
         return None
     lv = line[valid]
     start = max(int(np.floor(lv.min())) - radius, 0)
     stop = min(int(np.ceil(lv.max())) + radius + 1, lines)
-    return LineWindow(start, stop) if stop > start else None
+    if stop <= start:
+        return None
+    if pixel is None or pixels is None:
+        return LineWindow(start, stop)
+    pv = pixel[valid]
+    first = min(max(int(np.floor(pv.min())) - radius, 0), pixels - 1)
+    last = max(min(int(np.ceil(pv.max())) + radius + 1, pixels), first + 1)
+    return LineWindow(start, stop, first, last)
 
 
 def in_image(line: np.ndarray, pixel: np.ndarray, lines: int, pixels: int) -> np.ndarray:
@@ -69,7 +83,7 @@ def remap_bands(
 
     Parameters
     ----------
-    data : image lines ``window.start .. window.stop - 1``, all pixels.
+    data : image lines ``window.start .. window.stop - 1``, pixels ``window.first ..``.
     line, pixel : (rows, cols) image coordinates of the output cells (full-image lines).
     method : ``nearest``, ``bilinear`` or ``cubic``.
 
@@ -91,7 +105,7 @@ def remap_bands(
 
 def _maps(line: np.ndarray, pixel: np.ndarray, window: LineWindow) -> tuple[np.ndarray, np.ndarray]:
     """cv2.remap's float32 maps of (pixel, line in the window); NaN (unseen) as -1 (masked later)."""
-    map_x = np.nan_to_num(pixel.astype(np.float32), copy=False, nan=-1.0)
+    map_x = np.nan_to_num((pixel - window.first).astype(np.float32), copy=False, nan=-1.0)
     map_y = np.nan_to_num((line - window.start).astype(np.float32), copy=False, nan=-1.0)
     return map_x, map_y
 

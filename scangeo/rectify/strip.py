@@ -38,10 +38,11 @@ from scangeo.errors import InputFileError
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify.cell_map import map_cells
 from scangeo.rectify.cell_values import resample_tile, time_origin
-from scangeo.rectify.cog_writer import CogWriter
+from scangeo.rectify.cog_writer import BACKLOG_BYTES, CogWriter
 from scangeo.rectify.geolocation import GltWriter
 from scangeo.rectify.geometry import MapStripGeometry
 from scangeo.rectify.geotiff import (
+    BLOCK_BYTES,
     BandInfo,
     bands_of,
     describe,
@@ -122,14 +123,18 @@ def resample(run: StripRun, bands: list[BandInfo], tags: Mapping[str, object] | 
         dtype,
     )
     windows = run.windows
-    gp = run.options.geotiff
+    # blocks of at most 16 MiB and a 32nd of the memory budget (the COG writer holds a few per level)
+    budget = run.options.memory_budget_mb * 2**20
+    gp = run.options.geotiff.for_image(src.count, dtype, min(BLOCK_BYTES, budget / 32))
     tiles: CogWriter | _Tee | rasterio.io.DatasetWriter
     with contextlib.ExitStack() as stack:
         factors = overviews_of(gp, grid.width, grid.height)
         aligned = not factors or LevelTiles.aligned(run.result.tile_size, factors)
         if aligned and gp.scangeo_writes(dtype):
+            # the encoders' backlog within the strip's memory budget (an eighth, as GDAL's block cache)
+            backlog = int(min(BACKLOG_BYTES, budget / 8))
             out.cog = gp.cog_writer(run.work_dir / "blocks.spool", grid.width, grid.height, src.count, dtype,
-                                    run.nodata, grid.crs, grid.transform, factors)
+                                    run.nodata, grid.crs, grid.transform, factors, backlog)
             stack.push(lambda exc_type, *_: out.cog.close() if exc_type is not None and out.cog else None)
             tiles, out.bands = out.cog, list(bands)
         else:

@@ -22,6 +22,7 @@ from scangeo.rectify.geometry import MapStripGeometry, footprint_bounds, nadir_g
 from scangeo.rectify.inverse_map import InverseMapStats
 from scangeo.rectify.options import RectifyOptions
 from scangeo.rectify.output_grid import OutputGrid, nice_resolution
+from scangeo.rectify.raw_image import GdalReader, RawCube, image_reader
 
 log = logging.getLogger(__name__)
 
@@ -163,6 +164,11 @@ class StripRun:
     work: WorkArrays
     zbuf: occlusion.ZBuffer | None
     result: StripResult
+    #: ``read(window)`` of the image's bands: raw for a plain ENVI cube, else GDAL (``raw_image``)
+    reader: RawCube | GdalReader = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.reader = image_reader(self.src)
 
     @property
     def windows(self) -> list[Window]:

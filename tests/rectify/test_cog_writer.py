@@ -121,7 +121,8 @@ TAGS = {"TIFFTAG_SOFTWARE": "scangeo test", "variant": "SE", "sigma0": 1.25}
 
 @pytest.mark.parametrize("dtype, predictor, compress", [
     (np.uint16, True, "deflate"), (np.int16, True, "deflate"), (np.uint8, True, "deflate"),
-    (np.float32, False, "deflate"), (np.uint16, False, "deflate"), (np.uint16, False, "none"),
+    (np.float32, False, "deflate"), (np.float32, True, "deflate"), (np.float64, True, "deflate"),
+    (np.uint16, False, "deflate"), (np.uint16, False, "none"),
 ])
 def test_the_same_file_as_gdals_cog_driver_but_for_the_compressed_bytes(tmp_path, dtype, predictor, compress):
     data = image((3, 1100, 700), dtype)
@@ -212,7 +213,7 @@ def test_which_outputs_scangeo_writes_itself():
     assert GeoTiffProfile().scangeo_writes(np.uint16)
     assert GeoTiffProfile(level=3).scangeo_writes(np.uint16)
     assert not GeoTiffProfile(level=6).scangeo_writes(np.uint16)  # above ISA-L's levels: GDAL's libdeflate
-    assert not GeoTiffProfile().scangeo_writes(np.float32)  # the floating-point predictor: GDAL
+    assert GeoTiffProfile().scangeo_writes(np.float32)  # with the floating-point predictor (3)
     assert GeoTiffProfile(predictor=False).scangeo_writes(np.float32)
     assert not GeoTiffProfile(compress="zstd").scangeo_writes(np.uint16)
     assert not GeoTiffProfile(cog=False).scangeo_writes(np.uint16)
@@ -224,3 +225,13 @@ def test_which_outputs_scangeo_writes_itself():
         GeoTiffProfile(writer="tifffile")
     with pytest.raises(RectifyOptionsError, match="threads"):
         GeoTiffProfile(threads="many")
+
+
+def test_blocks_of_a_cube_of_many_bands_stay_small():
+    """A pixel-interleaved block holds every band: for 182 bands of float32 the 512-cell block would
+    be 191 MB; the profile for such an image halves the block size until a block is 16 MiB at most."""
+    profile = GeoTiffProfile()
+    assert profile.for_image(11, np.uint16) is profile  # 5.8 MB blocks: unchanged
+    cube = profile.for_image(182, np.float32)
+    assert cube.blocksize == 128 and 182 * 128 * 128 * 4 <= 16 * 2**20
+    assert GeoTiffProfile(blocksize=256).for_image(4000, np.float64).blocksize == 64  # never below 64
