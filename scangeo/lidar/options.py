@@ -27,7 +27,7 @@ class LaserOptions:
     mode: str = setting("auto", choices=MODES, doc="trajectory (GPS/IMU corrections), points (trajectory-free) "
                         "or auto (trajectory when every strip has one)")
     patch_search: str = setting("rows", choices=METHODS, doc="rows: row buffer of scan lines and seeded second "
-                                "pass (Kager 2004); grid: cells of one fixed grid (issue 16)")
+                                "pass (Kager 2004); grid: cells of one fixed grid")
     patch_size: float = setting(6.0, gt=0, unit="m", doc="patch size (row-buffer window, grid cell)")
     min_patch_points: int = setting(13, ge=4, unit="1", doc="returns a patch keeps after snooping, at least")
     max_patch_sigma: float = setting(0.05, gt=0, unit="m", doc="a posteriori sigma of a patch's plane, at most")

@@ -121,3 +121,17 @@ def test_laser_variants_round_trip_with_the_laser_defaults(tmp_path):
     with pytest.raises(ProjectFileError, match=r"\[variants.split.calibrate\]: 'range_offset' is not a calibration "
                                                r"unknown of an image project"):
         read_variants(path)  # an image project reads the same file without the laser's unknowns
+
+
+def test_a_laser_preset_refuses_image_arguments_naming_them(tmp_path):
+    from scangeo.workflow import simulate_project
+
+    for kwargs, name in (({"dtm": "dtm.tif"}, "dtm"), ({"images": False}, "images"), ({"texture": "t.tif"}, "texture")):
+        with pytest.raises(ProjectFileError, match=rf"laser.toml: a laser preset has no images, DTM or texture; "
+                                                   rf"cannot use {name}"):
+            simulate_project(tmp_path / "out", "laser", **kwargs)
+        assert not (tmp_path / "out").exists()
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "x").write_text("x")
+    with pytest.raises(ProjectFileError, match=r"full: the folder exists and is not empty"):
+        simulate_project(tmp_path / "full", "laser")
