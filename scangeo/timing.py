@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from scangeo.errors import ProjectFileError
+from scangeo.textfile import read_text
 
 
 @dataclass(frozen=True)
@@ -38,8 +39,9 @@ class LineTiming:
     def from_table_file(cls, path) -> LineTiming:
         """Read ``line,time`` (or a single ``time`` column) CSV with a header line."""
         path = Path(path)
+        lines = read_text(path, "a line time table (CSV)", ProjectFileError).splitlines()
         try:
-            data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+            data = np.loadtxt(lines, delimiter=",", skiprows=1, ndmin=2)
         except (OSError, ValueError) as exc:
             raise ProjectFileError(f"{path}: cannot read the line time table ({exc})") from exc
         if data.shape[0] < 2 or not np.isfinite(data).all():

@@ -17,9 +17,11 @@ import argparse
 import importlib
 import logging
 import sys
+from pathlib import Path
 
 from scangeo.atomic import OutputLock
 from scangeo.errors import ProjectFileError, ScangeoError
+from scangeo.io.toml_config import load_toml
 from scangeo.progress import TextProgress, no_progress
 from scangeo.version import __version__
 
@@ -57,15 +59,9 @@ def common_options() -> argparse.ArgumentParser:
 def settings_table(path: str | None, name: str) -> dict:
     """The ``[name]`` table of a command's ``--config`` TOML file (empty without one); any other
     table, or a file that cannot be read, is a ProjectFileError naming the file."""
-    import tomllib
-
     if not path:
         return {}
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise ProjectFileError(f"{path}: cannot read the settings ({exc})") from exc
+    data = load_toml(Path(path))
     unknown = [k for k in data if k != name]
     if unknown:
         raise ProjectFileError(f"{path}: unknown table [{unknown[0]}] (expected [{name}])")

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from scangeo.errors import MissingFileError, ParGeFileError
+from scangeo.textfile import read_text
 
 
 @dataclass(frozen=True)
@@ -34,11 +35,8 @@ class HySpexSensorModel:
         path = Path(path)
         if not path.exists():
             raise MissingFileError(f"{path}: no such sensor-model file")
-        try:
-            text = path.read_text(encoding="utf-8-sig")
-        except UnicodeDecodeError as exc:
-            raise ParGeFileError(f"{path}: not UTF-8 text at byte {exc.start} (expected a HySpex sensor model: "
-                                 "'pixel vinkelx vinkely' and one row per pixel)") from None
+        text = read_text(path, "a HySpex sensor model: 'pixel vinkelx vinkely' and one row per pixel",
+                         ParGeFileError)
         rows = [line.split() for line in text.splitlines()]
         rows = [r for r in rows if r]
         if not rows or [c.lower() for c in rows[0][:3]] != ["pixel", "vinkelx", "vinkely"]:

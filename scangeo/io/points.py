@@ -9,6 +9,7 @@ is a tie point.
 from __future__ import annotations
 
 import csv
+import io
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,19 +17,15 @@ import numpy as np
 
 from scangeo.atomic import write_csv
 from scangeo.errors import ProjectFileError
+from scangeo.textfile import read_text
 
 ROLES = ("control", "check", "height", "planimetric")
 
 
 def read_rows(path: Path, required: list[str], optional: list[str]) -> tuple[list[str], list[list[str]], list[int]]:
+    text = read_text(path, "a CSV file", ProjectFileError)
     try:
-        with open(path, newline="", encoding="utf-8") as f:
-            reader = csv.reader(f)
-            rows = list(reader)
-    except OSError as exc:
-        raise ProjectFileError(f"{path}: cannot read ({exc.strerror})") from exc
-    except UnicodeDecodeError as exc:
-        raise ProjectFileError(f"{path}: not UTF-8 text at byte {exc.start} (expected a CSV file)") from None
+        rows = list(csv.reader(io.StringIO(text, newline="")))
     except csv.Error as exc:
         raise ProjectFileError(f"{path}: not a CSV file ({exc})") from None
     if not rows:

@@ -22,6 +22,7 @@ from scangeo.io.project_schema import SensorKeys, StripKeys, read_project_file
 from scangeo.io.toml_config import load_toml
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.sensors.strip import Mounting, StripGeometry
+from scangeo.textfile import read_text
 from scangeo.timing import LineTiming
 from scangeo.trajectory.checks import check_strip_trajectory, strip_times_of
 from scangeo.trajectory.readers import read_trajectory
@@ -109,8 +110,9 @@ def las_extent(path: Path) -> tuple[float, float, float, float]:
 
 def read_look_angles(path: Path, pixels: int) -> tuple[np.ndarray, np.ndarray]:
     """``pixel,along_deg,across_deg`` CSV -> (along, across) radians."""
+    lines = read_text(path, "a look-angle table (CSV)", ProjectFileError).splitlines()
     try:
-        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+        data = np.loadtxt(lines, delimiter=",", skiprows=1, ndmin=2)
     except (OSError, ValueError) as exc:
         raise ProjectFileError(f"{path}: cannot read the look-angle table ({exc})") from exc
     if data.shape != (pixels, 3) or not np.array_equal(data[:, 0], np.arange(pixels)):

@@ -18,6 +18,7 @@ from scangeo.frames import geodetic_to_ecef
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
 from scangeo.sensors.models import Whiskbroom
+from scangeo.textfile import read_text
 from scangeo.trajectory.readers import read_sbet, read_trajectory_csv
 
 KINDS = ("trajectory", "dtm", "image", "points", "ground", "project")
@@ -67,12 +68,8 @@ def _is_binary(path: Path) -> bool:
 
 
 def _text_kind(path: Path) -> str:
-    try:
-        with open(path, encoding="utf-8-sig") as f:
-            header = f.readline()
-    except UnicodeDecodeError as exc:
-        raise InputFileError(f"{path}: not UTF-8 text at byte {exc.start} (expected a CSV with a header line; "
-                             "an Applanix SBET needs the extension .out or .sbet)") from None
+    text = read_text(path, "a CSV with a header line; an Applanix SBET needs the extension .out or .sbet")
+    header = text.split("\n", 1)[0]
     names = {c.strip().strip("\"'").strip().lower() for c in header.replace("\t", ",").replace(" ", ",").split(",")}
     if "point" in names:
         return "ground" if {"x", "y", "z"} <= names else "points"

@@ -2,19 +2,18 @@
 from __future__ import annotations
 
 import tomllib
+from importlib.resources.abc import Traversable
 from pathlib import Path
 
 from scangeo.errors import ProjectFileError
+from scangeo.textfile import read_text
 
 
-def load_toml(path: Path) -> dict:
-    """Parse a TOML file; syntax errors name the file and position."""
+def load_toml(path: Path | Traversable) -> dict:
+    """Parse a TOML file saved as UTF-8 (a byte-order mark allowed: :func:`scangeo.textfile.read_text`);
+    syntax errors name the file and position."""
+    text = read_text(path, "a TOML file", ProjectFileError)
     try:
-        with open(path, "rb") as f:
-            return tomllib.load(f)
-    except OSError as exc:
-        raise ProjectFileError(f"{path}: cannot read ({exc.strerror})") from exc
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ProjectFileError(f"{path}: not valid TOML ({exc})") from exc
-    except UnicodeDecodeError as exc:
-        raise ProjectFileError(f"{path}: not UTF-8 text at byte {exc.start} (expected a TOML file)") from None

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from scangeo.errors import InputFileError, LidarError
+from scangeo.textfile import read_text
 
 
 @dataclass(frozen=True)
@@ -69,8 +70,9 @@ def area_mean_budget(points: int, pieces: int, strips: int, alpha: float = 1.0,
 def alpha_from_covariance(path: str | Path, sigma_offset_cm: float) -> float:
     """alpha from an offset covariance matrix file (m^2; ``.npy`` or whitespace-separated text)."""
     path = Path(path)
+    lines = None if path.suffix == ".npy" else read_text(path, "a covariance matrix (text)").splitlines()
     try:
-        C = np.load(path) if path.suffix == ".npy" else np.loadtxt(path, ndmin=2)
+        C = np.load(path) if lines is None else np.loadtxt(lines, ndmin=2)
     except (OSError, ValueError) as exc:
         raise InputFileError(f"{path}: cannot read an offset covariance matrix ({exc})") from exc
     C = np.atleast_2d(np.asarray(C, dtype=float))

@@ -17,7 +17,6 @@ them.
 from __future__ import annotations
 
 import logging
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +26,7 @@ from scipy.optimize import least_squares
 
 from scangeo.errors import InputFileError
 from scangeo.frames import R_ecef_ned, geodetic_to_ecef
+from scangeo.io.toml_config import load_toml
 from scangeo.lidar.las_header import check_las_file
 from scangeo.lidar.lasio import laspy_errors
 from scangeo.rotation import rph_to_matrix, unwrap_heading
@@ -46,15 +46,15 @@ class LeewardConfig:
 def read_leeward_config(path: str | Path) -> LeewardConfig:
     """The leeward config.toml (boresight in radians, as leeward's code reads it)."""
     path = Path(path)
+    data = load_toml(path)
     try:
-        data = tomllib.loads(path.read_text())
         b = data["boresight"]
         return LeewardConfig(
             (float(b["roll"]), float(b["pitch"]), float(b["yaw"])),
             (float(data["lever_arm"][0]), float(data["lever_arm"][1]), float(data["lever_arm"][2])),
             int(data["utm_zone"]),
         )
-    except (KeyError, ValueError, TypeError, tomllib.TOMLDecodeError) as exc:
+    except (KeyError, ValueError, TypeError) as exc:
         raise InputFileError(f"{path}: expected utm_zone, lever_arm and [boresight] roll/pitch/yaw ({exc!r})") from exc
 
 

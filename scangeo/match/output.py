@@ -10,11 +10,13 @@ ground position, kind and number of strips; for GIS).
 from __future__ import annotations
 
 import csv
+import io
 import json
 from pathlib import Path
 
 from scangeo.atomic import write_csv, write_text
 from scangeo.errors import ProjectFileError
+from scangeo.textfile import read_text
 
 POINT_COLUMNS = ["point", "strip", "line", "pixel", "sigma_px"]
 GROUND_COLUMNS = ["point", "x", "y", "z", "sigma_xy", "sigma_z", "role"]
@@ -23,11 +25,11 @@ GROUND_COLUMNS = ["point", "x", "y", "z", "sigma_xy", "sigma_z", "role"]
 def _read_raw(path: Path, required: list[str]) -> tuple[list[str], list[list[str]]]:
     if not path.exists():
         return list(required), []
+    text = read_text(path, "a CSV file", ProjectFileError)
     try:
-        with open(path, newline="", encoding="utf-8") as f:
-            rows = [r for r in csv.reader(f) if r and any(c.strip() for c in r)]
-    except OSError as exc:
-        raise ProjectFileError(f"{path}: cannot read ({exc.strerror})") from exc
+        rows = [r for r in csv.reader(io.StringIO(text, newline="")) if r and any(c.strip() for c in r)]
+    except csv.Error as exc:
+        raise ProjectFileError(f"{path}: not a CSV file ({exc})") from None
     if not rows:
         return list(required), []
     header = [h.strip().lower() for h in rows[0]]

@@ -17,7 +17,7 @@ import numpy as np
 
 from scangeo.adjustment.diagnosis.diagnose import diagnose
 from scangeo.adjustment.diagnosis.output import write_diagnosis
-from scangeo.errors import InputFileError
+from scangeo.errors import InputFileError, ProjectFileError
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
 from scangeo.io.rejected import CLEANING_DIR
@@ -34,6 +34,7 @@ from scangeo.reports.tables import write_comparison
 from scangeo.strategy.cleaning import CleaningOptions, clean
 from scangeo.strategy.comparison import compare_project
 from scangeo.strategy.default_variants import ProblemStrip, write_variants_file
+from scangeo.textfile import read_text
 
 log = logging.getLogger(__name__)
 
@@ -170,7 +171,7 @@ def _variants_are_ours(path: Path, previous: dict[str, Any] | None) -> bool:
     """variants.toml may be (re)written: absent, or written by an earlier run and not edited since."""
     if not path.exists():
         return True
-    text = path.read_text(encoding="utf-8")
+    text = read_text(path, "a TOML file", ProjectFileError)
     if not text.startswith(VARIANTS_MARKER):
         return False
     before = (previous or {}).get("summary", {}).get("variants_sha256")

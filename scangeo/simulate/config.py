@@ -8,13 +8,13 @@ stay so in these dataclasses (the simulator converts at use); lengths in metres,
 from __future__ import annotations
 
 import dataclasses
-import tomllib
 from dataclasses import dataclass, field
 from importlib.resources.abc import Traversable
 from pathlib import Path
 
 from scangeo.errors import MissingFileError, ProjectFileError
 from scangeo.io.schema import Setting, read, setting
+from scangeo.io.toml_config import load_toml
 from scangeo.resources import preset_file, preset_names
 
 
@@ -269,12 +269,7 @@ def available_presets() -> list[str]:
 def load_preset(name: str | Path, overrides: dict | None = None) -> SimulationConfig:
     """Read a preset (name or TOML path), apply nested ``overrides`` (same keys as the file)."""
     path = preset_path(name)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ProjectFileError(f"{path}: not valid TOML ({exc})") from exc
-    except UnicodeDecodeError as exc:
-        raise ProjectFileError(f"{path}: not UTF-8 text at byte {exc.start} (expected a TOML preset)") from None
+    data = load_toml(path)
     if overrides:
         data = merge(data, overrides)
     return config_from_dict(data, source=str(path))

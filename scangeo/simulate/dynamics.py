@@ -22,6 +22,7 @@ from scipy.ndimage import uniform_filter1d
 
 from scangeo.errors import TrajectoryError
 from scangeo.simulate.config import TurbulenceConfig
+from scangeo.textfile import read_text
 from scangeo.trajectory import read_trajectory
 
 CHANNELS = ("roll", "pitch", "heading", "lateral", "along", "vertical")
@@ -100,12 +101,12 @@ class ReplayDynamics:
 def read_dynamics_source(path: str):
     """(time, z, roll, pitch, heading) of a trajectory text (GpsTime, Y, X, Z, Roll, Pitch, Azimuth in
     degrees) or any trajectory file scangeo reads; angles returned in radians."""
+    lines = read_text(path, "a trajectory text or CSV", TrajectoryError).splitlines()
+    header = lines[0] if lines else ""
     try:
-        with open(path) as f:
-            header = f.readline()
         names = [c.strip().strip('"').lower() for c in header.replace(",", " ").split()]
         if {"gpstime", "z", "roll", "pitch", "azimuth"} <= set(names):
-            data = np.loadtxt(path, delimiter="," if "," in header else None, skiprows=1, ndmin=2)
+            data = np.loadtxt(lines, delimiter="," if "," in header else None, skiprows=1, ndmin=2)
             col = {n: i for i, n in enumerate(names)}
             return (data[:, col["gpstime"]], data[:, col["z"]], *(np.radians(data[:, col[k]]) for k in
                                                                     ("roll", "pitch", "azimuth")))

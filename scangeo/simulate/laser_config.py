@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 
 from scangeo.errors import ProjectFileError
 from scangeo.io.schema import read
+from scangeo.io.toml_config import load_toml
 
 
 @dataclass(frozen=True)
@@ -66,10 +66,7 @@ class LaserBlockConfig:
 
 def load_laser_config(path, overrides: dict | None = None) -> LaserBlockConfig:
     """Read the ``[laser]`` table of a preset file (a Path or package resource); unknown keys are errors."""
-    try:
-        data = tomllib.loads(path.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise ProjectFileError(f"{path}: cannot read the laser preset ({exc})") from exc
+    data = load_toml(path)
     unknown = sorted(set(data) - {"laser"})
     if unknown:
         raise ProjectFileError(f"{path}: unknown table [{unknown[0]}] (a laser preset has only [laser])")
@@ -90,6 +87,6 @@ def load_laser_config(path, overrides: dict | None = None) -> LaserBlockConfig:
 
 def is_laser_preset(path) -> bool:
     try:
-        return "laser" in tomllib.loads(path.read_text())
-    except (OSError, tomllib.TOMLDecodeError):
+        return "laser" in load_toml(path)
+    except ProjectFileError:
         return False

@@ -17,6 +17,7 @@ import pyproj
 from scangeo.atomic import atomic_path
 from scangeo.errors import TrajectoryError
 from scangeo.frames import parse_crs
+from scangeo.textfile import read_text
 from scangeo.trajectory.stream import GpsImuStream, check_times
 
 ALIASES = {
@@ -110,16 +111,8 @@ def read_trajectory_csv(path, crs=None) -> GpsImuStream:
     crs : the map CRS of x, y columns (z is ellipsoidal height); not needed for lat/lon/h.
     """
     path = Path(path)
-    try:
-        with open(path, encoding="utf-8-sig") as f:
-            raw = f.read().splitlines()
-    except OSError as exc:
-        raise TrajectoryError(f"{path}: cannot read ({exc.strerror})") from exc
-    except UnicodeDecodeError as exc:
-        raise TrajectoryError(
-            f"{path}: not a UTF-8 text file at byte {exc.start} (expected a trajectory CSV; an Applanix "
-            "SBET needs the extension .out or .sbet)"
-        ) from None
+    raw = read_text(path, "a trajectory CSV; an Applanix SBET needs the extension .out or .sbet",
+                    TrajectoryError).splitlines()
     if not raw:
         raise TrajectoryError(f"{path}: the file is empty (expected a header line and records)")
     columns, delimiter = _columns(raw[0], path)

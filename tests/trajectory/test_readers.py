@@ -180,7 +180,7 @@ def test_missing_and_binary_files(tmp_path):
     path = tmp_path / "nav.txt"
     path.write_bytes(struct.pack("<17d", *range(17)) + b"\xff\xfe")
     message = error_of(path)
-    assert str(path) in message and "not a UTF-8 text file" in message and ".out" in message
+    assert str(path) in message and "a binary file (NUL bytes), not text" in message and ".out" in message
 
 
 # --------------------------------------------------------------------------------- SBET
