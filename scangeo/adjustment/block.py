@@ -10,16 +10,18 @@ measurements (not of check points), control coordinates, and DTM heights at tie 
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import scipy.stats
 
 from scangeo.adjustment.gpsimu import GpsImuSamples
 from scangeo.adjustment.ground import DtmHeights, GroundControl
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import (
+    CALIBRATION_KEYS,
     AcrossOffset,
     AcrossScale,
     AlongOffset,
@@ -90,6 +92,9 @@ class Block:
     ground: GroundPoints
     roles: dict[str, str]
     notes: list[str] = field(default_factory=list)
+    #: the t-tests of ``test_calibration`` (:func:`test_calibration`): unknown, component, t, critical,
+    #: value, sigma, start, kept
+    calibration_tests: list[dict] = field(default_factory=list)
 
     def role(self, point: str) -> str:
         return self.roles.get(point, "tie")
@@ -370,7 +375,8 @@ def _observation_groups(setup: _Setup) -> list[ObservationGroup]:
             continue
         sigma = points.sigma_px[sel] if v.image_sigma_px is None else v.image_sigma_px
         groups.append(ImageObservations(sid, project.sensor.model, s.spline, project.timing(sid),
-                                        points.point[sel].astype(str), points.line[sel], points.pixel[sel], sigma))
+                                        points.point[sel].astype(str), points.line[sel], points.pixel[sel], sigma,
+                                        measured_time=project.sensor.measured_time))
         if not any(roles[str(p)] in CONTROL_COMPONENTS for p in points.point[sel]):
             setup.notes.append(f"strip {sid} has no control point: it is held only by tie points and its GPS/IMU")
     ctrl = [p for p in setup.used if roles[p] in CONTROL_COMPONENTS]
@@ -416,6 +422,56 @@ def adjust_block(block: Block, snooping: bool | None = None, start: Mapping[Key,
 def adjust_variant(project: Project, variant: Variant, points: ImagePoints, ground: GroundPoints,
                    snooping: bool | None = None, start: Mapping[Key, np.ndarray] | None = None,
                    callback: ProgressCallback = no_progress) -> tuple[Block, Adjustment]:
-    """Build the block of ``variant`` (:func:`build_block`) and adjust it (:func:`adjust_block`)."""
+    """Build the block of ``variant`` (:func:`build_block`) and adjust it (:func:`adjust_block`); then
+    test the calibration unknowns the variant names in ``test_calibration`` (:func:`test_calibration`)."""
     block = build_block(project, variant, points, ground)
+    if variant.test_calibration:
+        return block, test_calibration(block, lambda: adjust_block(block, snooping, start, callback))
     return block, adjust_block(block, snooping, start, callback)
+
+
+def test_calibration(block: Block, adjust_it: Callable[[], Adjustment]) -> Adjustment:
+    """Keep only the calibration the observations determine (Gruen's test of additional parameters).
+
+    Every free component of the variant's ``test_calibration`` unknowns gets a two-sided t-test of its
+    change from the start value, ``t = |x - x_0| / sigma_x`` against Student's t at
+    ``calibration_alpha`` with the adjustment's redundancy. The least significant component below the
+    critical value is fixed at its start value and the block adjusted again (``adjust_it``), until every
+    tested component is significant. A component that only its prior holds (a pushbroom's across-track
+    offset beside the boresight roll) has a small t and goes. Each decision is a note of the block
+    and an entry of ``block.calibration_tests``; the check points take no part.
+    """
+    v, params = block.variant, block.parameters
+    names = {key: name for key, name, _ in CALIBRATION_KEYS if name in v.test_calibration}
+    start = {key: params[key].values.copy() for key in names if key in params}
+    tests = block.calibration_tests
+    adjustment = adjust_it()
+    while True:
+        stats = adjustment.statistics
+        crit = float(scipy.stats.t.ppf(1 - v.calibration_alpha / 2, max(stats.redundancy, 1)))
+        candidates = []
+        for key in start:
+            block_now = adjustment.solution.parameters[key]
+            sig = stats.sigmas(key)
+            for j in np.flatnonzero(block_now.free):
+                t_j = abs(block_now.values[j] - start[key][j]) / sig[j] if sig[j] > 0 else float("inf")
+                candidates.append((float(t_j), key, int(j), float(block_now.values[j]), float(sig[j])))
+        if not candidates:
+            return adjustment
+        t, key, i, value, sigma = min(candidates, key=lambda c: c[0])
+        component = params[key].names[i]
+        entry = {"unknown": names[key], "component": component, "t": t, "critical": crit, "value": value,
+                 "sigma": sigma, "start": float(start[key][i])}
+        if t >= crit:
+            for t_k, key_k, i_k, value_k, sigma_k in candidates:
+                tests.append({"unknown": names[key_k], "component": params[key_k].names[i_k], "t": t_k,
+                              "critical": crit, "value": value_k, "sigma": sigma_k,
+                              "start": float(start[key_k][i_k]), "kept": True})
+            return adjustment
+        tests.append({**entry, "kept": False})
+        block.notes.append(f"calibration test: {names[key]} {component} changed by {value - start[key][i]:.3g} "
+                           f"+- {sigma:.2g} (t = {t:.2f} < {crit:.2f}, alpha {v.calibration_alpha:g}): not "
+                           "determined by the observations, fixed at its start value")
+        params[key].free[i] = False
+        params[key].values[i] = start[key][i]
+        adjustment = adjust_it()

@@ -53,10 +53,18 @@ class ImageObservations(ObservationGroup):
     spline : the strip's spline (layout only: t0, spacing, number of coefficients).
     timing : the strip's line timing.
     points : (n,) ids of the measured points; line, pixel : (n,) measurements; sigma_px : (n,).
+    measured_time : the measured line fixes the time (``[sensor] measurement_time = "line"``): the
+        pose is that of the measured line's time, the pixel comes from the direction there, and the
+        along-track residual is the scan-plane condition at that time in lines, ``-g / k`` with ``k``
+        the change of ``g`` per line from the platform's motion alone. For navigation sampled once per
+        line with attitude jitter between lines (a real pushbroom's), where solving for the time
+        would carry an along-track misfit into the across-track residual through the jitter. ``k``
+        is fixed at the first values the group sees (the start orientation), so the residual is
+        linear in ``g`` and its Jacobian exact.
     """
 
     def __init__(self, strip: str, sensor: Whiskbroom | Pushbroom, spline: OrientationSpline, timing: LineTiming,
-                 points, line, pixel, sigma_px, name: str | None = None) -> None:
+                 points, line, pixel, sigma_px, name: str | None = None, measured_time: bool = False) -> None:
         if not isinstance(sensor, (Whiskbroom, Pushbroom)):
             raise AdjustmentError(f"strip {strip}: image observations need a whiskbroom or pushbroom sensor, "
                                   f"not {type(sensor).__name__}")
@@ -76,6 +84,8 @@ class ImageObservations(ObservationGroup):
         self._ground = [Ground(str(p)) for p in self.points]
         self.knots = Knots(strip)
         self.t_obs = timing.time_of_line(self.line) + sensor.time_offset(self.pixel)
+        self.measured_time = measured_time
+        self._lines_per_g: np.ndarray | None = None
 
     def keys(self):
         return [self.knots, *dict.fromkeys(self._ground), *MOUNTING_KEYS, *self.plane.calibration_keys]
@@ -107,11 +117,28 @@ class ImageObservations(ObservationGroup):
             dR_PS = dR_PB[:, a] @ R_BS
             dv_ds[:, :, 3 + a] = np.einsum("nji,nj->ni", dR_PS, e) - np.einsum("nji,nj->ni", R_PS, dR_PB[:, a] @ lever)
         dv_dt = np.einsum("nic,nc->ni", dv_ds, sd)
-        return dict(v=v, dv_ds=dv_ds, dv_dt=dv_dt, B=B, j=j, R_PS=R_PS, R_PB=R_PB, R_BS=R_BS, dR_BS=dR_BS, e=e)
+        dv_dt_motion = np.einsum("nic,nc->ni", dv_ds[:, :, :3], sd[:, :3])   # the platform's motion alone
+        return dict(v=v, dv_ds=dv_ds, dv_dt=dv_dt, dv_dt_motion=dv_dt_motion, B=B, j=j, R_PS=R_PS, R_PB=R_PB,
+                    R_BS=R_BS, dR_BS=dR_BS, e=e)
+
+    def _line_rate(self, t_line: np.ndarray) -> np.ndarray:
+        """Lines per second at sensor times ``t_line`` (the timing's local rate)."""
+        h = 1e-4
+        return (self.timing.line_of_time(t_line + h) - self.timing.line_of_time(t_line - h)) / (2 * h)
+
+    def _lines_per_condition(self, values, f) -> np.ndarray:
+        """``1 / k``: lines per unit of the scan-plane condition, from the platform's motion at the measured
+        lines' times (``d(v_x / v_z)/dt``, as ``StripGeometry.measured_line_residuals``); fixed at the
+        first values seen (the class docstring)."""
+        if self._lines_per_g is None:
+            v, vdot = f["v"], f["dv_dt_motion"]
+            g_motion = vdot[:, 0] / v[:, 2] - v[:, 0] * vdot[:, 2] / v[:, 2] ** 2   # d(v_x / v_z) / dt
+            self._lines_per_g = self._line_rate(self.t_obs) / g_motion
+        return self._lines_per_g
 
     def _solve_time(self, values, P: np.ndarray):
         t = self.t_obs.copy()
-        for _ in range(12):
+        for _ in range(12 if not self.measured_time else 0):
             f = self._pose(values, t, P)
             g, dg_dv = self.plane.condition(f["v"], values)
             g_t = np.einsum("ni,ni->n", dg_dv, f["dv_dt"])
@@ -132,6 +159,9 @@ class ImageObservations(ObservationGroup):
         P = np.array([values[g] for g in self._ground], float).reshape(-1, 3)
         t, f = self._solve_time(values, P)
         pixel, *_ = self.plane.pixel(f["v"], values)
+        if self.measured_time:
+            g, _ = self.plane.condition(f["v"], values)
+            return self.line - g * self._lines_per_condition(values, f), pixel
         line = self.timing.line_of_time(t - self.plane.time_offset(pixel))
         return line, pixel
 
@@ -145,22 +175,31 @@ class ImageObservations(ObservationGroup):
         t, f = self._solve_time(values, P)
         v = f["v"]
         pixel, dpix_dv, direct = self.plane.pixel(v, values)
-        _, dg_dv, dg_direct = self.plane.condition_with_calibration(v, values)
+        g, dg_dv, dg_direct = self.plane.condition_with_calibration(v, values)
         dt_pix = self.plane.dt_pixel
-        t_line = t - self.plane.time_offset(pixel)
-        line = self.timing.line_of_time(t_line)
-        h = 1e-4
-        rate = (self.timing.line_of_time(t_line + h) - self.timing.line_of_time(t_line - h)) / (2 * h)
-        g_t = np.einsum("ni,ni->n", dg_dv, f["dv_dt"])
+        if self.measured_time:
+            per_g = self._lines_per_condition(values, f)
+            line = self.line - g * per_g
+        else:
+            t_line = t - self.plane.time_offset(pixel)
+            line = self.timing.line_of_time(t_line)
+            rate = self._line_rate(t_line)
+            g_t = np.einsum("ni,ni->n", dg_dv, f["dv_dt"])
 
         def chain(dv_dx: np.ndarray, dpix_direct: np.ndarray | None = None, dg_direct: np.ndarray | None = None):
             """(n, 3, m) direct derivatives of v -> (dline, dpixel) (n, m). ``dpix_direct``, ``dg_direct``:
             derivatives of the pixel and of the scan-plane condition that do not go through v (the
             sensor's calibration: a whiskbroom's scan errors move the pixel only, a pushbroom's also
-            the condition, and so t)."""
+            the condition, and so t). With the measured time the time does not move: the line
+            follows ``g``, the pixel ``v``."""
             dg = np.einsum("ni,nim->nm", dg_dv, dv_dx)
             if dg_direct is not None:
                 dg = dg + dg_direct
+            if self.measured_time:
+                dpix = np.einsum("ni,nim->nm", dpix_dv, dv_dx)
+                if dpix_direct is not None:
+                    dpix = dpix + dpix_direct
+                return -per_g[:, None] * dg, dpix
             dt_dx = -dg / g_t[:, None]
             total = dv_dx + f["dv_dt"][:, :, None] * dt_dx[:, None, :]
             dpix = np.einsum("ni,nim->nm", dpix_dv, total)

@@ -80,7 +80,8 @@ def strip_probes(result: VariantResult, grid: tuple[int, int] = PROBE_GRID,
             continue
         ids = [f"probe {sid} {k}" for k in range(int(ok.sum()))]
         probe = ImageObservations(sid, project.sensor.model, strip.spline, project.timing(sid), ids,
-                                  L.ravel()[ok], X.ravel()[ok], 1.0, name=f"probe {sid}")
+                                  L.ravel()[ok], X.ravel()[ok], 1.0, name=f"probe {sid}",
+                                  measured_time=project.sensor.measured_time)
         keys = [Ground(i) for i in ids]
         lin = probe.linearise(ChainMap(dict(zip(keys, p_P[ok])), values))
         # columns of the adjustment (probe points fixed), and of the probe points alone (x, y free)

@@ -146,7 +146,8 @@ def _rms(dl: np.ndarray, dp: np.ndarray) -> dict:
 
 
 def evaluate_checks(result_block: Block, geometry_of) -> CheckResiduals:
-    """Project every check point into the strips that measured it; compare with the measurements."""
+    """Project every check point into the strips that measured it; compare with the measurements (with
+    ``measurement_time = "line"``: at the measured lines, as the adjustment does)."""
     b = result_block
     given = {str(p): i for i, p in enumerate(b.ground.point)}
     pts, strips, dl, dp, st, sig = [], [], [], [], [], []
@@ -158,12 +159,18 @@ def evaluate_checks(result_block: Block, geometry_of) -> CheckResiduals:
         rows = np.array(sel)
         xyz = b.ground.xyz[[given[str(p)] for p in b.points.point[rows]]]
         p_P = b.project.map_frame.map_to_project(xyz[:, 0], xyz[:, 1], xyz[:, 2])
-        line, pixel, status = geometry_of(sid).ground_to_image(p_P)
         pts.append(b.points.point[rows].astype(str))
         strips.append(np.full(rows.size, sid, dtype=object))
-        dl.append(line - b.points.line[rows])
-        dp.append(pixel - b.points.pixel[rows])
-        st.append(status & ~16)  # over-scanning flag: the first sighting is a valid answer
+        if b.project.sensor.measured_time:  # as the adjustment's image observations: at the measured line
+            d_line, d_pixel = geometry_of(sid).measured_line_residuals(p_P, b.points.line[rows], b.points.pixel[rows])
+            dl.append(d_line)
+            dp.append(d_pixel)
+            st.append(np.where(np.isfinite(d_line) & np.isfinite(d_pixel), 0, 1))
+        else:
+            line, pixel, status = geometry_of(sid).ground_to_image(p_P)
+            dl.append(line - b.points.line[rows])
+            dp.append(pixel - b.points.pixel[rows])
+            st.append(status & ~16)  # over-scanning flag: the first sighting is a valid answer
         sig.append(b.points.sigma_px[rows])
     if not pts:
         e = np.zeros(0)

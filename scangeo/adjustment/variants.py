@@ -85,6 +85,13 @@ class Variant:
     constant_sigma_m: float | None = setting(None, gt=0, doc="pseudo-observation for the constant terms")
     constant_sigma_deg: float | None = setting(None, gt=0, doc="the same for attitude constants")
     calibrate: tuple[str, ...] = setting((), choices=CALIBRATION, doc="calibration unknowns")
+    test_calibration: tuple[str, ...] = setting(
+        (), choices=CALIBRATION,
+        doc="calibration unknowns of `calibrate` kept only where the observations determine them: a "
+            "component whose t-test against its start value is not significant (`calibration_alpha`) is "
+            "fixed at the start value and the variant adjusted again, the least significant first")
+    calibration_alpha: float = setting(0.05, gt=0, lt=1, unit="1",
+                                       doc="significance level of the `test_calibration` t-tests (two-sided)")
     across_offset_sigma_deg: float = setting(0.1, gt=0, doc="prior of a pushbroom's across_offset (docs/adjustment.md)")
     across_scale_sigma: float = setting(0.005, gt=0, unit="1", doc="prior of a pushbroom's across_scale")
     along_offset_sigma_deg: float = setting(0.1, gt=0, doc="prior of a pushbroom's along_offset")
@@ -100,6 +107,11 @@ class Variant:
 
     def __post_init__(self) -> None:
         check(self, where=f"Variant {self.name}")
+        untested = sorted(set(self.test_calibration) - set(self.calibrate))
+        if untested:
+            raise ProjectFileError(f"Variant {self.name} test_calibration: {', '.join(untested)} is not in "
+                                   f"calibrate ({', '.join(self.calibrate) or 'nothing'}): only a calibrated "
+                                   "unknown can be tested")
 
     def role_of(self, point: str, role: str) -> str:
         """The role of a point in this variant: ground.csv's (or ``tie``), then the patterns in order."""

@@ -334,6 +334,7 @@ kind = "pushbroom"
 pixels = {st.pixels}
 line_rate_hz = {rate!r}
 look_angles = "sensor/look_angles.csv"   # from {look_source}
+measurement_time = "line"   # one navigation record per line, with attitude jitter: the line's own pose
 # PARGE's boresight in scangeo's convention
 boresight_deg = [{boresight_deg[0]:.6f}, {boresight_deg[1]:.6f}, {boresight_deg[2]:.6f}]
 
@@ -395,11 +396,8 @@ def _as_boresight(roll, pitch, heading, remainder_deg) -> tuple[tuple[float, flo
 
 
 def _fitted(project: Project, strip: str, st: ParGeStatus, h: OffsetHypothesis) -> OffsetHypothesis:
-    """The hypothesis with the rms of the used GCPs' residuals (lines, pixels) under its boresight.
-
-    Each GCP is projected into the line by Newton on time from its measured line, as the
-    adjustment's image observations do: a jittery pushbroom sees a point on several lines, and the
-    one nearest the measurement is the one the measurement is of."""
+    """The hypothesis with the rms of the used GCPs' residuals (lines, pixels) under its boresight,
+    at the measured lines' poses, as the adjustment computes them (``measurement_time = "line"``)."""
     from dataclasses import replace
 
     mounting = Mounting(project.sensor.mounting.lever_arm_B, np.radians(h.boresight_deg),
@@ -408,8 +406,7 @@ def _fitted(project: Project, strip: str, st: ParGeStatus, h: OffsetHypothesis) 
     used = st.gcps.used
     xyz = st.gcps.xyz[used]
     p_P = project.map_frame.map_to_project(xyz[:, 0], xyz[:, 1], xyz[:, 2])
-    line, pixel, _, _ = geometry.ground_to_image_near(p_P, st.gcps.line[used], st.gcps.pixel[used])
-    dl, dp = line - st.gcps.line[used], pixel - st.gcps.pixel[used]
+    dl, dp = geometry.measured_line_residuals(p_P, st.gcps.line[used], st.gcps.pixel[used])
     ok = np.isfinite(dl) & np.isfinite(dp)
     if not ok.any():
         return replace(h, fit_px=(math.inf, math.inf))
@@ -444,8 +441,11 @@ description = "boresight (roll, pitch, heading) calibrated from the control GCPs
 calibrate = ["boresight"]
 
 [variants.CALIBRATED]
-description = "boresight, the pushbroom's look angles (across offset and scale, along offset) and the time offset"
-calibrate = ["boresight", "time_offset"]
+description = "boresight, and what the control determines of the look angles and the time offset"
+calibrate = ["boresight", "across_offset", "across_scale", "along_offset", "time_offset"]
+# the look angles' calibration and the time offset are kept only where significant (t-test, alpha 0.05):
+# the offsets duplicate the boresight's roll and pitch, the scale and time offset need wide, varied control
+test_calibration = ["across_offset", "across_scale", "along_offset", "time_offset"]
 """
 
 

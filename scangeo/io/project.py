@@ -41,6 +41,12 @@ class SensorConfig:
     line_rate: float
     bands: tuple[str, ...] = ()
     wavelengths_nm: tuple[float, ...] = ()
+    measurement_time: str = "scan_plane"
+
+    @property
+    def measured_time(self) -> bool:
+        """True when the measured line fixes the time of an image measurement (``measurement_time = "line"``)."""
+        return self.measurement_time == "line"
 
     @classmethod
     def from_keys(cls, t: SensorKeys, root: Path) -> SensorConfig:
@@ -65,7 +71,7 @@ class SensorConfig:
             ).with_calibration(**_pushbroom_calibration(t))
         mounting = Mounting(lever_arm_B=np.array(t.lever_arm_m), boresight=np.radians(t.boresight_deg),
                             time_offset=t.time_offset_s)
-        return cls(t.kind, model, mounting, t.line_rate_hz, t.bands, t.wavelengths_nm)
+        return cls(t.kind, model, mounting, t.line_rate_hz, t.bands, t.wavelengths_nm, t.measurement_time)
 
 
 def _pushbroom_calibration(t: SensorKeys) -> dict[str, float]:

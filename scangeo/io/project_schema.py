@@ -61,6 +61,11 @@ class SensorKeys:
     time_offset_s: float = setting(0.0, when=_IMAGE, doc="navigation time of sensor time t is t + time_offset_s")
     bands: tuple[str, ...] = setting((), when=_IMAGE, doc="band names (written into outputs)")
     wavelengths_nm: tuple[float, ...] = setting((), gt=0, when=_IMAGE, doc="band centre wavelengths")
+    measurement_time: str = setting(
+        "scan_plane", choices=("scan_plane", "line"), when=_IMAGE,
+        doc="the time of an image measurement: `scan_plane`, when the point lies in the scan plane "
+            "(solved from the measured line); `line`, the measured line's own time (navigation with one "
+            "record per line and attitude jitter between lines: docs/real-data.md)")
     # whiskbroom (and laser)
     fov_deg: float | None = setting(None, gt=0, lt=180, when=_ANGLES, default_doc="required for a whiskbroom",
                                     doc="whiskbroom: total scan angle; the angular step is fov / pixels; "

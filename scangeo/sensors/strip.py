@@ -136,6 +136,34 @@ class StripGeometry:
                       *self._timing_args(), o, d)
         return o, d
 
+    def measured_line_residuals(self, p_P: np.ndarray, line, pixel) -> tuple[np.ndarray, np.ndarray]:
+        """Residuals (model - measured) of measurements (line, pixel) of project-frame points (n, 3) when
+        the measured line fixes the time (``[sensor] measurement_time = "line"``).
+
+        At the measured line's time: the pixel of the direction to the point, and the along-track
+        misfit ``g = v_x / v_z - tan(along(pixel))`` in lines: divided by ``d(v_x / v_z)/dt`` of the
+        navigation point's motion alone (not the attitude's rates, which jitter) times the line rate.
+        The adjustment's image observations with ``measured_time`` compute the same.
+
+        Returns
+        -------
+        dline : (n,) lines along track; dpixel : (n,) pixels across track.
+        """
+        p_P = np.atleast_2d(np.asarray(p_P, dtype=float))
+        line = np.atleast_1d(np.asarray(line, dtype=float))
+        pixel = np.atleast_1d(np.asarray(pixel, dtype=float))
+        t = self.time_of(line, pixel)
+        p_S, R = self.pose(t)
+        v = np.einsum("nji,nj->ni", R, p_P - p_S)
+        velocity = self.spline.evaluate(t + self.mounting.time_offset, derivative=1)[:, :3]  # navigation point
+        vdot = np.einsum("nji,nj->ni", R, -velocity)
+        model_pixel = self.sensor.pixel_of(v)
+        g = v[:, 0] / v[:, 2] - np.tan(self.sensor.along_angle(model_pixel))
+        g_motion = vdot[:, 0] / v[:, 2] - v[:, 0] * vdot[:, 2] / v[:, 2] ** 2
+        h = 1e-4
+        rate = (self.timing.line_of_time(t + h) - self.timing.line_of_time(t - h)) / (2 * h)
+        return -g / g_motion * rate, model_pixel - pixel
+
     def _timing_args(self) -> tuple[float, float, np.ndarray]:
         ltable = self.timing.table if self.timing.table is not None else np.zeros(0)
         return float(self.timing.first_line_time), float(self.timing.line_rate), np.asarray(ltable, float)

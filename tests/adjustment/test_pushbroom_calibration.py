@@ -14,7 +14,7 @@ import json
 import numpy as np
 import pytest
 
-from scangeo.adjustment.keys import AcrossOffset, AcrossScale, AlongOffset
+from scangeo.adjustment.keys import AcrossOffset, AcrossScale, AlongOffset, TimeOffset
 from scangeo.adjustment.outputs import report_dict, write_results
 from scangeo.adjustment.results import run_variant
 from scangeo.adjustment.variants import Variant
@@ -137,3 +137,23 @@ def test_detector_calibration_needs_a_pushbroom(tmp_path):
     simulate(root, load_preset("small", SMALL_BLOCK))
     with pytest.raises(AdjustmentError, match="across_offset.*pushbroom"):
         run_variant(root, Variant("X", calibrate=("across_offset",)))
+
+
+def test_the_calibration_test_keeps_what_the_data_determine_and_fixes_the_rest(block, calibrated):
+    """``test_calibration``: the three injected detector errors are significant and kept, with the same
+    estimates as without the test; a time offset the simulation did not inject is not significant,
+    is fixed at its start value (0) and said so."""
+    root, truth = block
+    assert json.loads((root / "truth" / "errors.json").read_text()).get("time_offset_s", 0.0) == 0.0
+    names = (*CALIBRATION, "time_offset")
+    tested = run_variant(root, Variant("TESTED", calibrate=names, test_calibration=names, **GPSIMU))
+    tests = {t["unknown"]: t for t in tested.block.calibration_tests}
+    assert set(tests) == set(names)
+    assert not tests["time_offset"]["kept"] and tests["time_offset"]["t"] < tests["time_offset"]["critical"]
+    assert all(tests[n]["kept"] and tests[n]["t"] > 3 * tests[n]["critical"] for n in CALIBRATION)
+    assert any("time_offset" in note and "fixed at its start value" in note for note in tested.notes)
+    params = tested.adjustment.parameters
+    assert not params[TimeOffset()].free.any() and params[TimeOffset()].values[0] == 0.0
+    for key in (AcrossOffset(), AcrossScale(), AlongOffset()):
+        a, b = float(params[key].values[0]), float(calibrated.adjustment.parameters[key].values[0])
+        assert abs(a - b) < 0.5 * float(calibrated.adjustment.statistics.sigmas(key)[0])
