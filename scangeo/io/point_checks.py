@@ -1,4 +1,4 @@
-"""Checks of points.csv and ground.csv against the project before an adjustment (issue 13).
+"""Checks of points.csv and ground.csv against the project before an adjustment.
 
 * every measurement names a strip of the project and lies inside its image (lines 0..n-1, pixels
   0..p-1, half a pixel of slack);

@@ -7,8 +7,8 @@ Two methods (``[adjustment] patch_search``):
   buffer (:mod:`scangeo.lidar.rowbuffer`) and keeps its candidate patches; pass 2 reads every strip
   again and fits it on the boxes of all strips' candidates (:mod:`scangeo.lidar.seeded`); a patch
   is a seed accepted in two or more strips.
-- ``grid``: cells of one fixed grid common to all strips (:mod:`scangeo.lidar.patches`), the method
-  of issue 16; a patch is a cell planar in two or more strips.
+- ``grid``: cells of one fixed grid common to all strips (:mod:`scangeo.lidar.patches`), the fixed-grid
+  method; a patch is a cell planar in two or more strips.
 
 Both then go through :func:`scangeo.lidar.patches.homologous` (compatible planes, thinning by
 exposition). Pass 1 also fits the grid cells of every strip (the strip differences are measured on
