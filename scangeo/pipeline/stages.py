@@ -269,9 +269,9 @@ STAGES: tuple[Stage, ...] = (
     Stage("rectify", 0.12, ("compare",), lambda c: c.base_files() + c.images(),
           lambda c: asdict(c.settings.rectify), _rectify,
           "orthoimages and mosaic of the recommended variant, with STAC items"),
-    Stage("report", 0.03, ("clean", "diagnose", "compare"),
+    Stage("report", 0.03, ("clean", "diagnose", "compare", "rectify"),
           lambda c: c.base_files() + c.points_files() + [c.root / "match_report.json"],
-          _no_options, _report, "the HTML report and the residual vectors (GeoPackage)"),
+          _no_options, _report, "the HTML report (a quicklook of the mosaic) and the residual vectors (GeoPackage)"),
 )
 
 NAMES = tuple(s.name for s in STAGES)

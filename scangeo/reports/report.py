@@ -14,7 +14,9 @@ variant's ``results/NAME/``), and writes one self-contained HTML file (figures e
 6. the regularisation and blunder notes of every variant.
 7. the reliability of the reference and the best variant: MDB and external reliability maps per
    strip, the non-separable points and a sentence of interpretation (:mod:`scangeo.reports.reliability`).
-8. when ``scangeo match`` measured points: their map and counts (:mod:`scangeo.reports.matching`).
+8. when ``scangeo match`` measured points: their map and counts (:mod:`scangeo.reports.matching`);
+9. a quicklook: the recommended variant's mosaic with the strips' footprints and the check points
+   (:mod:`scangeo.reports.quicklook`; a note when the mosaic is not there yet).
 
 The residual vectors of every variant also go to a GeoPackage (:mod:`scangeo.reports.geopackage`).
 """
@@ -29,6 +31,7 @@ import numpy as np
 
 from scangeo.adjustment.summary import Comparison
 from scangeo.atomic import write_text
+from scangeo.io.points import GroundPoints
 from scangeo.io.project import Project
 from scangeo.orientation.file import FILE_NAME as ORIENTATION_FILE
 from scangeo.orientation.file import read_orientation
@@ -45,6 +48,7 @@ from scangeo.reports.corrections import (
 from scangeo.reports.diagnosis_section import diagnosis_section
 from scangeo.reports.geopackage import write_geopackage
 from scangeo.reports.matching import match_section
+from scangeo.reports.quicklook import quicklook_section
 from scangeo.reports.reliability import reliability_section
 from scangeo.reports.residual_vectors import ResidualVectors, check_vectors
 from scangeo.reports.tables import markdown_tables, read_comparison
@@ -257,6 +261,15 @@ def _notes_section(project: Project, c: Comparison) -> html.Section:
     return sec
 
 
+def _check_points(root: Path) -> np.ndarray:
+    """x, y of ground.csv's check points ((0, 2) without ground.csv)."""
+    path = root / "ground.csv"
+    if not path.exists():
+        return np.zeros((0, 2))
+    ground = GroundPoints.read(path)
+    return ground.xyz[ground.role == "check", :2]
+
+
 def write_report(
     project_root, out=None, *, geopackage: bool = True, callback: ProgressCallback = no_progress
 ) -> ReportFiles:
@@ -291,6 +304,9 @@ def write_report(
         step(title)
         sections.append(make())
     sections.insert(1, diagnosis_section(root, comparison))  # scangeo diagnose, recommendation, correlations
+    chosen = comparison.recommended or comparison.best or comparison.reference  # the variant scangeo run rectifies
+    sections.insert(2, quicklook_section(root / "results", chosen, {sid: f.footprint for sid, f in frames.items()},
+                                         _check_points(root)))
     sections.append(_notes_section(project, comparison))
     shown = [n for n in dict.fromkeys([comparison.reference, comparison.best]) if n in names]
     sections.append(reliability_section(project.root / "results", shown))  # MDB and external reliability maps

@@ -157,6 +157,7 @@ def test_report_opens_in_a_browser(compared_small, tmp_path):
     assert sections == [
         "Comparison of strategies",
         "Diagnosis and recommendation",
+        "Quicklook",
         "Residual vectors at the check points",
         "Correction functions",
         "GPS/IMU data",
