@@ -18,7 +18,7 @@ from __future__ import annotations
 import json
 import logging
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from scangeo.adjustment.variants import Variant, laser_variant, laser_variants
@@ -198,6 +198,13 @@ def _recommend(results: dict[str, LaserResult]) -> tuple[str | None, str]:
     return next(iter(results)), "the first variant (no strip differences or check patches to compare)"
 
 
+def _as_adjusted(variant: Variant, one_mission: bool) -> Variant:
+    """What a variant adjusts, without its name and description (in a project of one mission, a model
+    per mission is the model of the block)."""
+    strategy = "BE" if one_mission and variant.strategy == "ME" else variant.strategy
+    return replace(variant, name="", description="", strategy=strategy)
+
+
 def compare_laser(project: Project | Path | str, variants: dict[str, Variant] | None = None,
                   found: dict[str, StripFound] | None = None, exclude: frozenset[tuple[str, str]] = frozenset(),
                   callback: ProgressCallback = no_progress) -> LaserComparison:
@@ -212,9 +219,20 @@ def compare_laser(project: Project | Path | str, variants: dict[str, Variant] | 
     variants = variants if variants is not None else file_variants
     results: dict[str, LaserResult] = {}
     errors: dict[str, str] = {}
+    done: dict[Variant, str] = {}
+    one_mission = len({s.mission for s in project.strips}) == 1
     n = len(variants)
     for k, (name, variant) in enumerate(variants.items()):
         sub = scaled(callback, k / n, (k + 1) / n)
+        same = _as_adjusted(variant, one_mission)
+        if same in done and done[same] in results:  # the same adjustment under another name: not repeated
+            first = results[done[same]]
+            results[name] = replace(first, variant=name, options={**first.options, "strategy": variant.strategy,
+                                                                  "description": variant.description},
+                                    notes=[*first.notes, f"the same adjustment as variant {done[same]} "
+                                                         "(one mission: per mission is for the block)"])
+            continue
+        done.setdefault(same, name)
         try:
             if found is None:
                 found = find_patches(project, laser_options(project), ground_file(project), scaled(sub, 0.0, 0.5))

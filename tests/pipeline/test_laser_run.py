@@ -33,6 +33,13 @@ def test_a_run_writes_every_output(ran):
     recommended = manifest["recommended"]
     assert recommended["variant"] == "strip"
     assert recommended["corrected_strips"] == ["results/strips/1.laz", "results/strips/2.laz"]
+    comparison = json.loads((ran / "results" / "comparison.json").read_text())
+    rows = {r["variant"]: r for r in comparison["table"]}
+    assert list(rows) == ["strip", "mission", "block"]  # the paper's models (no variants.toml)
+    # one mission: the block's model is the mission's, adjusted once
+    assert {k: v for k, v in rows["block"].items() if k not in ("variant", "strategy")} == \
+        {k: v for k, v in rows["mission"].items() if k not in ("variant", "strategy")}
+    assert any("the same adjustment as variant mission" in n for n in comparison["variants"]["block"]["notes"])
     report = (ran / "results" / "report.html").read_text()
     for part in ('id="patch-map"', 'id="strip-differences"', 'id="connectivity"', 'id="laser-t-tests"',
                  'id="laser-check-patches"', 'id="rejections"'):
