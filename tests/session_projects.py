@@ -106,7 +106,7 @@ LASER_BLOCK = {"strips": 2, "strip_length": 300.0, "pulse_rate_hz": 8000.0, "cro
 
 @pytest.fixture(scope="session")
 def laser_block(tmp_path_factory) -> Path:
-    """A small simulated laser project (``scangeo lidar adjust`` runs on it): read-only."""
+    """A small simulated laser project (``scangeo run`` runs on it): read-only."""
     from scangeo.cli import main
 
     root = tmp_path_factory.mktemp("session") / "laser"

@@ -116,7 +116,8 @@ def summary_lines(result) -> list[str]:
 
 def _cm(figure) -> str:
     """``before -> after`` of an evaluation figure (metres) in cm."""
-    if not figure:
+    if not figure or not all(isinstance(figure.get(k), int | float) and figure[k] == figure[k]  # NaN: none
+                             for k in ("before", "after")):
         return "-"
     return f"{100 * figure['before']:.2f} -> {100 * figure['after']:.2f} cm"
 

@@ -76,7 +76,7 @@ def check_header(path: Path, header, crs) -> None:
     if "gps_time" not in header.point_format.dimension_names:
         raise InputFileError(
             f"{path}: point format {header.point_format.id} has no GPS time; "
-            "lidar adjust needs the GPS time of every return"
+            "the laser adjustment needs the GPS time of every return"
         )
     try:
         file_crs = header.parse_crs()

@@ -1,4 +1,4 @@
-"""A simulated laser block with known truth: a laser project for ``scangeo lidar adjust``.
+"""A simulated laser block with known truth: a laser project for ``scangeo run`` (docs/lidar.md section 6).
 
 Parallel north-south strips (alternating direction) plus an east-west cross strip over a scene of flat
 ground and gable roofs (``laser_scene.py``); or, with missions (the montafon preset, ``laser_plan.py``),

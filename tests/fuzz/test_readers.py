@@ -179,7 +179,7 @@ def las_bytes(point_format: int = 1, version: str = "1.2", compress: bool = Fals
 
 
 def _read_las(path) -> None:
-    """What lidar adjust does with a strip file: the header checks, then every return."""
+    """What the laser adjustment does with a strip file: the header checks, then every return."""
     from scangeo.lidar import lasio
 
     with lasio._open(path) as f:

@@ -1,4 +1,4 @@
-"""scangeo lidar adjust on a small simulated laser block with known truth (issue 16)."""
+"""The laser adjustment on a small simulated laser block with known truth."""
 
 from __future__ import annotations
 

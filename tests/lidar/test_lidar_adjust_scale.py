@@ -1,4 +1,4 @@
-"""lidar adjust on the laser preset (docs/lidar.md section 6.5): reduced in CI, the preset's own size
+"""The laser adjustment on the laser preset (docs/lidar.md section 6.5): reduced in CI, the preset's own size
 with ``SCANGEO_SCALE=full``."""
 from __future__ import annotations
 
