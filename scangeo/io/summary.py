@@ -222,6 +222,8 @@ def summarise_project(path: Path) -> dict[str, Any]:
     A strip whose files cannot be read is reported with an ``error`` rather than stopping the summary.
     """
     project = Project.load(path)
+    if project.is_laser:
+        return _laser_project_summary(project)
     sensor = project.sensor
     model = sensor.model
     out: dict[str, Any] = {
@@ -258,6 +260,44 @@ def summarise_project(path: Path) -> dict[str, Any]:
             except ScangeoError as exc:
                 out[kind] = {"path": str(file), "error": str(exc)}
     return out
+
+
+def _las_summary(path: Path) -> dict[str, Any]:
+    """A LAS/LAZ file's header: returns, point format, x, y, z extent."""
+    import laspy  # start-up cost: laspy loads when a laser project's files are read
+
+    try:
+        with laspy.open(str(path)) as f:
+            h = f.header
+            return {"path": str(path), "returns": int(h.point_count), "point_format": int(h.point_format.id),
+                    "x": [float(h.mins[0]), float(h.maxs[0])], "y": [float(h.mins[1]), float(h.maxs[1])],
+                    "z": [float(h.mins[2]), float(h.maxs[2])]}
+    except (OSError, ValueError, laspy.errors.LaspyException) as exc:
+        return {"path": str(path), "error": f"cannot read the LAS header ({exc})"}
+
+
+def _laser_project_summary(project: Project) -> dict[str, Any]:
+    """A laser project: CRS, the scanner, per strip its LAS/LAZ files' headers, mission and trajectory."""
+    laser = project.laser
+    strips = []
+    for s in project.strips:
+        entry: dict[str, Any] = {"id": s.id, "mission": s.mission, "files": [_las_summary(f) for f in s.las]}
+        if s.point_source_id is not None:
+            entry["point_source_id"] = s.point_source_id
+        if s.has_trajectory:
+            try:
+                entry["trajectory"] = summarise_trajectory(s.trajectory, project.trajectory_crs or project.crs)
+            except ScangeoError as exc:
+                entry["trajectory"] = {"path": str(s.trajectory), "error": str(exc)}
+        errors = [f["error"] for f in entry["files"] if "error" in f]
+        if errors:
+            entry["error"] = errors[0]
+        strips.append(entry)
+    return {"kind": "laser project", "path": str(project.root), "crs": project.crs,
+            "origin": list(project.origin) if project.origin else None,
+            "sensor": {"kind": "laser", "boresight_deg": list(laser.boresight_deg),
+                       "lever_arm_m": list(laser.lever_arm_m), "range_sigma_m": laser.range_sigma_m, **laser.info},
+            "strips": strips}
 
 
 def _strip_summary(project, strip_id: str) -> dict[str, Any]:

@@ -135,3 +135,19 @@ def test_a_laser_preset_refuses_image_arguments_naming_them(tmp_path):
     (tmp_path / "full" / "x").write_text("x")
     with pytest.raises(ProjectFileError, match=r"full: the folder exists and is not empty"):
         simulate_project(tmp_path / "full", "laser")
+
+
+def test_info_summarises_a_laser_project(laser_block):
+    import laspy
+
+    from scangeo.io.summary import summarise_project, summary_text
+
+    s = summarise_project(laser_block)
+    assert s["kind"] == "laser project" and s["sensor"]["kind"] == "laser" and s["crs"] == "EPSG:32633"
+    assert [t["id"] for t in s["strips"]] == ["1", "2"]
+    for t in s["strips"]:
+        f = t["files"][0]
+        with laspy.open(f["path"]) as las:
+            assert f["returns"] == las.header.point_count > 10000
+        assert t["trajectory"]["records"] > 100 and "error" not in t
+    assert "laser project:" in summary_text(s)
