@@ -13,7 +13,16 @@ from __future__ import annotations
 
 
 class ScangeoError(Exception):
-    """Root of every error scangeo raises for a user's input or a failed computation."""
+    """Root of every error scangeo raises for a user's input or a failed computation.
+
+    Never raised itself: every error is one of its subclasses (this module), which also derive from
+    the built-in exception that fits (OSError, ValueError, ImportError).
+
+    Parameters
+    ----------
+    message : str
+        What went wrong: the file, line or key, what was found and what was expected.
+    """
 
 
 class InputFileError(ScangeoError, OSError):
@@ -63,6 +72,24 @@ class OutputLockedError(ScangeoError):
 
 class OptionsError(ScangeoError, ValueError):
     """An option given to a command or function is unknown or out of range (also a ValueError)."""
+
+
+class ArgumentError(OptionsError):
+    """An argument of a call is out of range or contradicts another (also a ValueError).
+
+    The message names the arguments as Python does (``workers=0: expected 1 or more``); the command
+    line shows the same message with its flags (``--workers 0: expected 1 or more``). ``text`` holds
+    the message with ``{name}`` where an argument is named, ``values`` the arguments' values.
+    """
+
+    def __init__(self, text: str, **values: object) -> None:
+        self.text = text
+        self.values = values
+        super().__init__(self.render(lambda name, value: f"{name}={value!r}"))
+
+    def render(self, label) -> str:
+        """The message with every argument named by ``label(name, value) -> str``."""
+        return self.text.format(**{name: label(name, value) for name, value in self.values.items()})
 
 
 class RectifyOptionsError(OptionsError):

@@ -191,7 +191,7 @@ def locate_points(project_path, strip_id: str, variant: str = "DG", *, image=Non
     ``ground`` in the image (give one), with the orientation of ``variant``."""
     if (image is None) == (ground is None):
         raise ProjectFileError("locate: give the image points or the ground points (one of them)")
-    project = Project.load(project_path)
+    project = Project.from_user_input(project_path)
     geometry = variant_geometry(project, strip_id, variant)
     if image is not None:
         return locate_image_file(project, strip_id, image, geometry)

@@ -71,7 +71,8 @@ def _run_dask(function: Callable[[T], R], tasks: Sequence[T], address: str,
         from dask.distributed import Client
         from dask.distributed import as_completed as dask_completed
     except ImportError as exc:  # pragma: no cover - depends on the installation
-        raise MissingDependencyError("--scheduler needs dask[distributed] (pip install 'scangeo[cluster]')") from exc
+        raise MissingDependencyError("a Dask scheduler needs dask[distributed] "
+                                     "(pip install 'scangeo[cluster]')") from exc
     with Client(address) as client:
         futures = [client.submit(function, t, pure=False, key=key(t, i)) for i, t in enumerate(tasks)]
         index = {f.key: i for i, f in enumerate(futures)}

@@ -97,7 +97,7 @@ def plan_block(project_root, variant: str | Variant = "SE", variants_file=None, 
     sigma_px : measurement sigma (pixels) unless the variant sets ``image_sigma_px``.
     """
     t0 = time.perf_counter()
-    project = Project.load(project_root)
+    project = Project.from_user_input(project_root)
     v = variant if isinstance(variant, Variant) else find_variant(project.root, variant, variants_file)
     if not tie_spacing_m > 0:
         raise AdjustmentError(f"tie point spacing must be positive, not {tie_spacing_m}")

@@ -55,7 +55,22 @@ class CheckResiduals:
 
 @dataclass
 class VariantResult:
-    """Everything about one adjusted variant."""
+    """Everything about one adjusted variant (:func:`run_variant`).
+
+    Parameters
+    ----------
+    block : Block
+        The block adjusted: the project, the variant, the strips, the observation groups.
+    adjustment : Adjustment
+        The least-squares adjustment (:class:`scangeo.lsq.engine.Adjustment`): unknowns, statistics
+        (sigma0, redundancy, accounting), solution, data snooping's rejections.
+    checks : CheckResiduals
+        The check points' residuals: point, strip, along track (lines), across track (pixels), status.
+    seconds : float
+        Wall-clock time.
+    notes : list of str
+        Remarks (did not converge, check points outside their strips, ...).
+    """
 
     block: Block
     adjustment: Adjustment
@@ -66,19 +81,50 @@ class VariantResult:
 
     @property
     def variant(self) -> Variant:
+        """The variant adjusted.
+
+        Returns
+        -------
+        Variant
+            Its strategy, degrees, breaks, roles, sigmas.
+        """
         return self.block.variant
 
     def spline(self, strip: str) -> OrientationSpline:
+        """A strip's adjusted orientation spline.
+
+        Parameters
+        ----------
+        strip : str
+            The strip's id.
+
+        Returns
+        -------
+        OrientationSpline
+            x, y, z (metres) and roll, pitch, heading (radians) of the sensor in the project frame, in time.
+        """
         s = self.block.strips[strip].spline
         return s.with_coef(self.adjustment.parameters[Knots(strip)].values.reshape(-1, 6))
 
     def mounting(self) -> Mounting:
+        """The adjusted mounting.
+
+        Returns
+        -------
+        Mounting
+            Lever arm (metres, body frame), boresight (radians) and time offset (seconds).
+        """
         p = self.adjustment.parameters
         return Mounting(p[LeverArm()].values.copy(), p[Boresight()].values.copy(), float(p[TimeOffset()].values[0]))
 
     def orientation(self) -> Orientation:
-        """The adjusted orientation: splines, GPS/IMU corrections, mounting, scanner calibration
-        (what ``orientation.json`` holds; built once)."""
+        """The adjusted orientation (what ``orientation.json`` holds; built once).
+
+        Returns
+        -------
+        Orientation
+            Splines, GPS/IMU corrections, mounting, scanner calibration, sigma0.
+        """
         if self._orientation is None:
             project, p = self.block.project, self.adjustment.parameters
             sensor = project.sensor.model
@@ -100,11 +146,33 @@ class VariantResult:
         return self._orientation
 
     def geometry(self, strip: str) -> StripGeometry:
-        """The strip's adjusted geometry (``Orientation.geometry`` of :meth:`orientation`)."""
+        """A strip's adjusted geometry (``Orientation.geometry`` of :meth:`orientation`).
+
+        Parameters
+        ----------
+        strip : str
+            The strip's id.
+
+        Returns
+        -------
+        StripGeometry
+            Ground <-> image of the strip with the adjusted orientation, project frame.
+        """
         return self.orientation().geometry(strip)
 
     def image_residuals(self, roles=("control", "height", "planimetric", "tie")):
-        """(point, strip, line residual, pixel residual, active) of the adjusted image measurements."""
+        """The residuals of the adjusted image measurements.
+
+        Parameters
+        ----------
+        roles : tuple of str
+            The roles of the points whose measurements are returned.
+
+        Returns
+        -------
+        tuple of 5 ndarray
+            point, strip, line residual (lines), pixel residual (pixels), active (False: rejected).
+        """
         sol = self.adjustment.solution
         res = self.adjustment.statistics.residuals()
         out = []
@@ -120,7 +188,13 @@ class VariantResult:
         return tuple(np.concatenate(c) for c in zip(*out))
 
     def rms_per_strip(self) -> dict:
-        """Per strip: count and rms along (lines) and across (pixels) at control and check points."""
+        """The residuals at control and check points, per strip.
+
+        Returns
+        -------
+        dict
+            Strip id -> ``control`` and ``check`` -> ``n``, ``rms_along_lines``, ``rms_across_px``.
+        """
         out = {}
         pts, strips, dl, dp, act = self.image_residuals(("control", "height", "planimetric"))
         for sid in self.block.strips:
@@ -194,9 +268,9 @@ def read_measurements(project: Project, set_aside: bool = True) -> tuple[ImagePo
 
 def run_variant(project_root, variant: str | Variant, variants_file=None,
                 callback: ProgressCallback = no_progress) -> VariantResult:
-    """Adjust one variant of the project in ``project_root``."""
+    """Adjust one variant of the project in ``project_root`` (a folder or a loaded :class:`Project`)."""
     t0 = time.perf_counter()
-    project = Project.load(project_root)
+    project = Project.from_user_input(project_root)
     v = variant if isinstance(variant, Variant) else find_variant(project.root, variant, variants_file)
     points, ground = read_measurements(project)
     callback(0.0, 1.0, f"{v.name}: setting up")

@@ -70,7 +70,26 @@ class VariantSummary:
 
 @dataclass
 class Comparison:
-    """All variants of a project, their figures and the reference they are measured against."""
+    """All variants of a project, their figures and the reference they are measured against.
+
+    Parameters
+    ----------
+    project : str
+        The project folder.
+    variants_file : str
+        The variants file compared.
+    reference : str
+        The reference variant (100 %).
+    strips : list of str
+        The project's strips.
+    variants : list of VariantSummary
+        Per variant: sigma0, accounting, per strip the control and check-point rms along track (lines)
+        and across track (pixels), rejections, or the error that stopped it.
+    truth : bool
+        The true errors of a simulation are in the summaries.
+    crossvalidation : dict or None
+        The cross-validation over the control points (folds, rms per variant, the recommendation).
+    """
 
     project: str
     variants_file: str
@@ -81,6 +100,23 @@ class Comparison:
     crossvalidation: dict | None = None
 
     def variant(self, name: str) -> VariantSummary:
+        """One variant's summary.
+
+        Parameters
+        ----------
+        name : str
+            The variant's name.
+
+        Returns
+        -------
+        VariantSummary
+            Its figures.
+
+        Raises
+        ------
+        KeyError
+            No such variant in the comparison.
+        """
         for v in self.variants:
             if v.name == name:
                 return v
@@ -88,32 +124,73 @@ class Comparison:
 
     @property
     def best(self) -> str | None:
-        """The variant other than the reference with the lowest pooled check-point rms."""
+        """The variant other than the reference with the lowest pooled check-point rms.
+
+        Returns
+        -------
+        str or None
+            Its name; None without check points.
+        """
         cands = [(v.check_pooled_rms(), v.name) for v in self.variants
                  if v.name != self.reference and v.error is None and v.check_pooled_rms() is not None]
         return min(cands)[1] if cands else None
 
     def reference_summary(self) -> VariantSummary | None:
-        """The reference variant's summary (None when it is missing or failed)."""
+        """The reference variant's summary.
+
+        Returns
+        -------
+        VariantSummary or None
+            None when it is missing or failed.
+        """
         for v in self.variants:
             if v.name == self.reference and v.error is None:
                 return v
         return None
 
     def sigma0_percent(self, v: VariantSummary) -> float | None:
-        """sigma0 in % of the reference's (the paper's ratio: P/S carry DTM heights the reference does not)."""
+        """A variant's sigma0 in % of the reference's (the paper's ratio: P/S carry DTM heights the
+        reference does not).
+
+        Parameters
+        ----------
+        v : VariantSummary
+            The variant.
+
+        Returns
+        -------
+        float or None
+            Percent; None without a reference.
+        """
         ref = self.reference_summary()
         return percent(v.sigma0, ref.sigma0 if ref else None)
 
     def dtm_reference(self) -> VariantSummary | None:
-        """The reference with the DTM heights (``SE_DTM`` for reference ``SE``), when it ran."""
+        """The reference with the DTM heights (``SE_DTM`` for reference ``SE``).
+
+        Returns
+        -------
+        VariantSummary or None
+            None when it did not run or failed.
+        """
         for v in self.variants:
             if v.name == f"{self.reference}_DTM" and v.error is None:
                 return v
         return None
 
     def sigma0_identical_percent(self, v: VariantSummary) -> float | None:
-        """sigma0 in % of the reference run with the same DTM heights (``SE_DTM``), for variants with DTM heights."""
+        """A variant's sigma0 in % of the reference run on the same observations (``SE_DTM``).
+
+        Parameters
+        ----------
+        v : VariantSummary
+            A variant with DTM heights.
+
+        Returns
+        -------
+        float or None
+            Percent; None when the variant has no DTM heights or other ones than ``SE_DTM``.
+        """
         ref = self.dtm_reference()
         if ref is None or not v.dtm_heights or v.dtm_heights != ref.dtm_heights:
             return None
@@ -121,18 +198,45 @@ class Comparison:
 
     @property
     def recommended(self) -> str | None:
-        """The variant the cross-validation and the information criterion recommend (crossvalidation.py)."""
+        """The variant the cross-validation and the information criterion recommend (crossvalidation.py).
+
+        Returns
+        -------
+        str or None
+            Its name; None without a cross-validation.
+        """
         return (self.crossvalidation or {}).get("recommended")
 
     def check_percent(self, v: VariantSummary, strip: str, key: str) -> float | None:
-        """Check-point rms ``key`` (``along`` or ``across``) of a strip in % of the reference's."""
+        """A strip's check-point rms in % of the reference's.
+
+        Parameters
+        ----------
+        v : VariantSummary
+            The variant.
+        strip : str
+            The strip's id.
+        key : str
+            ``along`` (track, lines) or ``across`` (track, pixels).
+
+        Returns
+        -------
+        float or None
+            Percent; None without check points there or without a reference.
+        """
         ref = self.reference_summary()
         mine = v.strips.get(strip, {}).get("check", {}).get(f"rms_{key}_px")
         theirs = ref.strips.get(strip, {}).get("check", {}).get(f"rms_{key}_px") if ref else None
         return percent(mine, theirs)
 
     def as_dict(self) -> dict:
-        """Everything, with the percentages of the reference filled in (the JSON of the comparison)."""
+        """What ``comparison.json`` holds.
+
+        Returns
+        -------
+        dict
+            JSON-able: every figure, with the percentages of the reference filled in.
+        """
         out: dict[str, Any] = {
             "project": self.project, "variants_file": self.variants_file, "reference": self.reference,
             "best": self.best, "recommended": self.recommended, "strips": self.strips, "truth": self.truth,
@@ -150,5 +254,17 @@ class Comparison:
 
     @classmethod
     def from_dict(cls, d: dict) -> Comparison:
+        """A comparison read back from what :meth:`as_dict` gave (``comparison.json``).
+
+        Parameters
+        ----------
+        d : dict
+            The parsed JSON.
+
+        Returns
+        -------
+        Comparison
+            The comparison.
+        """
         return cls(d["project"], d["variants_file"], d["reference"], list(d["strips"]),
                    [VariantSummary.from_dict(v) for v in d["variants"]], bool(d.get("truth")), d.get("crossvalidation"))

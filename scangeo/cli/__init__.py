@@ -17,11 +17,10 @@ import argparse
 import importlib
 import logging
 import sys
-from pathlib import Path
+from typing import Any
 
 from scangeo.atomic import OutputLock
-from scangeo.errors import ProjectFileError, ScangeoError
-from scangeo.io.toml_config import load_toml
+from scangeo.errors import ArgumentError, ScangeoError
 from scangeo.progress import TextProgress, no_progress
 from scangeo.version import __version__
 
@@ -56,16 +55,138 @@ def common_options() -> argparse.ArgumentParser:
     return common
 
 
-def settings_table(path: str | None, name: str) -> dict:
-    """The ``[name]`` table of a command's ``--config`` TOML file (empty without one); any other
-    table, or a file that cannot be read, is a ProjectFileError naming the file."""
-    if not path:
-        return {}
-    data = load_toml(Path(path))
-    unknown = [k for k in data if k != name]
-    if unknown:
-        raise ProjectFileError(f"{path}: unknown table [{unknown[0]}] (expected [{name}])")
-    return dict(data.get(name, {}))
+class HelpFormatter(argparse.HelpFormatter):
+    """``--help`` that states each option's default and choices as the library defines them.
+
+    A flag added by :func:`option_argument` names the field of a settings dataclass or the parameter
+    of a library call it sets (``scangeo.rectify.options:RectifyOptions.max_error_px``); its help gets
+    ``(default: 0.05 px)`` and the allowed values from there, read only when the help is shown, so
+    no command's start imports the library for it.
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help
+        target = getattr(action, "option", None)
+        if target is None or text == argparse.SUPPRESS:
+            return text
+        extra = option_text(target, choices=not isinstance(action, argparse.BooleanOptionalAction)).replace("%", "%%")
+        return f"{text} ({extra})" if text else extra
+
+
+class Parser(argparse.ArgumentParser):
+    """scangeo's argument parser: its help is formatted by :class:`HelpFormatter`."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
+
+
+def _owner(target: str):
+    module, _, rest = target.partition(":")
+    owner, _, name = rest.rpartition(".")
+    return getattr(importlib.import_module(module), owner), name
+
+
+def option_default(target: str):
+    """The default of a settings field or a call's parameter (``module:Owner.name``).
+
+    Returns
+    -------
+    tuple
+        (value, words for a missing value or None, unit, allowed values).
+    """
+    import dataclasses
+    import inspect
+
+    owner, name = _owner(target)
+    if isinstance(owner, type) and dataclasses.is_dataclass(owner):
+        from scangeo.io.schema import keys
+
+        key = next(k for k in keys(owner) if k.field == name)
+        return key.default, key.setting.default_doc or None, key.unit, tuple(key.setting.choices)
+    return inspect.signature(owner).parameters[name].default, None, "", ()
+
+
+def _words(value) -> str:
+    if isinstance(value, bool):
+        return "on" if value else "off"
+    if isinstance(value, (tuple, list)):
+        return " ".join(_words(v) for v in value) if value else "none"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return "none" if value is None else str(value)
+
+
+def option_text(target: str, choices: bool = True) -> str:
+    """``default: 0.05 px`` (and ``one of: ...``) of a flag bound to ``target`` (:class:`HelpFormatter`)."""
+    value, words, unit, allowed = option_default(target)
+    unit = {"line": "lines", "cell": "cells"}.get(unit, unit)
+    text = "default: " + (words or _words(value)) + (f" {unit}" if unit and not words and value is not None else "")
+    if allowed and choices:
+        text += "; one of: " + ", ".join(_words(c) for c in allowed)
+    return text
+
+
+def option_argument(parser: argparse.ArgumentParser, *flags: str, option: str, **kwargs) -> argparse.Action:
+    """A flag that sets a settings field or a call's parameter ``option`` (``module:Owner.name``).
+
+    Its default is None (not given: the settings file's value or the library's default applies), and
+    ``--help`` shows the library's default and choices (:class:`HelpFormatter`). Returns the action.
+    """
+    action = parser.add_argument(*flags, default=None, **kwargs)
+    action.option = option  # type: ignore[attr-defined]
+    bound = dict(parser.get_default("option_flags") or {})
+    bound[action.dest] = (option, max(action.option_strings, key=len))
+    parser.set_defaults(option_flags=bound)
+    return action
+
+
+def given(args: argparse.Namespace, owner: str) -> dict[str, tuple[str, object]]:
+    """The flags given on the command line that set a field of the class named ``owner``:
+    field -> (flag, value)."""
+    out = {}
+    for dest, (target, flag) in (getattr(args, "option_flags", None) or {}).items():
+        cls, _, name = target.rpartition(".")
+        value = getattr(args, dest, None)
+        if cls.rpartition(":")[2] == owner and value is not None:
+            out[name] = (flag, value)
+    return out
+
+
+def passed(args: argparse.Namespace, *names: str) -> dict[str, Any]:
+    """The flags among ``names`` given on the command line (name -> value), for a library call whose
+    own defaults apply to the rest."""
+    return {name: getattr(args, name) for name in names if getattr(args, name, None) is not None}
+
+
+def with_flags(options, args: argparse.Namespace):
+    """``options`` (a settings dataclass) with the fields the command-line flags give; an error names
+    the flag (``--max-error 0: expected a number > 0 (px), found 0``)."""
+    import dataclasses
+
+    flags = given(args, type(options).__name__)
+    try:
+        return dataclasses.replace(options, **{name: value for name, (flag, value) in flags.items()})
+    except ScangeoError as exc:
+        name = getattr(exc, "field", None)
+        if name not in flags:
+            raise
+        flag, value = flags[name]
+        raise type(exc)(f"{flag} {_words(value)}: {str(exc).split(': ', 1)[1]}") from None
+
+
+def settings_argument(parser: argparse.ArgumentParser) -> None:
+    """``--config FILE``: the settings file (default ``PROJECT/run.toml`` when it exists)."""
+    parser.add_argument("--config", default=None, metavar="FILE",
+                        help="settings file with [match], [clean], [compare], [rectify] tables (default: "
+                             "PROJECT/run.toml when it exists; docs/run.md)")
+
+
+def project_settings(args: argparse.Namespace):
+    """The settings of ``args.project``: ``--config`` or ``PROJECT/run.toml`` (:mod:`scangeo.pipeline.settings`)."""
+    from scangeo.pipeline.settings import read_settings
+
+    return read_settings(args.project, args.config)
 
 
 def progress_of(args: argparse.Namespace):
@@ -75,11 +196,9 @@ def progress_of(args: argparse.Namespace):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="scangeo", description="Georeferencing of airborne line-scanner imagery."
-    )
+    parser = Parser(prog="scangeo", description="Georeferencing of airborne line-scanner imagery.")
     parser.add_argument("--version", action="version", version=f"scangeo {__version__}")
-    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     common = common_options()
     for name in COMMANDS:
         module = importlib.import_module(f"scangeo.cli.{name}")
@@ -101,7 +220,7 @@ def main(argv: list[str] | None = None) -> int:
                 return int(args.func(args) or 0)
         return int(args.func(args) or 0)
     except ScangeoError as exc:
-        print(f"scangeo {args.command}: error: {exc}", file=sys.stderr)
+        print(f"scangeo {args.command}: error: {_in_flags(exc, parser, args)}", file=sys.stderr)
         return 1
     except OSError as exc:  # a full disk, a folder without write permission: the system's words suffice
         print(f"scangeo {args.command}: error: {exc}", file=sys.stderr)
@@ -109,6 +228,45 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"scangeo {args.command}: interrupted", file=sys.stderr)
         return 130
+
+
+def _actions(parser: argparse.ArgumentParser, args: argparse.Namespace) -> list[argparse.Action]:
+    """The actions of the command given (and of its sub-commands)."""
+    out: list[argparse.Action] = []
+    todo = [parser]
+    while todo:
+        p = todo.pop()
+        for a in p._actions:
+            if isinstance(a, argparse._SubParsersAction):
+                chosen = [sub for name, sub in a.choices.items() if name in (args.command, getattr(args, a.dest, None))]
+                todo.extend(chosen)
+            else:
+                out.append(a)
+    return out
+
+
+def _flag(actions: list[argparse.Action], name: str, value: object) -> str:
+    """How the command line says ``name=value``: ``--workers 0``, ``--overwrite``, ``--no-write-variants``."""
+    for a in actions:
+        if a.dest != name or not a.option_strings:
+            continue
+        longest = max(a.option_strings, key=len)
+        if isinstance(a, argparse.BooleanOptionalAction):
+            return a.option_strings[0] if value else a.option_strings[-1]
+        if isinstance(a.const, bool) and a.nargs == 0:  # store_true / store_false
+            if a.const == value:
+                return longest
+            continue
+        return f"{longest} {_words(value)}"
+    return f"{name}={value!r}"
+
+
+def _in_flags(exc: ScangeoError, parser: argparse.ArgumentParser, args: argparse.Namespace) -> str:
+    """An error's message, with the arguments it names as the command line names them."""
+    if isinstance(exc, ArgumentError):
+        actions = _actions(parser, args)
+        return exc.render(lambda name, value: _flag(actions, name, value))
+    return str(exc)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import sys
 
+from scangeo.cli import option_argument
+
 
 def add_parser(subparsers, common) -> None:
     p = subparsers.add_parser(
@@ -14,21 +16,21 @@ def add_parser(subparsers, common) -> None:
                     "heights (docs/adjustment.md). Writes PROJECT/results/NAME/.",
     )
     p.add_argument("project", help="the project folder (with project.toml, points.csv, ground.csv)")
-    p.add_argument(
-        "--variant", default="SE", help="variant name from variants.toml or built in: DG, BE, SE (default SE)"
-    )
-    p.add_argument("--variants", default=None, help="variants file (default PROJECT/variants.toml)")
-    p.add_argument("--out", default=None, help="output folder (default PROJECT/results/NAME)")
+    option_argument(p, "--variant", option="scangeo.workflow:adjust.variant",
+                    help="variant name from the variants file or built in: DG, BE, SE")
+    p.add_argument("--variants", dest="variants_file", default=None, metavar="FILE",
+                   help="variants file (default PROJECT/variants.toml)")
     p.set_defaults(func=run, writes_project=True)  # one run at a time (scangeo.atomic.OutputLock)
 
 
 def run(args) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.adjustment.reliability_summary import reliability_lines, variant_reliability
-    from scangeo.cli import progress_of
+    from scangeo.cli import passed, progress_of
     from scangeo.workflow import adjust
 
-    adjusted = adjust(args.project, args.variant, variants=args.variants, out=args.out, progress=progress_of(args))
+    adjusted = adjust(args.project, variants_file=args.variants_file, progress=progress_of(args),
+                      **passed(args, "variant"))
     result, out = adjusted.result, adjusted.folder
     stats = result.adjustment.statistics
     acc = stats.accounting

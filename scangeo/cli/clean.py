@@ -6,6 +6,10 @@ from __future__ import annotations
 
 import sys
 
+from scangeo.cli import option_argument, settings_argument
+
+_OPTIONS = "scangeo.strategy.cleaning:CleaningOptions"
+
 
 def add_parser(subparsers, common) -> None:
     p = subparsers.add_parser(
@@ -14,39 +18,32 @@ def add_parser(subparsers, common) -> None:
                     "correction per piece, DTM heights at tie points, check points as control) with data snooping, "
                     "and write the measurements it rejects to PROJECT/results/cleaning/rejected.csv (with w, MDB and "
                     "separability) and cleaning.json. Every later adjustment (diagnose, adjust, compare, "
-                    "cross-validation) leaves them out; --restore brings them back (docs/adjustment.md, 'Cleaning').",
+                    "cross-validation) leaves them out; --restore brings them back (docs/adjustment.md, 'Cleaning'). "
+                    "Settings: the [clean] table of PROJECT/run.toml (or --config), replaced by the flags.",
     )
     p.add_argument("project", help="the project folder")
-    p.add_argument("--piece-lines", type=float, default=None, metavar="LINES",
-                   help="length of the pieces of the flexible model (default 700 lines)")
-    p.add_argument("--critical-value", type=float, default=None, metavar="W",
-                   help="critical value of |w| (default 3.29, alpha0 = 0.1 %%)")
-    p.add_argument("--dtm-height-points", nargs="+", default=None, metavar="PATTERN",
-                   help="glob patterns of the tie points on open terrain (default: all)")
+    option_argument(p, "--piece-lines", type=float, metavar="LINES", option=f"{_OPTIONS}.piece_lines",
+                    help="length of the pieces of the flexible model")
+    option_argument(p, "--critical-value", type=float, metavar="W", option=f"{_OPTIONS}.critical_value",
+                    help="critical value of |w| (3.29: alpha0 = 0.1 %%, two-sided)")
+    option_argument(p, "--dtm-height-points", nargs="+", metavar="PATTERN", option=f"{_OPTIONS}.dtm_height_points",
+                    help="glob patterns of the tie points on open terrain")
+    settings_argument(p)
     p.add_argument("--restore", action="store_true",
                    help="bring every set-aside measurement back (delete PROJECT/results/cleaning/) and exit")
     p.set_defaults(func=run, writes_project=True)  # one run at a time (scangeo.atomic.OutputLock)
 
 
 def run(args) -> int:
-    from dataclasses import replace
-
     # here, not at the top: start-up cost (see scangeo.cli)
-    from scangeo.cli import progress_of
-    from scangeo.strategy.cleaning import CleaningOptions, clean, restore, summary_lines
+    from scangeo.cli import progress_of, project_settings, with_flags
+    from scangeo.strategy.cleaning import clean, restore, summary_lines
 
     if args.restore:
         done = restore(args.project)
         print("cleaning removed: every measurement is used again" if done else "no cleaning to remove")
         return 0
-    options = CleaningOptions()
-    if args.piece_lines is not None:
-        options = replace(options, piece_lines=args.piece_lines)
-    if args.critical_value is not None:
-        options = replace(options, critical_value=args.critical_value)
-    if args.dtm_height_points is not None:
-        options = replace(options, dtm_height_points=tuple(args.dtm_height_points))
-    cleaning = clean(args.project, options, progress_of(args))
+    cleaning = clean(args.project, with_flags(project_settings(args).clean, args), progress_of(args))
     print("\n".join(summary_lines(cleaning)))
     print(f"written: {cleaning.project}/results/cleaning/rejected.csv, cleaning.json", file=sys.stderr)
     return 0

@@ -4,7 +4,10 @@ A thin shell over :func:`scangeo.compare` (``scangeo.workflow``).
 """
 from __future__ import annotations
 
+import argparse
 import sys
+
+from scangeo.cli import option_argument, settings_argument
 
 
 def add_parser(subparsers, common) -> None:
@@ -15,31 +18,37 @@ def add_parser(subparsers, common) -> None:
                     "the report (report.html, residuals.gpkg; docs/reports.md). Without PROJECT/variants.toml the "
                     "project is diagnosed (scangeo diagnose: problem strips and breaks from an SE adjustment) and the "
                     "default variants (shipped with scangeo; docs/reports.md) are filled in and written there. A "
-                    "cross-validation over the control points recommends a variant without check points.",
+                    "cross-validation over the control points recommends a variant without check points. Settings: "
+                    "the [compare] table of PROJECT/run.toml (or --config), replaced by the flags.",
     )
     p.add_argument("project", help="the project folder")
-    p.add_argument("--variants", default=None, help="variants file (default PROJECT/variants.toml)")
+    p.add_argument("--variants", dest="variants_file", default=None, metavar="FILE",
+                   help="variants file (default PROJECT/variants.toml)")
     p.add_argument("--only", nargs="+", default=None, metavar="NAME", help="run only these variants")
-    p.add_argument("--reference", default="SE", help="the variant that is 100 %% (default SE)")
+    option_argument(p, "--reference-variant", metavar="NAME", option="scangeo.workflow:compare.reference_variant",
+                    help="the variant that is 100 %%")
     p.add_argument("--problem-strip", default=None, metavar="ID",
                    help="for the default variants: the strip with the GPS/IMU problem (default: diagnosed)")
     p.add_argument("--breaks-lines", type=float, nargs="+", default=None, metavar="LINE",
                    help="for the default variants: the problem strip's break lines")
-    p.add_argument("--folds", type=int, default=4,
-                   help="folds of the cross-validation over the control points (default 4; 0: none)")
-    p.add_argument("--no-report", dest="report", action="store_false", help="write the tables only")
+    option_argument(p, "--folds", type=int, metavar="N", option="scangeo.pipeline.settings:CompareSettings.folds",
+                    help="folds of the cross-validation over the control points (0: none)")
+    option_argument(p, "--report", action=argparse.BooleanOptionalAction, option="scangeo.workflow:compare.report",
+                    help="also write report.html and residuals.gpkg (--no-report: the tables only)")
+    settings_argument(p)
     p.set_defaults(func=run, writes_project=True)  # one run at a time (scangeo.atomic.OutputLock)
 
 
 def run(args) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
-    from scangeo.cli import progress_of
+    from scangeo.cli import passed, progress_of, project_settings, with_flags
     from scangeo.reports.tables import markdown_tables, text_table
     from scangeo.workflow import compare
 
-    run = compare(args.project, args.variants, reference=args.reference, names=args.only,
-                  problem_strip=args.problem_strip, breaks_lines=args.breaks_lines, folds=args.folds,
-                  report=args.report, progress=progress_of(args))
+    settings = with_flags(project_settings(args).compare, args)
+    run = compare(args.project, variants_file=args.variants_file, names=args.only, problem_strip=args.problem_strip,
+                  breaks_lines=args.breaks_lines, folds=settings.folds, progress=progress_of(args),
+                  **passed(args, "reference_variant", "report"))
     comparison = run.comparison
     print(text_table(*markdown_tables(comparison)["check points"]))
     if comparison.best:

@@ -4,6 +4,10 @@ A thin shell over :func:`scangeo.pipeline.demo.run_demo` (docs/reports.md, docs/
 """
 from __future__ import annotations
 
+import argparse
+
+from scangeo.cli import option_argument
+
 
 def add_parser(subparsers, common) -> None:
     p = subparsers.add_parser(
@@ -14,12 +18,15 @@ def add_parser(subparsers, common) -> None:
                     "'quick' preset in seconds.",
     )
     p.add_argument("out", nargs="?", default="demo", help="folder to create (default ./demo)")
-    p.add_argument("--preset", default="vienna2000", help="simulation preset or TOML file (default vienna2000)")
+    option_argument(p, "--preset", option="scangeo.pipeline.demo:run_demo.preset",
+                    help="simulation preset or TOML file")
     p.add_argument("--quick", action="store_true",
                    help="reduced size: the 'quick' preset (2 strips x 600 lines) instead of --preset")
     p.add_argument("--seed", type=int, default=None, help="random seed (default: the preset's)")
-    p.add_argument("--no-rectify", dest="rectify", action="store_false", help="skip the rectification")
-    p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
+    option_argument(p, "--rectify", action=argparse.BooleanOptionalAction,
+                    option="scangeo.pipeline.demo:run_demo.rectify", help="rectify the recommended variant")
+    option_argument(p, "--overwrite", action=argparse.BooleanOptionalAction,
+                    option="scangeo.pipeline.demo:run_demo.overwrite", help="replace OUT if it exists")
     p.add_argument("--matched", action="store_true",
                    help="also compare the strategies on points measured by 'scangeo match' (a second table)")
     p.set_defaults(func=run)
@@ -27,14 +34,15 @@ def add_parser(subparsers, common) -> None:
 
 def run(args) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
-    from scangeo.cli import progress_of
+    from scangeo.cli import passed, progress_of
     from scangeo.cli.run import summary_lines
     from scangeo.pipeline.demo import run_demo
     from scangeo.reports.tables import markdown_tables, text_table
 
-    preset = "quick" if args.quick else args.preset
-    result = run_demo(args.out, preset, seed=args.seed, rectify=args.rectify, overwrite=args.overwrite,
-                      matched=args.matched, callback=progress_of(args))
+    if args.quick:
+        args.preset = "quick"
+    result = run_demo(args.out, seed=args.seed, matched=args.matched, callback=progress_of(args),
+                      **passed(args, "preset", "rectify", "overwrite"))
     print(text_table(*markdown_tables(result.comparison)["check points"]))
     if result.matched is not None:
         print("\nthe same on matched ties and control (scangeo match; OUT/matched):")

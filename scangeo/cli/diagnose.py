@@ -4,7 +4,10 @@ A thin shell over :func:`scangeo.diagnose` (``scangeo.workflow``).
 """
 from __future__ import annotations
 
+import argparse
 import sys
+
+from scangeo.cli import option_argument
 
 
 def add_parser(subparsers, common) -> None:
@@ -18,25 +21,28 @@ def add_parser(subparsers, common) -> None:
                     "problem strips found. Check points are not used.",
     )
     p.add_argument("project", help="the project folder")
-    p.add_argument("--dtm-height-points", nargs="+", default=["*"], metavar="PATTERN",
-                   help="glob patterns of the tie points on open terrain (default: all)")
-    p.add_argument("--max-breaks", type=int, default=4, help="most breaks per strip (default 4)")
-    p.add_argument("--no-refine", dest="refine", action="store_false",
-                   help="keep the BIC's break lines (default: place each by adjusting the S model around it)")
-    p.add_argument("--no-variants", dest="variants", action="store_false",
-                   help="do not write PROJECT/variants.toml")
-    p.add_argument("--overwrite", action="store_true", help="replace an existing PROJECT/variants.toml")
+    option_argument(p, "--dtm-height-points", nargs="+", metavar="PATTERN",
+                    option="scangeo.workflow:diagnose.dtm_height_points",
+                    help="glob patterns of the tie points on open terrain")
+    option_argument(p, "--max-breaks", type=int, metavar="N", option="scangeo.workflow:diagnose.max_breaks",
+                    help="most breaks per strip")
+    option_argument(p, "--refine", action=argparse.BooleanOptionalAction, option="scangeo.workflow:diagnose.refine",
+                    help="place each break by adjusting the S model around it (--no-refine: keep the BIC's lines)")
+    option_argument(p, "--write-variants", action=argparse.BooleanOptionalAction,
+                    option="scangeo.workflow:diagnose.write_variants", help="write PROJECT/variants.toml")
+    option_argument(p, "--overwrite", action=argparse.BooleanOptionalAction,
+                    option="scangeo.workflow:diagnose.overwrite", help="replace an existing PROJECT/variants.toml")
     p.set_defaults(func=run, writes_project=True)  # one run at a time (scangeo.atomic.OutputLock)
 
 
 def run(args) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.adjustment.diagnosis.output import summary_lines
-    from scangeo.cli import progress_of
+    from scangeo.cli import passed, progress_of
     from scangeo.workflow import diagnose
 
-    run = diagnose(args.project, dtm_height_points=args.dtm_height_points, max_breaks=args.max_breaks,
-                   refine=args.refine, variants=args.variants, overwrite=args.overwrite, progress=progress_of(args))
+    run = diagnose(args.project, progress=progress_of(args),
+                   **passed(args, "dtm_height_points", "max_breaks", "refine", "write_variants", "overwrite"))
     print("\n".join(summary_lines(run.diagnosis)))
     print("written: " + ", ".join(str(f) for f in run.files), file=sys.stderr)
     return 0

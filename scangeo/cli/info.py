@@ -7,7 +7,9 @@ from __future__ import annotations
 import argparse
 import json
 
-from scangeo.io.summary import KINDS
+#: The kinds of file ``scangeo.io.summary`` summarises (its ``KINDS``; listed here so that --help does not
+#: import the readers, tests/cli/test_info.py checks they agree).
+KINDS = ("trajectory", "dtm", "image", "points", "ground", "project")
 
 
 def add_parser(subparsers, common: argparse.ArgumentParser) -> None:
@@ -27,8 +29,14 @@ def add_parser(subparsers, common: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
+    from scangeo.errors import TrajectoryError
     from scangeo.io.summary import summarise, summary_text
 
-    summary = summarise(args.file, kind=args.kind, crs=args.crs)
+    try:
+        summary = summarise(args.file, kind=args.kind, crs=args.crs)
+    except TrajectoryError as exc:
+        if args.crs is None and "need the CRS" in str(exc):
+            raise TrajectoryError(f"{exc}; give it with --crs") from exc
+        raise
     print(json.dumps(summary, indent=2) if args.json else summary_text(summary))
     return 0

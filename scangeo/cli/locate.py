@@ -10,6 +10,8 @@ import argparse
 import csv
 import sys
 
+from scangeo.cli import option_argument
+
 
 def add_parser(subparsers, common: argparse.ArgumentParser) -> None:
     p = subparsers.add_parser(
@@ -22,9 +24,9 @@ def add_parser(subparsers, common: argparse.ArgumentParser) -> None:
     )
     p.add_argument("project", metavar="PROJECT", help="project folder or project.toml")
     p.add_argument("--strip", required=True, help="strip id")
-    p.add_argument("--variant", default="DG",
-                   help="orientation: DG (the GPS/IMU as measured, default) or an adjusted variant "
-                        "(PROJECT/results/NAME/orientation.json)")
+    option_argument(p, "--variant", option="scangeo.locate:locate_points.variant",
+                    help="orientation: DG (the GPS/IMU as measured) or an adjusted variant "
+                         "(PROJECT/results/NAME/orientation.json)")
     which = p.add_mutually_exclusive_group(required=True)
     which.add_argument("--image", metavar="CSV", help="image points: point,line,pixel")
     which.add_argument("--ground", metavar="CSV", help="map points: point,x,y[,z]")
@@ -34,9 +36,10 @@ def add_parser(subparsers, common: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
+    from scangeo.cli import passed
     from scangeo.locate import locate_points
 
-    result = locate_points(args.project, args.strip, args.variant, image=args.image, ground=args.ground)
+    result = locate_points(args.project, args.strip, image=args.image, ground=args.ground, **passed(args, "variant"))
     if args.output:
         result.write(args.output)
     else:

@@ -1,12 +1,16 @@
 """``scangeo match PROJECT``: measure tie points (and control against reference orthoimages).
 
-A thin shell over :func:`scangeo.match_points` (``scangeo.workflow``): settings from ``--config`` (a TOML file
-with a ``[match]`` table, docs/match.md) overridden by the flags, a progress bar, a summary per
-overlap and per strip.
+A thin shell over :func:`scangeo.match_points` (``scangeo.workflow``): the ``[match]`` settings of the
+project's settings file (PROJECT/run.toml or ``--config``, docs/run.md) replaced by the flags, a
+progress bar, a summary per overlap and per strip.
 """
 from __future__ import annotations
 
 import argparse
+
+from scangeo.cli import option_argument, settings_argument
+
+_OPTIONS = "scangeo.match.options:MatchOptions"
 
 
 def add_parser(subparsers, common) -> None:
@@ -14,56 +18,54 @@ def add_parser(subparsers, common) -> None:
         "match", parents=[common], help="measure tie and control points automatically (points.csv, ground.csv)",
         description="Measure tie points between overlapping strips and, with --reference, control and check "
         "points against reference orthoimages (docs/match.md). Matched rows of points.csv and ground.csv "
-        "are replaced; other rows are kept.",
+        "are replaced; other rows are kept. The report goes to PROJECT/results/match_report.json. Settings: "
+        "the [match] table of PROJECT/run.toml (or --config), replaced by the flags.",
     )
     p.add_argument("project", help="the project folder")
-    p.add_argument("--variant", default="DG", help="orientation that predicts where to look (default: DG)")
+    option_argument(p, "--variant", option="scangeo.workflow:match_points.variant",
+                    help="orientation that predicts where to look")
     p.add_argument("--reference", nargs="+", default=[], metavar="ORTHO",
                    help="reference orthoimage(s) for control points (any raster with a CRS)")
     p.add_argument("--reference-dtm", default=None, metavar="DTM",
                    help="heights of control points (default: the project's DTM)")
     p.add_argument("--reference-dtm-sigma", type=float, default=None, metavar="M",
                    help="accuracy of the reference DTM, m (default: the project's dtm_sigma_m)")
-    p.add_argument("--per-overlap", type=int, default=None, dest="per_overlap", help="tie points per overlap (60)")
-    p.add_argument("--control-per-strip", type=int, default=None, dest="control_per_strip",
-                   help="control and check points per strip and reference (30)")
-    p.add_argument("--check-share", type=float, default=None, dest="check_share",
-                   help="share of control points held back as check points (0.3)")
-    p.add_argument("--bands", type=int, nargs="+", default=None, metavar="B",
-                   help="1-based strip bands to match on (default: visible bands, never thermal)")
-    p.add_argument("--config", default=None, help="TOML file with a [match] table of settings")
-    p.add_argument("--workers", type=int, default=1, help="tasks run at once (local processes)")
+    option_argument(p, "--per-overlap", type=int, metavar="N", option=f"{_OPTIONS}.per_overlap",
+                    help="tie points per overlap")
+    option_argument(p, "--control-per-strip", type=int, metavar="N", option=f"{_OPTIONS}.control_per_strip",
+                    help="control and check points per strip and reference")
+    option_argument(p, "--check-share", type=float, metavar="SHARE", option=f"{_OPTIONS}.check_share",
+                    help="share of control points held back as check points")
+    option_argument(p, "--bands", type=int, nargs="+", metavar="B", option=f"{_OPTIONS}.bands",
+                    help="1-based strip bands to match on")
+    settings_argument(p)
+    option_argument(p, "--workers", type=int, metavar="N", option="scangeo.workflow:match_points.workers",
+                    help="tasks run at once (local processes)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="run the tasks on a Dask distributed scheduler")
     p.set_defaults(func=run, writes_project=True)
 
 
 def options_of(args: argparse.Namespace):
-    """MatchOptions from ``--config`` and the flags (flags win)."""
+    """MatchOptions of the settings file (``--config`` or PROJECT/run.toml) with the flags given."""
     # here, not at the top: start-up cost (see scangeo.cli)
-    from scangeo.cli import settings_table
-    from scangeo.match.options import MatchOptions
+    from scangeo.cli import project_settings, with_flags
 
-    table = settings_table(args.config, "match")
-    for key in ("per_overlap", "control_per_strip", "check_share", "bands"):
-        value = getattr(args, key)
-        if value is not None:
-            table[key] = value
-    return MatchOptions.from_dict(table, source=f"{args.config} [match]" if args.config else "match options")
+    return with_flags(project_settings(args).match, args)
 
 
 def run(args: argparse.Namespace) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
-    from scangeo.cli import progress_of
+    from scangeo.cli import passed, progress_of
     from scangeo.workflow import match_points
 
     result = match_points(
-        args.project, args.variant, references=args.reference, reference_dtm=args.reference_dtm,
-        reference_dtm_sigma=args.reference_dtm_sigma, options=options_of(args), workers=args.workers,
-        scheduler=args.scheduler, progress=progress_of(args),
+        args.project, references=args.reference, reference_dtm=args.reference_dtm,
+        reference_dtm_sigma=args.reference_dtm_sigma, options=options_of(args), scheduler=args.scheduler,
+        progress=progress_of(args), **passed(args, "variant", "workers"),
     )
     print(summary_text(result.report))
     print(f"written: {result.points_file}, {result.ground_file if result.ground_rows else '(no ground rows)'}, "
-          f"match_report.json ({result.seconds:.1f} s)")
+          f"{result.report_file} ({result.seconds:.1f} s)")
     return 0
 
 

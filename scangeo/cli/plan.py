@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import sys
 
+from scangeo.cli import option_argument
+
 
 def add_parser(subparsers, common) -> None:
     p = subparsers.add_parser(
@@ -17,11 +19,15 @@ def add_parser(subparsers, common) -> None:
     )
     p.add_argument("project", help="the project folder (planned trajectories in project.toml, planned control in "
                                    "ground.csv)")
-    p.add_argument("--variant", default="SE", help="variant name from variants.toml or built in (default SE)")
-    p.add_argument("--variants", default=None, help="variants file (default PROJECT/variants.toml)")
-    p.add_argument("--tie-spacing", type=float, default=500.0, help="grid spacing of the planned tie points, m (500)")
-    p.add_argument("--sigma-px", type=float, default=0.3, help="image measurement sigma, px (0.3)")
-    p.add_argument("--out", default=None, help="output folder (default PROJECT/results/plan_NAME)")
+    option_argument(p, "--variant", option="scangeo.adjustment.planning:plan_block.variant",
+                    help="variant name from the variants file or built in")
+    p.add_argument("--variants", dest="variants_file", default=None, metavar="FILE",
+                   help="variants file (default PROJECT/variants.toml)")
+    option_argument(p, "--tie-spacing", type=float, dest="tie_spacing_m", metavar="M",
+                    option="scangeo.adjustment.planning:plan_block.tie_spacing_m",
+                    help="grid spacing of the planned tie points, m")
+    option_argument(p, "--sigma-px", type=float, metavar="PX", option="scangeo.adjustment.planning:plan_block.sigma_px",
+                    help="image measurement sigma, px")
     p.set_defaults(func=run, writes_project=True)
 
 
@@ -29,11 +35,12 @@ def run(args) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.adjustment.planning import plan_block
     from scangeo.adjustment.reliability_summary import reliability_lines
-    from scangeo.cli import progress_of
+    from scangeo.cli import passed, progress_of
     from scangeo.reports.reliability import write_plan
 
-    plan = plan_block(args.project, args.variant, args.variants, args.tie_spacing, args.sigma_px, progress_of(args))
-    out = write_plan(plan, args.out)
+    plan = plan_block(args.project, variants_file=args.variants_file, callback=progress_of(args),
+                      **passed(args, "variant", "tie_spacing_m", "sigma_px"))
+    out = write_plan(plan)
     print(f"plan {plan.result.variant.name}: {plan.tie_points} tie points, {plan.control_points} control points, "
           f"redundancy {plan.result.adjustment.statistics.redundancy}")
     for line in reliability_lines(plan.reliability):

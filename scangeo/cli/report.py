@@ -1,8 +1,12 @@
 """``scangeo report PROJECT``: the HTML residual report and GeoPackage of a compared project.
 
-A thin shell over :func:`scangeo.reports.report.write_report` (it reads what ``scangeo compare`` wrote).
+A thin shell over :func:`scangeo.report` (it reads what ``scangeo compare`` wrote).
 """
 from __future__ import annotations
+
+import argparse
+
+from scangeo.cli import option_argument
 
 
 def add_parser(subparsers, common) -> None:
@@ -13,18 +17,17 @@ def add_parser(subparsers, common) -> None:
                     "results of 'scangeo compare' (docs/reports.md).",
     )
     p.add_argument("project", help="the project folder (compared with 'scangeo compare')")
-    p.add_argument("--out", default=None, help="output folder (default PROJECT/results)")
-    p.add_argument("--no-geopackage", dest="geopackage", action="store_false",
-                   help="do not write residuals.gpkg")
+    option_argument(p, "--geopackage", action=argparse.BooleanOptionalAction,
+                    option="scangeo.workflow:report.geopackage", help="also write residuals.gpkg")
     p.set_defaults(func=run, writes_project=True)  # one run at a time (scangeo.atomic.OutputLock)
 
 
 def run(args) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
-    from scangeo.cli import progress_of
-    from scangeo.reports.report import write_report
+    from scangeo.cli import passed, progress_of
+    from scangeo.workflow import report
 
-    files = write_report(args.project, args.out, geopackage=args.geopackage, callback=progress_of(args))
+    files = report(args.project, progress=progress_of(args), **passed(args, "geopackage"))
     print(f"report: {files.html} ({files.figures} figures)")
     if files.geopackage:
         print(f"residual vectors: {files.geopackage}")

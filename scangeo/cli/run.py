@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from scangeo.cli import settings_argument
+
 #: Exit codes of ``scangeo run`` (docs/run.md).
 EXIT_DONE, EXIT_FAILED, EXIT_USAGE, EXIT_LOCKED, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 #: The stages, for --from and --until (scangeo.pipeline.stages.NAMES and, of a laser project,
@@ -28,8 +30,8 @@ def add_parser(subparsers, common) -> None:
                     "and report. "
                     "A rerun does only what changed since the last run; a killed run resumes where it stopped "
                     "(PROJECT/results/run.json, docs/run.md). Settings: PROJECT/run.toml or --config with "
-                    "[match], [rectify] and [compare] tables. Exit codes: 0 done, 1 a stage failed, 2 usage, "
-                    "3 the project is locked by another run, 130 interrupted.",
+                    "[match], [clean], [compare] and [rectify] tables, as the stage commands read them. Exit codes: "
+                    "0 done, 1 a stage failed, 2 usage, 3 the project is locked by another run, 130 interrupted.",
     )
     p.add_argument("project", help="the project folder")
     p.add_argument("--reference", nargs="+", default=[], metavar="ORTHO",
@@ -42,7 +44,7 @@ def add_parser(subparsers, common) -> None:
     p.add_argument("--until", choices=names, default=None, metavar="STAGE",
                    help="stop after this stage (OpenDroneMap's --end-with)")
     p.add_argument("--match", action="store_true", help="match tie points even though points.csv has some")
-    p.add_argument("--config", default=None, help="TOML settings file (default PROJECT/run.toml when it exists)")
+    settings_argument(p)
     p.set_defaults(func=run)
 
 

@@ -8,7 +8,8 @@ from __future__ import annotations
 import argparse
 import tomllib
 
-from scangeo.errors import ProjectFileError
+from scangeo.cli import option_argument
+from scangeo.errors import OptionsError
 
 
 def _override(text: str) -> dict:
@@ -35,14 +36,19 @@ def add_parser(subparsers, common) -> None:
         description="Write a simulated project folder with a truth/ folder (docs/simulate.md).",
     )
     p.add_argument("out", nargs="?", help="the project folder to create")
-    p.add_argument("--preset", default="small", help="preset name (see --list-presets) or a TOML file")
+    option_argument(p, "--preset", option="scangeo.workflow:simulate_project.preset",
+                    help="preset name (see --list-presets) or a TOML file")
     p.add_argument("--seed", type=int, default=None, help="random seed (default: the preset's)")
-    p.add_argument("--dtm", default=None, help="a real DTM file for the true terrain (any GDAL raster with a CRS)")
+    p.add_argument("--dtm", default=None, metavar="FILE",
+                   help="a real DTM file for the true terrain (any GDAL raster with a CRS)")
     p.add_argument("--texture", default=None, help="an RGB orthophoto for the scene instead of procedural land cover")
     p.add_argument("--set", dest="overrides", action="append", type=_override, default=[], metavar="KEY=VALUE",
                    help="override a preset key, e.g. --set points.blunders=10 --set flight.lines=1200")
-    p.add_argument("--no-images", action="store_true", help="skip rendering the images and the truth orthoimage")
-    p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
+    option_argument(p, "--images", action=argparse.BooleanOptionalAction,
+                    option="scangeo.workflow:simulate_project.images",
+                    help="render the images and the truth orthoimage")
+    option_argument(p, "--overwrite", action=argparse.BooleanOptionalAction,
+                    option="scangeo.workflow:simulate_project.overwrite", help="replace OUT if it exists")
     p.add_argument("--list-presets", action="store_true", help="list the shipped presets and exit")
     p.add_argument("--show-preset", metavar="NAME", default=None,
                    help="print a shipped preset's TOML (to copy and edit: --show-preset small > my.toml) and exit")
@@ -51,7 +57,7 @@ def add_parser(subparsers, common) -> None:
 
 def run(args: argparse.Namespace) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
-    from scangeo.cli import progress_of
+    from scangeo.cli import passed, progress_of
     from scangeo.simulate.config import available_presets, merge, preset_path
     from scangeo.workflow import LaserSimulation, simulate_project
 
@@ -63,12 +69,12 @@ def run(args: argparse.Namespace) -> int:
         print(preset_path(args.show_preset).read_text(encoding="utf-8"), end="")
         return 0
     if not args.out:
-        raise ProjectFileError("simulate: give the output folder OUT")
+        raise OptionsError("give the folder OUT to write (or --list-presets, --show-preset)")
     overrides: dict = {}
     for o in args.overrides:
         overrides = merge(overrides, o)
-    block = simulate_project(args.out, args.preset, seed=args.seed, overrides=overrides, images=not args.no_images,
-                             dtm=args.dtm, texture=args.texture, overwrite=args.overwrite, progress=progress_of(args))
+    block = simulate_project(args.out, seed=args.seed, overrides=overrides, dtm=args.dtm, texture=args.texture,
+                             progress=progress_of(args), **passed(args, "preset", "images", "overwrite"))
     if isinstance(block, LaserSimulation):
         strips = block.summary["truth"]["strips"]
         cfg = block.summary["config"]

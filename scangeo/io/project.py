@@ -152,7 +152,39 @@ class StripConfig:
 
 @dataclass(frozen=True)
 class Project:
-    """A project folder read from ``project.toml`` (module docstring)."""
+    """A project folder read from ``project.toml`` (module docstring; docs/formats.md): its frames, DTM,
+    sensor and strips, for images and laser strips alike.
+
+    Made by :meth:`load` (or :meth:`from_user_input`); every key of project.toml is checked there.
+
+    Parameters
+    ----------
+    root : Path
+        The project folder.
+    crs : str
+        The map CRS of the DTM, the control points and the outputs (any pyproj CRS string).
+    dtm_file : Path or None
+        The DTM raster (None: a laser project without one).
+    geoid : Geoid
+        The geoid undulation: a constant or a raster, metres.
+    origin : tuple of 3 float or None
+        Origin of the project frame: latitude, longitude (degrees), ellipsoidal height (metres);
+        None: the DTM's centre (or the strips' returns').
+    scanner : SensorConfig or LaserSensor
+        The line scanner (sensor model, mounting, line rate) or the laser scanner.
+    strips : tuple of StripConfig
+        The strips: id, image or LAS files, trajectory, line times.
+    knot_spacing : float
+        Spacing of the orientation spline's knots, seconds.
+    dtm_sigma : float
+        Accuracy of the DTM's heights, metres.
+    trajectory_crs : str or None
+        CRS of trajectory CSVs with x, y columns (None: ``crs``).
+    extra : dict
+        Anything a caller attaches (not read from the file).
+    adjustment : dict
+        A laser project's ``[adjustment]`` table.
+    """
 
     root: Path
     crs: str
@@ -169,20 +201,51 @@ class Project:
 
     @property
     def kind(self) -> str:
-        """``whiskbroom``, ``pushbroom`` or ``laser``."""
+        """The kind of scanner.
+
+        Returns
+        -------
+        str
+            ``whiskbroom``, ``pushbroom`` or ``laser``.
+        """
         return "laser" if isinstance(self.scanner, LaserSensor) else self.scanner.kind
 
     @property
     def is_laser(self) -> bool:
+        """Whether this is a laser project.
+
+        Returns
+        -------
+        bool
+            True for ``[sensor] kind = "laser"``.
+        """
         return isinstance(self.scanner, LaserSensor)
 
     @property
     def file(self) -> Path:
+        """The project file.
+
+        Returns
+        -------
+        Path
+            ``PROJECT/project.toml``.
+        """
         return self.root / "project.toml"
 
     @property
     def sensor(self) -> SensorConfig:
-        """The line scanner (whiskbroom or pushbroom) of an image project."""
+        """The line scanner of an image project.
+
+        Returns
+        -------
+        SensorConfig
+            The whiskbroom or pushbroom model, its mounting and line rate.
+
+        Raises
+        ------
+        ProjectFileError
+            A laser project.
+        """
         if isinstance(self.scanner, LaserSensor):
             raise ProjectFileError(f"{self.file} [sensor.kind]: a laser project; this needs a line scanner's images "
                                    "(whiskbroom or pushbroom)")
@@ -190,7 +253,18 @@ class Project:
 
     @property
     def laser(self) -> LaserSensor:
-        """The laser scanner of a laser project."""
+        """The laser scanner of a laser project.
+
+        Returns
+        -------
+        LaserSensor
+            Its mounting and scan geometry.
+
+        Raises
+        ------
+        ProjectFileError
+            An image project.
+        """
         if not isinstance(self.scanner, LaserSensor):
             raise ProjectFileError(f"{self.file} [sensor.kind]: a {self.scanner.kind} project; this needs a laser "
                                    "project (kind = \"laser\", strips with las)")
@@ -198,19 +272,55 @@ class Project:
 
     @property
     def dtm_path(self) -> Path:
-        """The DTM raster (an error naming the key when the project has none: a laser project)."""
+        """The DTM raster.
+
+        Returns
+        -------
+        Path
+            The file of ``[project] dtm``.
+
+        Raises
+        ------
+        ProjectFileError
+            The project has none (a laser project may not), naming the key.
+        """
         if self.dtm_file is None:
             raise ProjectFileError(f"{self.file} [project.dtm]: missing (this step needs a DTM)")
         return self.dtm_file
 
     @property
     def has_trajectories(self) -> bool:
-        """Every strip has a trajectory (a laser project without them is adjusted trajectory-free)."""
+        """Whether every strip has a trajectory.
+
+        Returns
+        -------
+        bool
+            False for a laser project without them (adjusted trajectory-free).
+        """
         return all(s.has_trajectory for s in self.strips)
 
     @classmethod
-    def load(cls, path) -> Project:
-        """Read ``PATH/project.toml`` (or the file itself)."""
+    def load(cls, path: str | Path) -> Project:
+        """Read ``PATH/project.toml`` (or the file itself).
+
+        Parameters
+        ----------
+        path : str or Path
+            The project folder, or its project.toml.
+
+        Returns
+        -------
+        Project
+            The project, every key of project.toml checked.
+
+        Raises
+        ------
+        MissingFileError
+            There is no project.toml.
+        ProjectFileError
+            project.toml is not valid TOML, or a key is unknown, missing or out of range (the message
+            names the file and the key).
+        """
         path = Path(path)
         file = path / "project.toml" if path.is_dir() else path
         if not file.exists():
@@ -228,11 +338,33 @@ class Project:
         return cls(root, p.crs, root / p.dtm if p.dtm else None, geoid, p.origin, scanner, strips, p.knot_spacing_s,
                    p.dtm_sigma_m, p.trajectory_crs, adjustment=dict(keys.adjustment or {}))
 
+    @classmethod
+    def from_user_input(cls, project: str | Path | Project) -> Project:
+        """A project given as a loaded :class:`Project` (returned as it is) or as a path (:meth:`load`).
+
+        Parameters
+        ----------
+        project : str, Path or Project
+            The project folder, its project.toml, or a project already loaded.
+
+        Returns
+        -------
+        Project
+            ``project`` itself when it is one, else the project read from the path.
+        """
+        return project if isinstance(project, Project) else cls.load(project)
+
     # --- frames and DTM -------------------------------------------------------------------------
     @cached_property
     def map_frame(self) -> MapFrame:
-        """Map CRS <-> project frame; the origin is [project] origin, the DTM's centre or, in a laser
-        project without a DTM, the centre of the strips' returns (their LAS headers)."""
+        """The map CRS and the project frame (a local ENU frame), and the conversions between them.
+
+        Returns
+        -------
+        MapFrame
+            Map CRS <-> project frame; the frame's origin is ``[project] origin``, the DTM's centre or,
+            in a laser project without a DTM, the centre of the strips' returns (their LAS headers).
+        """
         if self.origin is not None:
             lat, lon, h = self.origin
             return MapFrame(self.crs, ProjectFrame.from_origin(lat, lon, h), self.geoid)
@@ -257,11 +389,35 @@ class Project:
         return MapFrame.centred_on(self.crs, float(cx), float(cy), 0.0, self.geoid)
 
     @cached_property
-    def dtm(self):
+    def dtm(self) -> DTM:
+        """The project's DTM, opened once.
+
+        Returns
+        -------
+        DTM
+            Heights (orthometric, metres) at map or project-frame positions.
+        """
         return DTM.open(self.dtm_path, self.map_frame)
 
     # --- strips ---------------------------------------------------------------------------------
     def strip(self, strip_id: str) -> StripConfig:
+        """One strip's entry of project.toml.
+
+        Parameters
+        ----------
+        strip_id : str
+            The strip's id.
+
+        Returns
+        -------
+        StripConfig
+            Its id, image or LAS files, trajectory and line times (paths within the project folder).
+
+        Raises
+        ------
+        ProjectFileError
+            No such strip (the message lists the strips).
+        """
         for s in self.strips:
             if s.id == str(strip_id):
                 return s
@@ -270,8 +426,26 @@ class Project:
         )
 
     def stream(self, strip_id: str, check: bool = True):
-        """The strip's GPS/IMU stream as measured; ``check`` (image strips): coverage and gaps
-        (scangeo.trajectory.checks)."""
+        """The strip's GPS/IMU stream as measured.
+
+        Parameters
+        ----------
+        strip_id : str
+            The strip's id.
+        check : bool
+            Check that the trajectory covers an image strip's lines without gaps
+            (scangeo.trajectory.checks).
+
+        Returns
+        -------
+        Trajectory
+            Times (seconds), positions and attitudes as the trajectory file gives them.
+
+        Raises
+        ------
+        TrajectoryError
+            A malformed trajectory, or (with ``check``) one that does not cover the strip.
+        """
         strip = self.strip(strip_id)
         if not strip.has_trajectory:
             raise ProjectFileError(f"{self.file}: strip {strip_id} has no trajectory")
@@ -281,6 +455,19 @@ class Project:
         return stream
 
     def timing(self, strip_id: str) -> LineTiming:
+        """When the strip's lines were taken.
+
+        Parameters
+        ----------
+        strip_id : str
+            The strip's id.
+
+        Returns
+        -------
+        LineTiming
+            Line -> time (seconds of the project's time base): the line time table, or the first line's
+            time and the line rate.
+        """
         s = self.strip(strip_id)
         if s.line_times is not None:
             return LineTiming.from_table_file(s.line_times)
@@ -288,6 +475,18 @@ class Project:
         return LineTiming(s.first_line_time, self.sensor.line_rate)
 
     def n_lines(self, strip_id: str) -> int:
+        """The number of image lines of a strip.
+
+        Parameters
+        ----------
+        strip_id : str
+            The strip's id.
+
+        Returns
+        -------
+        int
+            ``lines`` of project.toml, else the line time table's length, else the image's height.
+        """
         s = self.strip(strip_id)
         if s.lines is not None:
             return s.lines
@@ -311,10 +510,28 @@ class Project:
 
     def geometry(self, strip_id: str, spline=None, mounting: Mounting | None = None, sensor=None,
                  check: bool = True) -> StripGeometry:
-        """Strip geometry; by default direct georeferencing (the spline fitted to the GPS/IMU).
+        """A strip's geometry: sensor, orientation spline, line timing, mounting (ground <-> image).
 
-        ``check=False`` skips the trajectory's coverage and gap checks (locate answers point by point
-        "outside the trajectory" instead); rectify, adjust and the reports keep them."""
+        Parameters
+        ----------
+        strip_id : str
+            The strip's id.
+        spline : OrientationSpline, optional
+            The orientation (project frame); default direct georeferencing: the spline fitted to the
+            GPS/IMU as measured.
+        mounting : Mounting, optional
+            Lever arm and boresight (default the project's).
+        sensor : Whiskbroom or Pushbroom, optional
+            The sensor model (default the project's).
+        check : bool
+            Check the trajectory's coverage and gaps (False: locate answers point by point "outside the
+            trajectory" instead; rectify, adjust and the reports keep the check).
+
+        Returns
+        -------
+        StripGeometry
+            The strip's geometry in the project frame.
+        """
         if spline is None:
             traj = self.stream(strip_id, check=check).to_project(self.map_frame.frame)
             spline = OrientationSpline.from_trajectory(traj, self.knot_spacing)

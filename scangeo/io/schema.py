@@ -207,7 +207,7 @@ def _keys(cls: type) -> tuple[Key, ...]:
     return tuple(out)
 
 
-def check(obj: Any, error: type[Exception] = ProjectFileError, where: str | None = None) -> None:
+def check(obj: Any, where: str | None = None) -> None:
     """Check a settings dataclass built in Python as :func:`read` checks the keys of a file.
 
     Called by a settings dataclass's ``__post_init__``: every field is converted and checked as its
@@ -219,15 +219,17 @@ def check(obj: Any, error: type[Exception] = ProjectFileError, where: str | None
     Parameters
     ----------
     obj : the settings dataclass instance (frozen or not).
-    error : the exception class raised (the class its file's errors are raised as).
     where : the name errors give before the field (default: the class's name).
 
     Raises
     ------
-    error
-        ``CLASS.FIELD: expected ..., found ...``: the words :func:`read` uses for a file's key.
+    ProjectFileError, or the class's ``schema_error``
+        ``CLASS.FIELD: expected ..., found ...``: the words :func:`read` uses for a file's key, and
+        the class of error a file's key raises (:func:`error_class`); its ``field`` attribute names
+        the field.
     """
     cls = type(obj)
+    error = error_class(cls)
     name = where or cls.__name__
     known = keys(cls)
     by_name = {k.name: k for k in known}
@@ -235,15 +237,15 @@ def check(obj: Any, error: type[Exception] = ProjectFileError, where: str | None
         if k.setting.parse is not None:
             continue
         when = k.setting.when
-        if when is not None and when[0] in by_name and getattr(obj, by_name[when[0]].field) != when[1]:
+        if when is not None and when[0] in by_name and not _applies(when, getattr(obj, by_name[when[0]].field)):
             continue
         try:
             value = _from_python(getattr(obj, k.field), k.hint, dataclasses.replace(k.setting, unit=k.unit),
                                  f"{name}.{k.field}")
         except ProjectFileError as exc:
-            if error is ProjectFileError:
-                raise
-            raise error(str(exc)) from None
+            raised = exc if isinstance(exc, error) else error(str(exc))
+            raised.field = k.field  # type: ignore[attr-defined]  # the command line names its flag
+            raise raised from None
         object.__setattr__(obj, k.field, value)
 
 
@@ -286,12 +288,44 @@ def _applies(when: tuple[str, Any], value: Any) -> bool:
     return value in when[1] if isinstance(when[1], tuple) else value == when[1]
 
 
+def error_class(cls: type) -> type[Exception]:
+    """The exception a settings dataclass's bad keys and fields raise: its ``schema_error`` class
+    attribute (e.g. :class:`~scangeo.errors.RectifyOptionsError`), else
+    :class:`~scangeo.errors.ProjectFileError`."""
+    return getattr(cls, "schema_error", ProjectFileError)
+
+
 def read(cls: type, table: Any, file: str, path: str = "", **internal: Any) -> Any:
     """A settings dataclass from a parsed TOML table; every key checked.
 
-    ``file`` names the file in errors, ``path`` the table's dotted key (``""`` for the top level);
-    ``internal`` gives values of internal fields.
+    Parameters
+    ----------
+    cls : the settings dataclass of the table.
+    table : the parsed TOML table (a mapping).
+    file : the file's name, for errors.
+    path : the table's dotted key (``""`` for the top level), for errors.
+    **internal : values of internal fields (not keys of the file).
+
+    Returns
+    -------
+    cls
+        The settings, every key converted and checked.
+
+    Raises
+    ------
+    ProjectFileError, or the class's ``schema_error``
+        ``FILE [TABLE.KEY]: expected ..., found ...``; an unknown key or table, a missing required key.
     """
+    error = error_class(cls)
+    try:
+        return _read(cls, table, file, path, **internal)
+    except ProjectFileError as exc:
+        if isinstance(exc, error):
+            raise
+        raise error(str(exc)) from exc
+
+
+def _read(cls: type, table: Any, file: str, path: str = "", **internal: Any) -> Any:
     where_table = f"{file} [{path}]" if path else str(file)
     if not isinstance(table, Mapping):
         fail(where_table, "a table", table)
@@ -326,10 +360,10 @@ def read(cls: type, table: Any, file: str, path: str = "", **internal: Any) -> A
         values[k.field] = value
     try:
         return cls(**values)
-    except ProjectFileError as exc:
+    except (ProjectFileError, error_class(cls)) as exc:
         if str(file) in str(exc):
             raise
-        raise ProjectFileError(f"{where_table}: {exc}") from exc
+        raise type(exc)(f"{where_table}: {exc}") from exc
 
 
 def _default_of(by_name: dict[str, Key], name: str) -> Any:
@@ -489,4 +523,5 @@ def type_text(hint: Any, s: Setting | None = None) -> str:
     return {bool: "true/false", int: "integer", float: "number", str: "string"}.get(hint, str(hint))
 
 
-__all__ = ["REQUIRED", "Key", "Rule", "Setting", "check", "convert", "fail", "keys", "read", "setting", "type_text"]
+__all__ = ["REQUIRED", "Key", "Rule", "Setting", "check", "convert", "error_class", "fail", "keys", "read", "setting",
+           "type_text"]

@@ -86,7 +86,43 @@ class TiltTests:
 @dataclass
 class LaserResult:
     """What the adjustment of one laser variant found (:func:`laser_result`); :meth:`to_dict` is its
-    ``results.json``."""
+    ``results.json``.
+
+    Parameters
+    ----------
+    mode, mode_description : str
+        How the strips were corrected (trajectory corrections or trajectory-free), in a word and in words.
+    strips : dict
+        Strip id -> its figures.
+    patches : dict
+        Counts of tie, control and check patches.
+    sigma0 : float
+        sigma0 a posteriori.
+    accounting : dict
+        Observations, unknowns, conditions, redundancy.
+    converged : bool
+        The adjustment converged.
+    estimates : list of Estimate
+        Every unknown with its value and precision (metres, degrees).
+    tilts : TiltTests
+        The tests of the patches' tilts.
+    regularised : list of Regularised
+        Coefficients held by their pseudo-observations, and why.
+    rejections : list of Rejection
+        What data snooping removed.
+    notes : list of str
+        Remarks.
+    evaluation : dict or None
+        Against a simulation's truth, when there is one.
+    folder : Path or None
+        Where the results went (None: not written).
+    variant : str
+        The variant's name.
+    options : dict
+        The options used.
+    patch_map : list of dict
+        Every patch of the adjustment: id, kind, x, y (map CRS), the strips it was found in.
+    """
 
     mode: str
     mode_description: str
@@ -109,7 +145,13 @@ class LaserResult:
 
     @property
     def strips_per_patch(self) -> dict[str, int]:
-        """The block's connectivity: how many tie patches were found in 2, 3, ... strips."""
+        """The block's connectivity: how many tie patches were found in 2, 3, ... strips.
+
+        Returns
+        -------
+        dict
+            Number of strips (as a string) -> tie patches found in that many, ascending.
+        """
         counts: dict[str, int] = {}
         for p in self.patch_map:
             if p["kind"] == "tie":
@@ -118,14 +160,34 @@ class LaserResult:
 
     @property
     def calibration(self) -> list[Estimate]:
+        """The calibration unknowns (boresight, lever arm, scanner).
+
+        Returns
+        -------
+        list of Estimate
+            Value and precision of each.
+        """
         return [e for e in self.estimates if e.is_calibration]
 
     @property
     def corrections(self) -> list[Estimate]:
+        """The GPS/IMU correction coefficients.
+
+        Returns
+        -------
+        list of Estimate
+            Value and precision of each.
+        """
         return [e for e in self.estimates if isinstance(e.key, Correction)]
 
     def to_dict(self) -> dict:
-        """``results.json``."""
+        """What ``results.json`` holds.
+
+        Returns
+        -------
+        dict
+            JSON-able: every figure of the result.
+        """
         return {
             "variant": self.variant,
             "mode": self.mode,

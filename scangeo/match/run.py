@@ -42,17 +42,47 @@ from scangeo.rectify.output_grid import nice_resolution
 
 log = logging.getLogger(__name__)
 
-REPORT = "match_report.json"
+#: The match report, under PROJECT/ (``report_path``), and the two tables beside it.
+REPORT = Path("results") / "match_report.json"
 CELLS = "match_cells.csv"
 POINTS_CSV = "match_points.csv"
+#: Where scangeo match wrote its report before it went under results/ (read when the new one is absent).
+EARLIER_REPORT = Path("match_report.json")
+
+
+def report_path(root: Path, existing: bool = False) -> Path:
+    """``PROJECT/results/match_report.json``; with ``existing``, the report an earlier match left: that
+    one, or ``PROJECT/match_report.json`` where an older scangeo wrote it."""
+    path = Path(root) / REPORT
+    if existing and not path.exists() and (Path(root) / EARLIER_REPORT).exists():
+        return Path(root) / EARLIER_REPORT
+    return path
 
 
 @dataclass
 class MatchResult:
-    """What a run measured (``report`` is what match_report.json holds)."""
+    """What :func:`match_project` measured and wrote.
+
+    Parameters
+    ----------
+    points_file : Path
+        ``PROJECT/points.csv`` (its matched rows replaced).
+    ground_file : Path
+        ``PROJECT/ground.csv`` (its matched control and check rows replaced).
+    report_file : Path
+        ``PROJECT/results/match_report.json``; ``match_cells.csv`` and ``match_points.csv`` beside it.
+    report : dict
+        What the report file holds: per overlap and per reference the cells, points and rejections;
+        the summary.
+    point_rows, ground_rows : list of dict
+        The rows matched (columns of points.csv, ground.csv).
+    seconds : float
+        Wall-clock time of the run.
+    """
 
     points_file: Path
     ground_file: Path
+    report_file: Path
     report: dict = field(default_factory=dict)
     point_rows: list[dict] = field(default_factory=list)
     ground_rows: list[dict] = field(default_factory=list)
@@ -125,7 +155,7 @@ def _plan(project: Project, strips: dict[str, MatchStrip], references: list[Refe
     return tasks
 
 
-def match_project(project_path: str | Path, variant: str = "DG", references: Sequence[str | Path] = (),
+def match_project(project_path: str | Path | Project, variant: str = "DG", references: Sequence[str | Path] = (),
                   reference_dtm: str | Path | None = None, reference_dtm_sigma: float | None = None,
                   options: MatchOptions | None = None, workers: int = 1, scheduler: str | None = None,
                   write: bool = True, progress: ProgressCallback = no_progress) -> MatchResult:
@@ -145,7 +175,7 @@ def match_project(project_path: str | Path, variant: str = "DG", references: Seq
     """
     started = time.perf_counter()
     options = options or MatchOptions()
-    project = Project.load(project_path)
+    project = Project.from_user_input(project_path)
     ids = [s.id for s in project.strips if s.image is not None]
     if not ids:
         raise ProjectFileError(f"{project.root / 'project.toml'}: no strip has an image to match on")
@@ -153,7 +183,7 @@ def match_project(project_path: str | Path, variant: str = "DG", references: Seq
     strips = {sid: MatchStrip(project, variant, sid, options, orientation=orientation) for sid in ids}
     res = options.resolution or nice_resolution(nadir_ground_pixel(strips[ids[0]].geometry))
     refs = [Reference(r, project.crs, options.reference_bands) for r in references]
-    result = MatchResult(project.root / "points.csv", project.root / "ground.csv")
+    result = MatchResult(project.root / "points.csv", project.root / "ground.csv", report_path(project.root))
     report: dict = {"variant": variant, "resolution": res, "options": options.__dict__ | {},
                     "overlaps": {}, "control": {}, "references": [r.info.__dict__ for r in refs]}
     try:
@@ -176,7 +206,7 @@ def match_project(project_path: str | Path, variant: str = "DG", references: Seq
             _control_rows(task, res_t, res, options, dtm, sigma_z, ref_res[task.reference or ""], rng, report,
                           result)
     if not refs and write:
-        _keep_control(project.root / REPORT, report)
+        _keep_control(report_path(project.root, existing=True), report)
     _summary(report, result, res)
     result.seconds = time.perf_counter() - started
     report["seconds"] = round(result.seconds, 2)
@@ -185,8 +215,9 @@ def match_project(project_path: str | Path, variant: str = "DG", references: Seq
         merge_rows(result.points_file, POINT_COLUMNS, prefixes, result.point_rows)
         if result.ground_rows or result.ground_file.exists():
             merge_rows(result.ground_file, GROUND_COLUMNS, prefixes, result.ground_rows)
-        write_json(project.root / REPORT, report)
-        _write_cells(project.root / CELLS, report)
+        result.report_file.parent.mkdir(parents=True, exist_ok=True)
+        write_json(result.report_file, report)
+        _write_cells(result.report_file.with_name(CELLS), report)
     result.report = report
     return result
 

@@ -53,10 +53,31 @@ class MapReference:
 class Orientation:
     """The orientation of a variant: what ``orientation.json`` holds (see the module doc).
 
-    ``coefficients`` maps a GPS/IMU model id to its coefficients (in the order of
-    ``GpsImuModel.names()``; metres and radians); ``calibrated`` names the calibration values
-    the adjustment estimated (the others are the project's). ``path`` is the file it was read
-    from (None when built in memory).
+    Parameters
+    ----------
+    variant : str
+        The variant's name.
+    adjusted : bool
+        False for DG (the GPS/IMU as measured, fitted by the spline).
+    sensor : SensorModel
+        The sensor model with its calibration (index and scale error of a whiskbroom).
+    mounting : Mounting
+        Lever arm (metres, body frame), boresight (radians), time offset (seconds).
+    strips : mapping of str to StripOrientation
+        Per strip: lines, line timing, the orientation spline (project frame: x, y, z in metres, roll,
+        pitch, heading in radians).
+    reference : MapReference
+        The map CRS and the project frame's origin.
+    models : tuple of GpsImuModel
+        The GPS/IMU models of the variant (strips, time span, degrees, breaks).
+    coefficients : dict
+        GPS/IMU model id -> its coefficients (in the order of ``GpsImuModel.names()``; metres and radians).
+    calibrated : tuple of str
+        The calibration values the adjustment estimated (the others are the project's).
+    sigma0 : float or None
+        sigma0 a posteriori of the adjustment (None for DG).
+    path : Path or None
+        The file it was read from (None when built in memory).
     """
 
     variant: str
@@ -72,6 +93,23 @@ class Orientation:
     path: Path | None = None
 
     def strip(self, strip_id: str) -> StripOrientation:
+        """One strip's orientation.
+
+        Parameters
+        ----------
+        strip_id : str
+            The strip's id.
+
+        Returns
+        -------
+        StripOrientation
+            Its lines, line timing and spline (project frame).
+
+        Raises
+        ------
+        OrientationFileError
+            No such strip in the orientation.
+        """
         try:
             return self.strips[strip_id]
         except KeyError:
@@ -80,18 +118,53 @@ class Orientation:
                 f"{where}: no strip {strip_id!r} (strips: {', '.join(self.strips)})") from None
 
     def geometry(self, strip_id: str) -> StripGeometry:
-        """The strip's geometry: spline, timing, lines, sensor with its calibration, mounting."""
+        """A strip's geometry: spline, timing, lines, sensor with its calibration, mounting.
+
+        Parameters
+        ----------
+        strip_id : str
+            The strip's id.
+
+        Returns
+        -------
+        StripGeometry
+            Ground <-> image of the strip, project frame.
+        """
         s = self.strip(strip_id)
         return StripGeometry(self.sensor, s.spline, s.timing, s.lines, self.mounting, strip_id)
 
     def breaks(self, strip_id: str) -> list[float]:
-        """Break epochs (s) of the strip's split GPS/IMU models: where a sub-model follows another."""
+        """Where the strip's split GPS/IMU models break: where a sub-model follows another.
+
+        Parameters
+        ----------
+        strip_id : str
+            The strip's id.
+
+        Returns
+        -------
+        list of float
+            Break epochs, seconds of the project's time base (empty: not split).
+        """
         return sorted(m.t_start for m in self.models if m.follows is not None and strip_id in m.strips)
 
     def correction(self, strip_id: str, t: np.ndarray, p_gps: np.ndarray) -> np.ndarray:
-        """The correction function c(t) (n, 6: m, rad) of the strip's GPS/IMU models at times t
-        (``p_gps`` the GPS positions there, for models with a rigid rotation); the orientation is
-        the GPS/IMU plus it."""
+        """The correction function of the strip's GPS/IMU models: the orientation is the GPS/IMU plus it.
+
+        Parameters
+        ----------
+        strip_id : str
+            The strip's id.
+        t : (n,) ndarray
+            Times, seconds of the project's time base.
+        p_gps : (n, 3) ndarray
+            The GPS positions at those times, metres, project frame (for models with a rigid rotation).
+
+        Returns
+        -------
+        (n, 6) ndarray
+            c(t): x, y, z (metres, project frame), roll, pitch, heading (radians).
+        """
         coefficients = {m.key: self.coefficients[m.id] for m in self.models}
         return ModelSet(list(self.models)).correction(strip_id, t, p_gps, coefficients)
 

@@ -93,12 +93,12 @@ def load_orientation(project: Project, variant: str | os.PathLike[str]) -> Orien
         path = path / FILE_NAME if path.is_dir() else path
         if not path.is_file():
             raise OrientationFileError(f"{path}: no orientation file there")
-        doc = read_orientation(path)
+        doc = read_orientation_file(path)
         _check_frame(doc, project)
         return doc
     path = results_folder(project, variant) / FILE_NAME
     if path.exists():
-        doc = read_orientation(path)
+        doc = read_orientation_file(path)
         _check_frame(doc, project)
         return doc
     if variant.upper() == DIRECT:
@@ -107,8 +107,8 @@ def load_orientation(project: Project, variant: str | os.PathLike[str]) -> Orien
     older = folder.is_dir() and any(folder.glob("spline_*.json"))
     raise OrientationFileError(
         f"{path}: no orientation for variant {variant!r} "
-        + ("(the folder was written by an older scangeo: run 'scangeo adjust' again)" if older else
-           f"(run 'scangeo adjust {project.root} --variant {variant}' first, or use --variant {DIRECT})")
+        + ("(the folder was written by an older scangeo: adjust the variant again)" if older else
+           f"(adjust the variant first, or use {DIRECT}: the GPS/IMU as measured)")
     )
 
 
@@ -136,7 +136,7 @@ def write_orientation(doc: Orientation, path: str | Path) -> Path:
     return path
 
 
-def read_orientation(path: str | Path) -> Orientation:
+def read_orientation_file(path: str | Path) -> Orientation:
     """Read an ``orientation.json``; errors name the file and the key."""
     path = Path(path)
     try:
@@ -151,5 +151,5 @@ def read_orientation(path: str | Path) -> Orientation:
 
 
 __all__ = ["SCHEMA", "FILE_NAME", "DIRECT", "Orientation", "StripOrientation", "MapReference", "strip_geometries",
-           "direct_orientation", "load_orientation", "load_adjusted_geometry", "read_orientation",
+           "direct_orientation", "load_orientation", "load_adjusted_geometry", "read_orientation_file",
            "write_orientation", "orientation_dict", "orientation_from_dict", "map_reference", "results_folder"]

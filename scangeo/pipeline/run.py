@@ -15,27 +15,26 @@ from __future__ import annotations
 import datetime
 import logging
 import time
-import tomllib
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from scangeo.errors import ProjectFileError, ScangeoError
+from scangeo.errors import ArgumentError, ScangeoError
 from scangeo.io.project import Project
-from scangeo.match.options import MatchOptions
+from scangeo.io.toml_config import load_toml
 from scangeo.pipeline.fingerprints import changes, file_stamps, relative_name, stage_fingerprint
 from scangeo.pipeline.laser import LASER_NAMES, LASER_STAGES
 from scangeo.pipeline.manifest import Manifest
+from scangeo.pipeline.settings import SETTINGS_FILE, read_settings
+from scangeo.pipeline.settings import settings_file as settings_file_of
 from scangeo.pipeline.stages import NAMES, STAGES, Context, RunSettings, Stage, tie_points
 from scangeo.progress import ProgressCallback, no_progress, scaled
-from scangeo.rectify.options import RectifyOptions
 from scangeo.version import __version__
 
 log = logging.getLogger(__name__)
 
-#: The settings file a run reads when no other is given (tables [match], [rectify], [compare]).
-SETTINGS_FILE = "run.toml"
 
 
 class StageFailed(ScangeoError):
@@ -59,7 +58,19 @@ class StageOutcome:
 
 @dataclass
 class RunResult:
-    """The stages' outcomes, the recommended variant and where the outputs are."""
+    """What :func:`run` did: the stages' outcomes, the recommended variant and where the outputs are.
+
+    Parameters
+    ----------
+    root : Path
+        The project folder.
+    stages : list of StageOutcome
+        Every stage in order: ``ran``, ``up to date`` or ``not run``, why, its figures.
+    manifest : Path
+        ``PROJECT/results/run.json``.
+    seconds : float
+        Wall-clock time of the call.
+    """
 
     root: Path
     stages: list[StageOutcome]
@@ -67,6 +78,23 @@ class RunResult:
     seconds: float = 0.0
 
     def outcome(self, name: str) -> StageOutcome:
+        """One stage's outcome.
+
+        Parameters
+        ----------
+        name : str
+            The stage (check, match, clean, diagnose, compare, rectify, report).
+
+        Returns
+        -------
+        StageOutcome
+            Its status, seconds, reason and figures.
+
+        Raises
+        ------
+        KeyError
+            Not a stage.
+        """
         for s in self.stages:
             if s.name == name:
                 return s
@@ -74,11 +102,28 @@ class RunResult:
 
     @property
     def ran(self) -> list[str]:
-        """The stages that did their work in this call, in order."""
+        """The stages that did their work in this call.
+
+        Returns
+        -------
+        list of str
+            Their names, in order.
+        """
         return [s.name for s in self.stages if s.status == "ran"]
 
     def summary_of(self, name: str) -> dict[str, Any]:
-        """The figures of a stage (from this call or the earlier run it is up to date with)."""
+        """The figures of a stage, from this call or the earlier run it is up to date with.
+
+        Parameters
+        ----------
+        name : str
+            The stage.
+
+        Returns
+        -------
+        dict
+            Its summary (empty when it has none).
+        """
         try:
             return self.outcome(name).summary
         except KeyError:
@@ -86,36 +131,14 @@ class RunResult:
 
     @property
     def recommended(self) -> str | None:
+        """The variant the compare stage recommended.
+
+        Returns
+        -------
+        str or None
+            Its name; None when compare did not run.
+        """
         return self.summary_of("compare").get("recommended")
-
-
-def read_settings(path: Path | None, references=(), reference_dtm=None, force_match: bool = False) -> RunSettings:
-    """The run's settings: the tables ``[match]``, ``[rectify]``, ``[compare]`` of a TOML file (all optional)."""
-    tables: dict[str, Any] = {}
-    if path is not None:
-        try:
-            with open(path, "rb") as fh:
-                tables = tomllib.load(fh)
-        except (OSError, tomllib.TOMLDecodeError) as exc:
-            raise ProjectFileError(f"{path}: cannot read the run's settings ({exc})") from exc
-        unknown = [k for k in tables if k not in ("match", "rectify", "compare")]
-        if unknown:
-            raise ProjectFileError(f"{path}: unknown table [{unknown[0]}] (expected [match], [rectify], [compare])")
-    rectify = {"mosaic": True, **tables.get("rectify", {})}
-    compare = dict(tables.get("compare", {}))
-    folds = compare.pop("folds", 4)
-    if compare:
-        raise ProjectFileError(f"{path} [compare]: unknown key {next(iter(compare))!r} (expected folds)")
-    if not isinstance(folds, int) or isinstance(folds, bool) or folds < 0 or folds == 1:
-        raise ProjectFileError(f"{path} [compare] folds: expected 0 (none) or an integer of 2 or more, found {folds!r}")
-    return RunSettings(
-        references=tuple(Path(r) for r in references),
-        reference_dtm=Path(reference_dtm) if reference_dtm else None,
-        force_match=force_match,
-        match=MatchOptions.from_dict(tables.get("match", {}), source=f"{path} [match]" if path else "match options"),
-        rectify=RectifyOptions.from_dict(rectify, source=f"{path}" if path else "rectify options"),
-        folds=folds,
-    )
 
 
 def _log_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -125,8 +148,7 @@ def _log_warning(message, category, filename, lineno, file=None, line=None) -> N
 
 def _look_angles(root: Path) -> str | None:
     """The ``[sensor] look_angles`` table of project.toml (a file the sensor model reads), if any."""
-    with open(root / "project.toml", "rb") as fh:
-        sensor = tomllib.load(fh).get("sensor", {})
+    sensor = load_toml(root / "project.toml").get("sensor", {})
     table = sensor.get("look_angles") if isinstance(sensor, dict) else None
     return str(table) if table else None
 
@@ -171,46 +193,77 @@ def _plan(root: Path, settings: RunSettings, manifest: Manifest, until: str | No
 
 def _check_names(from_stage: str | None, until: str | None, names: tuple[str, ...] = NAMES, kind: str = "") -> None:
     what = f" of a {kind} project" if kind else ""
-    for flag, name in (("--from", from_stage), ("--until", until)):
+    for argument, name in (("from_stage", from_stage), ("until", until)):
         if name is not None and name not in names:
-            raise ProjectFileError(f"{flag} {name}: not a stage{what} (stages: {', '.join(names)})")
+            raise ArgumentError(f"{{{argument}}}: not a stage{what} (stages: {', '.join(names)})", **{argument: name})
     if from_stage and until and names.index(from_stage) > names.index(until):
-        raise ProjectFileError(f"--from {from_stage} comes after --until {until} (stages: {', '.join(names)})")
+        raise ArgumentError(f"{{from_stage}} comes after {{until}} (stages: {', '.join(names)})",
+                            from_stage=from_stage, until=until)
 
 
-def run(project, *, references=(), reference_dtm=None, from_stage: str | None = None, until: str | None = None,
-        match: bool = False, settings_file=None, progress: ProgressCallback = no_progress) -> RunResult:
-    """Run the stages on a project; only what changed since the last run is done (module docstring).
+
+def run(project: str | Path | Project, *, references: Sequence[str | Path] = (),
+        reference_dtm: str | Path | None = None, from_stage: str | None = None, until: str | None = None,
+        match: bool = False, settings_file: str | Path | None = None,
+        progress: ProgressCallback = no_progress) -> RunResult:
+    """Run the stages on a project in order; only what changed since the last run is done (docs/run.md).
+
+    The stages: check, match (when points.csv has no tie points, or with ``match``), clean, diagnose,
+    compare, rectify (the recommended variant, with the mosaic) and report; the record of each goes to
+    ``PROJECT/results/run.json``, the outputs under ``PROJECT/results/``.
 
     Parameters
     ----------
-    project : the project folder (or its project.toml).
-    references : reference orthoimages for control points (the match stage; any raster with a CRS).
-    reference_dtm : heights of those control points (default: the project's DTM).
-    from_stage : rerun this stage and every later one, whatever their fingerprints.
-    until : stop after this stage.
-    match : run the match stage even though points.csv has tie points.
-    settings_file : TOML file with ``[match]``, ``[rectify]``, ``[compare]`` tables (default
-        ``PROJECT/run.toml`` when it exists).
-    progress : ``callback(done, total, message)`` over the whole run (stages weighted by their usual cost).
+    project : str, Path or Project
+        The project folder (or its project.toml), or a loaded project.
+    references : sequence of str or Path
+        Reference orthoimages for control points (the match stage; any raster with a CRS).
+    reference_dtm : str or Path, optional
+        Heights of those control points (default: the project's DTM).
+    from_stage : str, optional
+        Run this stage and every later one again, whatever their fingerprints.
+    until : str, optional
+        Stop after this stage.
+    match : bool
+        Run the match stage even though points.csv has tie points.
+    settings_file : str or Path, optional
+        The settings file (tables ``[match]``, ``[clean]``, ``[compare]``, ``[rectify]``; default
+        ``PROJECT/run.toml`` when it exists; :mod:`scangeo.pipeline.settings`).
+    progress : callable
+        ``progress(done, total, message)`` over the whole run (stages weighted by their usual cost).
+
+    Returns
+    -------
+    RunResult
+        Each stage's outcome (ran, up to date, not run) and figures, the recommended variant, the manifest.
+
+    Raises
+    ------
+    ArgumentError
+        ``from_stage`` or ``until`` is not a stage, or ``from_stage`` comes after ``until``.
+    StageFailed
+        A stage stopped with an error (chained; the manifest records the stage as failed).
     """
     started = time.perf_counter()
-    root = Path(project)
-    root = root.parent if root.name == "project.toml" else root
-    loaded = Project.load(root)
+    loaded = Project.from_user_input(project)
+    root = loaded.root
     stages, names = stages_of(loaded)
     _check_names(from_stage, until, names, loaded.kind if loaded.is_laser else "")
-    if loaded.is_laser and (references or reference_dtm or match):
-        raise ProjectFileError(f"{root / 'project.toml'}: a laser project has no match stage (--reference, "
-                               "--reference-dtm and --match are for images)")
-    if settings_file is None and (root / SETTINGS_FILE).exists():
-        settings_file = root / SETTINGS_FILE
-    settings = read_settings(Path(settings_file) if settings_file else None, references, reference_dtm, match)
+    images_only = {k: v for k, v in (("references", list(references)), ("reference_dtm", reference_dtm),
+                                     ("match", match)) if v}
+    if loaded.is_laser and images_only:
+        raise ArgumentError(" and ".join(f"{{{k}}}" for k in images_only) + ": for images; a laser project has no "
+                            "match stage", **images_only)
+    settings_file = settings_file_of(root, settings_file)
+    settings = RunSettings(tuple(Path(r) for r in references), Path(reference_dtm) if reference_dtm else None,
+                           match, read_settings(root, settings_file))
     manifest = Manifest.load(root)
     previous = dict(manifest.stages)
     plan, match_why = _plan(root, settings, manifest, until, stages)
     if from_stage == "match" and not match_why:
-        raise ProjectFileError(f"--from match: {root / 'points.csv'} has tie points; add --match to match again")
+        where = str(root / "points.csv").replace("{", "{{").replace("}", "}}")
+        raise ArgumentError("{from_stage}: " + where + " has tie points; match them again with {match}",
+                            from_stage="match", match=True)
     manifest.started = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
     manifest.options = {"from": from_stage, "until": until, "settings_file": str(settings_file or ""),
                         **settings.as_dict()}
@@ -313,4 +366,4 @@ def _recommended(ctx: Context) -> dict[str, Any] | None:
     return out
 
 
-__all__ = ["RunResult", "SETTINGS_FILE", "StageFailed", "StageOutcome", "read_settings", "run"]
+__all__ = ["RunResult", "SETTINGS_FILE", "StageFailed", "StageOutcome", "run"]

@@ -24,7 +24,9 @@ from scangeo.io.rejected import CLEANING_DIR
 from scangeo.io.summary import summarise_project
 from scangeo.match import match_project
 from scangeo.match.options import MatchOptions
+from scangeo.match.run import report_path
 from scangeo.pipeline.fingerprints import file_stamps, relative_name
+from scangeo.pipeline.settings import Settings
 from scangeo.progress import ProgressCallback
 from scangeo.rectify.batch import rectify_project
 from scangeo.rectify.options import RectifyOptions
@@ -45,25 +47,35 @@ VARIANTS_MARKER = "# Written by scangeo run from its diagnosis (results/diagnosi
 
 @dataclass(frozen=True)
 class RunSettings:
-    """The settings of a run: ``--reference``, ``--reference-dtm``, ``--match`` and the settings file's tables.
-
-    match : matching settings (``[match]`` table, docs/match.md).
-    rectify : rectification settings (``[rectify]`` table, docs/rectify.md); ``mosaic`` is on unless the
-        table turns it off.
-    folds : folds of the comparison's cross-validation (``[compare] folds``).
-    """
+    """The settings of a run: ``references``, ``reference_dtm``, ``force_match`` and the project's settings
+    file (:class:`~scangeo.pipeline.settings.Settings`: ``[match]``, ``[clean]``, ``[compare]``,
+    ``[rectify]``, the same a stage command run alone uses)."""
 
     references: tuple[Path, ...] = ()
     reference_dtm: Path | None = None
     force_match: bool = False
-    match: MatchOptions = field(default_factory=MatchOptions)
-    rectify: RectifyOptions = field(default_factory=lambda: RectifyOptions(mosaic=True))
-    folds: int = 4
+    stages: Settings = field(default_factory=Settings)
+
+    @property
+    def match(self) -> MatchOptions:
+        return self.stages.match
+
+    @property
+    def clean(self) -> CleaningOptions:
+        return self.stages.clean
+
+    @property
+    def rectify(self) -> RectifyOptions:
+        return self.stages.rectify
+
+    @property
+    def folds(self) -> int:
+        return self.stages.compare.folds
 
     def as_dict(self) -> dict[str, Any]:
         return {"references": [str(p) for p in self.references],
                 "reference_dtm": str(self.reference_dtm) if self.reference_dtm else None,
-                "match": self.force_match, "match_options": asdict(self.match),
+                "match": self.force_match, "match_options": asdict(self.match), "clean_options": asdict(self.clean),
                 "rectify_options": asdict(self.rectify), "folds": self.folds}
 
 
@@ -154,13 +166,13 @@ def _match(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], li
     result = match_project(ctx.root, "DG", references=list(s.references), reference_dtm=s.reference_dtm,
                            options=s.match, workers=1, progress=progress)
     summary = dict(result.report.get("summary", {}))
-    return summary, [result.points_file] + ([result.ground_file] if result.ground_rows else [])
+    return summary, [result.points_file, result.report_file] + ([result.ground_file] if result.ground_rows else [])
 
 
 # -- clean -------------------------------------------------------------------------------------------------
 
 def _clean(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
-    cleaning = clean(ctx.root, CleaningOptions(), progress=progress)
+    cleaning = clean(ctx.root, ctx.settings.clean, progress=progress)
     summary = {k: v for k, v in cleaning.as_dict().items() if k not in ("project", "options")}
     return summary, [ctx.root / CLEANING_DIR / "rejected.csv", ctx.root / CLEANING_DIR / "cleaning.json"]
 
@@ -258,7 +270,7 @@ STAGES: tuple[Stage, ...] = (
           lambda c: {"options": asdict(c.settings.match),
                      "references": [relative_name(p, c.root) for p in c.settings.references]},
           _match, "tie points (and control against --reference) from the images"),
-    Stage("clean", 0.15, (), lambda c: c.base_files() + c.points_files(), lambda c: asdict(CleaningOptions()), _clean,
+    Stage("clean", 0.15, (), lambda c: c.base_files() + c.points_files(), lambda c: asdict(c.settings.clean), _clean,
           "blunders found by a robust adjustment and set aside for every later adjustment"),
     Stage("diagnose", 0.13, ("clean",), lambda c: c.base_files() + c.points_files(), _no_options, _diagnose,
           "problem strips and breaks from an SE adjustment of the cleaned measurements; variants.toml"),
@@ -270,7 +282,7 @@ STAGES: tuple[Stage, ...] = (
           lambda c: asdict(c.settings.rectify), _rectify,
           "orthoimages and mosaic of the recommended variant, with STAC items"),
     Stage("report", 0.03, ("clean", "diagnose", "compare", "rectify"),
-          lambda c: c.base_files() + c.points_files() + [c.root / "match_report.json"],
+          lambda c: c.base_files() + c.points_files() + [report_path(c.root, existing=True)],
           _no_options, _report, "the HTML report (a quicklook of the mosaic) and the residual vectors (GeoPackage)"),
 )
 

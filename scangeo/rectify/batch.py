@@ -64,7 +64,20 @@ class StripTask:
 
 @dataclass
 class BatchResult:
-    """Per strip: ``done`` (with its summary) or ``skipped`` (complete from an earlier run)."""
+    """What :func:`rectify_project` did.
+
+    Parameters
+    ----------
+    folder : Path
+        ``PROJECT/results/VARIANT/ortho/``.
+    strips : dict
+        Strip id -> ``status`` (``done``, with its file, grid, valid and hidden cells, inverse-map
+        error and seconds; or ``skipped``: complete from an earlier run) and ``path``.
+    mosaic : Path or None
+        ``mosaic.tif``; None without the mosaic.
+    seconds : float
+        Wall-clock time.
+    """
 
     folder: Path
     strips: dict[str, dict] = field(default_factory=dict)
@@ -172,7 +185,7 @@ def project_resolution(project: Project, source: Orientation, strip_ids: list[st
 
 
 def rectify_project(
-    project_path: str | Path,
+    project_path: str | Path | Project,
     variant: str,
     strips: list[str] | None = None,
     options: RectifyOptions = RectifyOptions(),  # noqa: B008 (frozen options)
@@ -195,7 +208,7 @@ def rectify_project(
     """
     started = time.perf_counter()
     reuse.clear()  # the strip tasks of this run read the project's files afresh
-    project = Project.load(project_path)
+    project = Project.from_user_input(project_path)
     if strips is None:
         ids = [s.id for s in project.strips if s.image is not None]
     else:

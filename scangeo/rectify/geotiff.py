@@ -16,6 +16,7 @@ import shutil
 import uuid
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 import rasterio
@@ -55,24 +56,39 @@ class GeoTiffProfile:
 
     Parameters
     ----------
-    blocksize : internal tile size, pixels.
-    compress : ``deflate`` (default, readable everywhere), ``zstd``, ``lzw`` or ``none``.
-    level : compression level (None: 1 for deflate and zstd, the fastest: on a 10,000-line,
+    blocksize : int
+        Internal tile size, pixels (a multiple of 16).
+    compress : str
+        ``deflate`` (default, readable everywhere), ``zstd``, ``lzw`` or ``none``.
+    level : int or None
+        Compression level (None: 1 for deflate and zstd, the fastest: on a 10,000-line,
         11-band uint16 Daedalus strip deflate 1 wrote 115 MB in 0.93 s against GDAL's default 6,
         116 MB in 1.20 s; zstd 1 117 MB in 0.48 s; docs/performance.md).
-    predictor : horizontal differencing for integers, floating-point predictor for floats.
-    overviews : internal overviews (averaged, halving until a level fits one block): ``"auto"``
+    predictor : bool
+        Horizontal differencing for integers, floating-point predictor for floats.
+    overviews : bool or str
+        Internal overviews (averaged, halving until a level fits one block): ``"auto"``
         (default) for outputs whose larger side exceeds :data:`OVERVIEW_MIN_SIZE` cells, ``True``
         always, ``False`` never.
-    cog : cloud-optimised layout; else a plain tiled GeoTIFF (GDAL's GTiff driver).
-    threads : compression threads (``ALL_CPUS`` or a number).
-    writer : who compresses and lays out a COG. ``"scangeo"`` (default):
+    cog : bool
+        Cloud-optimised layout; else a plain tiled GeoTIFF (GDAL's GTiff driver).
+    threads : str or int
+        Compression threads (``ALL_CPUS`` or a number).
+    writer : str
+        Who compresses and lays out a COG. ``"scangeo"`` (default):
         :class:`~scangeo.rectify.cog_writer.CogWriter`, deflate by ISA-L (levels 1-3) as the tiles
         are made, for every case it covers (:meth:`scangeo_writes`: deflate or none, integers and
         floats); GDAL's COG driver for the rest. ``"gdal"``: GDAL's COG driver always
         (deflate by libdeflate after the tiles are written; the benchmark's 10,000-line 11-band
         strip took 7.18 CPU s per pipelined strip that way against 5.33, docs/performance.md).
+
+    Raises
+    ------
+    RectifyOptionsError
+        A field of the wrong type or out of range (checked as the ``[rectify.geotiff]`` keys are).
     """
+
+    schema_error: ClassVar[type[Exception]] = RectifyOptionsError
 
     blocksize: int = setting(512, ge=16, multiple_of=16, unit="px", doc="internal tile size")
     compress: str = setting("deflate", choices=_COMPRESSIONS, doc="compression")
@@ -87,17 +103,34 @@ class GeoTiffProfile:
                           doc="who writes a COG: scangeo (deflate levels 1-3 or none; the rest goes to GDAL) or gdal")
 
     def __post_init__(self) -> None:
-        check(self, RectifyOptionsError)
+        check(self)
 
     def thread_count(self) -> int:
-        """Compression threads as a number (``ALL_CPUS``: the machine's)."""
+        """Compression threads as a number.
+
+        Returns
+        -------
+        int
+            ``threads``; for ``ALL_CPUS`` the machine's processor count.
+        """
         if str(self.threads).upper() == "ALL_CPUS":
             return os.cpu_count() or 1
         return int(self.threads)
 
     def scangeo_writes(self, dtype) -> bool:
-        """Whether scangeo's own COG writer writes an output of ``dtype`` with this profile: a COG,
-        deflate at level 1-3 or no compression, integers or floats."""
+        """Whether scangeo's own COG writer writes an output of ``dtype`` with this profile.
+
+        Parameters
+        ----------
+        dtype : numpy dtype or str
+            The output's data type.
+
+        Returns
+        -------
+        bool
+            True for a COG, deflate at level 1-3 or no compression, integers or floats; False when
+            GDAL's COG driver writes it.
+        """
         if self.writer != "scangeo" or not self.cog or self.compress not in ("deflate", "none"):
             return False
         if self.compress == "deflate" and self.level is not None and self.level > 3:
@@ -105,10 +138,27 @@ class GeoTiffProfile:
         return np.dtype(dtype).kind in "uif"
 
     def for_image(self, count: int, dtype, block_bytes: float = BLOCK_BYTES) -> GeoTiffProfile:
-        """This profile for an output of ``count`` bands of ``dtype``: the block size halved (to 64 at
-        least) while a pixel-interleaved block holds more than ``block_bytes`` (:data:`BLOCK_BYTES`),
-        so that the blocks in memory (the COG writer's, GDAL's) stay bounded for cubes of hundreds of
-        bands (182 bands of float32: 128-cell blocks of 12 MB instead of 512-cell ones of 191 MB)."""
+        """This profile for an output of ``count`` bands of ``dtype``.
+
+        The block size is halved (to 64 at least) while a pixel-interleaved block holds more than
+        ``block_bytes``, so that the blocks in memory (the COG writer's, GDAL's) stay bounded for cubes
+        of hundreds of bands (182 bands of float32: 128-cell blocks of 12 MB instead of 512-cell ones
+        of 191 MB).
+
+        Parameters
+        ----------
+        count : int
+            The output's bands.
+        dtype : numpy dtype or str
+            Their data type.
+        block_bytes : float
+            The most a block may hold, bytes (:data:`BLOCK_BYTES`).
+
+        Returns
+        -------
+        GeoTiffProfile
+            This profile, or a copy with a smaller ``blocksize``.
+        """
         size = self.blocksize
         while size > 64 and count * size * size * np.dtype(dtype).itemsize > block_bytes:
             size //= 2
@@ -116,22 +166,63 @@ class GeoTiffProfile:
 
     def cog_writer(self, spool: Path, width: int, height: int, count: int, dtype, nodata, crs, transform,
                    factors: list[int], backlog_bytes: int = BACKLOG_BYTES) -> CogWriter:
-        """scangeo's COG writer of an output with this profile (when :meth:`scangeo_writes`);
-        ``backlog_bytes``: blocks waiting for an encoder at most (a strip's memory budget bounds it)."""
+        """scangeo's COG writer of an output with this profile (when :meth:`scangeo_writes`).
+
+        Parameters
+        ----------
+        spool : Path
+            Where the compressed blocks wait until the file is assembled.
+        width, height, count : int
+            The output's size (cells) and bands.
+        dtype, nodata, crs, transform
+            The output's data type, nodata value, CRS and affine transform.
+        factors : list of int
+            The overview decimation factors.
+        backlog_bytes : int
+            Blocks waiting for an encoder at most, bytes (a strip's memory budget bounds it).
+
+        Returns
+        -------
+        CogWriter
+            The writer.
+        """
         return CogWriter(spool, width=width, height=height, count=count, dtype=dtype, nodata=nodata, crs=crs,
                          transform=transform, blocksize=self.blocksize, factors=factors, compress=self.compress,
                          level=self.level, predictor=self.predictor, threads=self.thread_count(),
                          backlog_bytes=backlog_bytes)
 
     def wants_overviews(self, width: int, height: int) -> bool:
-        """Whether an output of ``width`` x ``height`` cells gets internal overviews."""
+        """Whether an output gets internal overviews.
+
+        Parameters
+        ----------
+        width, height : int
+            The output's size, cells.
+
+        Returns
+        -------
+        bool
+            ``overviews``, with ``"auto"`` decided by :data:`OVERVIEW_MIN_SIZE`.
+        """
         if self.overviews == "auto":
             return max(width, height) > OVERVIEW_MIN_SIZE
         return bool(self.overviews)
 
     def creation_options(self, dtype: np.dtype, overviews: bool | None = None) -> dict:
-        """GDAL creation options for the final file (``overviews``: the decision of
-        :meth:`wants_overviews`; None: ``overviews is True``)."""
+        """GDAL creation options for the final file.
+
+        Parameters
+        ----------
+        dtype : numpy dtype
+            The output's data type (chooses the predictor).
+        overviews : bool, optional
+            The decision of :meth:`wants_overviews` (None: ``overviews is True``).
+
+        Returns
+        -------
+        dict
+            Creation option -> value, for GDAL's COG or GTiff driver.
+        """
         overviews = self.overviews is True if overviews is None else overviews
         opts: dict = {"BIGTIFF": "IF_SAFER", "NUM_THREADS": self.threads, "COMPRESS": self.compress.upper()}
         if self.compress != "none":

@@ -10,8 +10,9 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
-from scangeo.errors import ProjectFileError, RectifyOptionsError
+from scangeo.errors import RectifyOptionsError
 from scangeo.io.schema import Rule, check, read, setting
 from scangeo.rectify.geotiff import GeoTiffProfile
 from scangeo.rectify.inverse_map import InverseMapOptions
@@ -32,25 +33,46 @@ LAYERS = {
 
 @dataclass(frozen=True)
 class RectifyOptions:
-    """How strips are rectified.
+    """How strips are rectified (docs/rectify.md; the ``[rectify]`` table of the settings file).
+
+    Built in Python or read from a file, every field is checked the same way (:mod:`scangeo.io.schema`).
 
     Parameters
     ----------
-    resolution : output cell size, map units; None: the nadir ground pixel (two significant
-        digits).
-    bounds : (xmin, ymin, xmax, ymax) of the output, map units; None: the strip footprint.
-    resampling : ``nearest``, ``bilinear`` or ``cubic``.
-    max_error_px : tolerance of the inverse map's validation sample, image pixels (a larger
-        difference from the exact solution is logged as a warning).
-    memory_budget_mb : memory a strip may use for its working arrays, MiB (sets the tile size).
-    tile_size : output tile size, cells (None: from the memory budget).
-    nodata : output nodata value (None: the source's, else 0 for integers, NaN for floats).
-    occlusion : make ground hidden by terrain nodata.
-    layers : optional layers among :data:`LAYERS`.
-    igm, glt : also write the ENVI-style IGM (image -> map coordinates) and GLT.
-    mosaic : also write a mosaic of all strips (batch runs only).
-    geotiff : layout of the GeoTIFFs.
+    resolution : float or None
+        Output cell size, map units; None: the nadir ground pixel (two significant digits).
+    bounds : tuple of 4 float or None
+        (xmin, ymin, xmax, ymax) of the output, map CRS; None: the strip's footprint.
+    resampling : str
+        ``nearest``, ``bilinear`` or ``cubic``.
+    max_error_px : float
+        Tolerance of the inverse map's validation sample, image pixels (a larger difference from the
+        exact solution is logged as a warning).
+    memory_budget_mb : float
+        Memory a strip may use for its working arrays, MiB (sets the tile size).
+    tile_size : int or None
+        Output tile size, cells, a multiple of 16 (None: from the memory budget).
+    nodata : float or None
+        Output nodata value (None: the source's, else 0 for integers, NaN for floats).
+    occlusion : bool
+        Make ground hidden by terrain nodata.
+    layers : tuple of str
+        Optional per-cell layers among :data:`LAYERS` (written to NAME.layers.tif).
+    igm, glt : bool
+        Also write the ENVI-style IGM (image -> map coordinates) and GLT (map -> image).
+    mosaic : bool
+        Also write a mosaic of the strips rectified (batch runs only; the cell closest to nadir wins).
+    geotiff : GeoTiffProfile
+        Layout of the GeoTIFFs.
+
+    Raises
+    ------
+    RectifyOptionsError
+        A field of the wrong type or out of range (``RectifyOptions.max_error_px: expected a number > 0
+        (px), found 0``).
     """
+
+    schema_error: ClassVar[type[Exception]] = RectifyOptionsError
 
     resolution: float | None = setting(None, gt=0, rule=_FINITE, unit="map unit", default_doc="nadir ground pixel",
                                        doc="output cell size (default: the nadir ground pixel, two significant digits)")
@@ -67,31 +89,70 @@ class RectifyOptions:
     layers: tuple[str, ...] = setting((), choices=tuple(LAYERS), doc="optional per-cell layers (NAME.layers.tif)")
     igm: bool = setting(False, doc="also write the ENVI-style IGM (image -> map coordinates)")
     glt: bool = setting(False, doc="also write the ENVI-style GLT (map -> image)")
-    mosaic: bool = setting(False, doc="also write a mosaic of all strips (batch runs only)")
+    mosaic: bool = setting(True, doc="also write a mosaic of the strips rectified (batch runs only)")
     geotiff: GeoTiffProfile = setting(GeoTiffProfile(), doc="layout of the GeoTIFFs ([rectify.geotiff])")
 
     def __post_init__(self) -> None:
-        check(self, RectifyOptionsError)
+        check(self)
 
     @property
     def inverse_map(self) -> InverseMapOptions:
+        """The inverse map's options.
+
+        Returns
+        -------
+        InverseMapOptions
+            Its validation tolerance, ``max_error_px``.
+        """
         return InverseMapOptions(max_error_px=self.max_error_px)
 
     @property
     def strip_layers(self) -> tuple[str, ...]:
-        """Layers written per strip (the mosaic needs the view zenith angle)."""
+        """The layers written per strip.
+
+        Returns
+        -------
+        tuple of str
+            ``layers``, with ``view_zenith`` added when the mosaic needs it.
+        """
         if self.mosaic and "view_zenith" not in self.layers:
             return self.layers + ("view_zenith",)
         return self.layers
 
     def replace(self, **changes) -> RectifyOptions:
+        """These options with some fields changed (checked as when built).
+
+        Parameters
+        ----------
+        **changes
+            Field -> new value.
+
+        Returns
+        -------
+        RectifyOptions
+            A new instance.
+        """
         return dataclasses.replace(self, **changes)
 
     @classmethod
     def from_dict(cls, table: dict, source: str = "rectify options") -> RectifyOptions:
-        """Options from a ``[rectify]`` TOML table; every key checked (:mod:`scangeo.io.schema`),
-        errors naming ``source`` (the file) and the key."""
-        try:
-            return read(cls, table, source, "rectify")
-        except ProjectFileError as exc:
-            raise RectifyOptionsError(str(exc)) from exc
+        """Options from a parsed ``[rectify]`` TOML table; every key checked (:mod:`scangeo.io.schema`).
+
+        Parameters
+        ----------
+        table : dict
+            The table's keys and values (``geotiff``: a table of :class:`GeoTiffProfile`'s keys).
+        source : str
+            The file's name, for errors (``source [rectify.KEY]: expected ..., found ...``).
+
+        Returns
+        -------
+        RectifyOptions
+            The options.
+
+        Raises
+        ------
+        RectifyOptionsError
+            An unknown key, or a value of the wrong type or out of range.
+        """
+        return read(cls, table, source, "rectify")

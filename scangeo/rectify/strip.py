@@ -305,8 +305,17 @@ def rectify_strip(
 class StripArray:
     """A strip rectified in memory (:func:`rectify_strip_array`).
 
-    ``values`` : (bands, rows, cols) array of the image's dtype on ``grid`` (row 0 north), ``nodata``
-    where no pixel is seen (outside the swath, no DTM, hidden ground).
+    Parameters
+    ----------
+    values : (bands, rows, cols) ndarray
+        The orthoimage, of the image's dtype on ``grid`` (row 0 north); ``nodata`` where no pixel is
+        seen (outside the swath, no DTM, hidden ground).
+    grid : OutputGrid
+        The output grid: CRS, resolution (map units), width, height, transform.
+    nodata : float
+        The nodata value.
+    valid_cells, hidden_cells : int
+        Cells with a value; cells of ground hidden by terrain.
     """
 
     values: np.ndarray

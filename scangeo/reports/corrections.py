@@ -17,7 +17,7 @@ import numpy as np
 
 from scangeo.adjustment.block import strip_data
 from scangeo.io.project import Project
-from scangeo.orientation.file import FILE_NAME, Orientation, read_orientation
+from scangeo.orientation.file import FILE_NAME, Orientation, read_orientation_file
 
 
 @dataclass(frozen=True)
@@ -77,7 +77,7 @@ def written_orientations(project: Project, variants: list[str]) -> dict[str, Ori
     for v in variants:
         path = project.root / "results" / v / FILE_NAME
         if path.exists():
-            out[v] = read_orientation(path)
+            out[v] = read_orientation_file(path)
     return out
 
 

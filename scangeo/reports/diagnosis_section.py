@@ -45,7 +45,7 @@ def diagnosis_section(project_root, comparison: Comparison) -> html.Section:
     d = read_diagnosis(Path(project_root))
     if d is None:
         sec.parts.append(html.paragraph("No diagnosis: the variants came from a variants.toml given by the user "
-                                        "(run 'scangeo diagnose PROJECT --no-variants' to see one)."))
+                                        "(run 'scangeo diagnose PROJECT --no-write-variants' to see one)."))
     else:
         crit = d.get("criterion", {})
         problems = ", ".join(d.get("problem_strips", [])) or "none"

@@ -1,6 +1,6 @@
 """The match report in the HTML report of ``scangeo report``: a map of the points and a table.
 
-:func:`match_section` reads ``PROJECT/match_report.json`` (written by ``scangeo match``) and returns
+:func:`match_section` reads ``PROJECT/results/match_report.json`` (written by ``scangeo match``) and returns
 an HTML section: the strips' footprints with every matched tie point (by the number of strips it
 was measured in), control and check point, the cells without points marked; and a table per
 overlap and per strip and reference (points, cells, cells without points, rejected share, the
@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from scangeo.match.run import report_path
 from scangeo.reports import figures, html
 
 
@@ -66,7 +67,7 @@ def table_rows(report: dict) -> list[list[str]]:
 
 def match_section(project_root: str | Path, footprints: dict[str, np.ndarray] | None = None) -> html.Section | None:
     """The HTML section of the match report, or None when the project has no match_report.json."""
-    path = Path(project_root) / "match_report.json"
+    path = report_path(Path(project_root), existing=True)
     if not path.exists():
         return None
     try:

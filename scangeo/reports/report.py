@@ -34,7 +34,7 @@ from scangeo.atomic import write_text
 from scangeo.io.points import GroundPoints
 from scangeo.io.project import Project
 from scangeo.orientation.file import FILE_NAME as ORIENTATION_FILE
-from scangeo.orientation.file import read_orientation
+from scangeo.orientation.file import read_orientation_file
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.reports import figures, html
 from scangeo.reports.corrections import (
@@ -57,7 +57,17 @@ from scangeo.version import __version__
 
 @dataclass(frozen=True)
 class ReportFiles:
-    """What :func:`write_report` wrote, and how many figures the HTML holds."""
+    """What :func:`write_report` wrote, and how many figures the HTML holds.
+
+    Parameters
+    ----------
+    html : Path
+        ``PROJECT/results/report.html`` (one self-contained file).
+    geopackage : Path or None
+        ``PROJECT/results/residuals.gpkg``; None when not written.
+    figures : int
+        Figures in the HTML.
+    """
 
     html: Path
     geopackage: Path | None
@@ -208,7 +218,7 @@ def _accounting_section(project: Project, c: Comparison) -> html.Section:
     rows = []
     for v in c.variants:
         written = project.root / "results" / v.name / ORIENTATION_FILE
-        for m in read_orientation(written).models if written.exists() else ():
+        for m in read_orientation_file(written).models if written.exists() else ():
             rows.append([v.name, m.id, ", ".join(m.strips), f"{m.t_end - m.t_start:.1f}", str(m.position_degree),
                          str(m.attitude_degree), "yes" if m.rotation else "", m.follows or "", str(m.size),
                          str(m.conditions)])
@@ -274,8 +284,8 @@ def write_report(
     project_root, out=None, *, geopackage: bool = True, callback: ProgressCallback = no_progress
 ) -> ReportFiles:
     """Write ``report.html`` (and ``residuals.gpkg``) of a compared project into ``out`` (default PROJECT/results)."""
-    root = Path(project_root)
-    project = Project.load(root)
+    project = Project.from_user_input(project_root)
+    root = project.root
     comparison = read_comparison(root / "results")
     folder = Path(out) if out else root / "results"
     folder.mkdir(parents=True, exist_ok=True)

@@ -58,7 +58,31 @@ class SimulatedStrip:
 
 @dataclass
 class SimulatedBlock:
-    """What ``simulate`` made (also written to disk)."""
+    """A simulated block with its truth (:func:`simulate`; also written to its folder).
+
+    Parameters
+    ----------
+    root : Path
+        The project folder written.
+    config : SimulationConfig
+        The preset's settings with the overrides applied.
+    seed : int
+        The random seed used.
+    map_frame : MapFrame
+        The map CRS and the project frame.
+    terrain : Terrain
+        The true terrain (heights, metres, map CRS).
+    plan : FlightPlan
+        Flight height, swath and strip spacing, metres.
+    strips : list of SimulatedStrip
+        Every strip's true and measured orientation.
+    points : PointSet
+        Every simulated point and measurement (kind, true position, image coordinates, blunders).
+    scene : object
+        The scene the images were rendered from.
+    ortho_extent : Extent
+        The extent of the true orthoimage, map CRS.
+    """
 
     root: Path
     config: SimulationConfig

@@ -32,6 +32,7 @@ import math
 import shutil
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
@@ -41,10 +42,11 @@ from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.results import read_measurements
 from scangeo.adjustment.variants import StripModels, Variant
 from scangeo.atomic import write_text
-from scangeo.errors import ProjectFileError
+from scangeo.errors import OptionsError
 from scangeo.io.points import GroundPoints
 from scangeo.io.project import Project
 from scangeo.io.rejected import CLEANING_DIR, RejectedMeasurement, rejected_path, write_rejected
+from scangeo.io.schema import check, setting
 from scangeo.lsq.engine import Adjustment
 from scangeo.lsq.reliability import delta0
 from scangeo.lsq.statistics import MIN_REDUNDANCY
@@ -57,51 +59,93 @@ METHODS = ("snooping",)
 
 @dataclass(frozen=True)
 class CleaningOptions:
-    """How :func:`clean` adjusts and tests (module docstring).
+    """How :func:`clean` adjusts and tests (module docstring; the ``[clean]`` table of the settings file).
 
-    piece_lines : length of the pieces every strip's GPS/IMU model is split into (lines).
-    min_pieces : a strip is split into at least this many pieces (a short strip's drift still gets
-        kinks: one 700-line piece over a 600-line strip is as stiff as P1).
-    position_degree : degree of each piece's position correction (1: piecewise linear).
-    critical_value : of Baarda's |w| (3.29: alpha0 = 0.1 %, two-sided).
-    per_round : units of distinct points removed per re-solution.
-    max_fraction : at most this fraction of the image measurements is removed (a stop for a hopeless
-        project: more blunders than that say the model or the sigmas are wrong, not the points).
-    dtm_heights : tie points carry DTM heights (without them a blunder across track in one ray of a tie
-        point seen in two strips moves only the point's height: undetectable).
-    dtm_sigma_factor : the DTM heights' sigma is the project's times this (above 1: the DTM's own errors
-        trip the test less often; measured in docs/adjustment.md).
-    dtm_height_points : glob patterns of the tie points on open terrain (DTM heights).
-    check_as_control : test the check points too (as control points of the cleaning adjustment).
+    Built in Python or read from a file, every field is checked the same way (:mod:`scangeo.io.schema`).
+
+    Parameters
+    ----------
+    method : str
+        How blunders are found: ``snooping`` (Baarda's iterative w-test).
+    piece_lines : float
+        Length of the pieces every strip's GPS/IMU model is split into, image lines.
+    min_pieces : int
+        A strip is split into at least this many pieces (a short strip's drift still gets kinks: one
+        700-line piece over a 600-line strip is as stiff as P1).
+    position_degree : int
+        Degree of each piece's position correction (1: piecewise linear).
+    critical_value : float
+        Critical value of Baarda's |w| (3.29: alpha0 = 0.1 %, two-sided).
+    per_round : int
+        Units of distinct points removed per re-solution.
+    max_fraction : float
+        At most this share of the image measurements is removed (a stop for a hopeless project: more
+        blunders than that say the model or the sigmas are wrong, not the points).
+    dtm_heights : bool
+        Tie points carry DTM heights (without them a blunder across track in one ray of a tie point
+        seen in two strips moves only the point's height: undetectable).
+    dtm_sigma_factor : float
+        The DTM heights' sigma is the project's times this (above 1: the DTM's own errors trip the test
+        less often; measured in docs/adjustment.md).
+    dtm_height_points : tuple of str
+        Glob patterns of the tie points on open terrain (DTM heights).
+    check_as_control : bool
+        Test the check points too (as control points of the cleaning adjustment).
+    constant_sigma_m : float
+        Sigma of the pseudo-observation "= 0" of every piece's constant position terms, metres.
+
+    Raises
+    ------
+    OptionsError
+        A field of the wrong type or out of range (``CleaningOptions.piece_lines: expected a number > 0
+        (line), found 0``).
     """
 
-    method: str = "snooping"
-    piece_lines: float = 700.0
-    min_pieces: int = 3
-    position_degree: int = 1
-    critical_value: float = 3.29
-    per_round: int = 4
-    max_fraction: float = 0.2
-    dtm_heights: bool = True
-    dtm_sigma_factor: float = 1.0
-    dtm_height_points: tuple[str, ...] = ("*",)
-    check_as_control: bool = True
-    constant_sigma_m: float = 5.0
+    schema_error: ClassVar[type[Exception]] = OptionsError
+
+    method: str = setting("snooping", choices=METHODS, doc="how blunders are found")
+    piece_lines: float = setting(700.0, gt=0, unit="line", doc="length of the pieces of the flexible model")
+    min_pieces: int = setting(3, ge=1, unit="1", doc="a strip is split into at least this many pieces")
+    position_degree: int = setting(1, ge=0, le=10, unit="1", doc="degree of each piece's position correction")
+    critical_value: float = setting(3.29, gt=0, unit="1", doc="critical value of Baarda's |w| (3.29: alpha0 = 0.1 %)")
+    per_round: int = setting(4, ge=1, unit="1", doc="units of distinct points removed per re-solution")
+    max_fraction: float = setting(0.2, gt=0, le=1, unit="1",
+                                  doc="at most this share of the image measurements is removed")
+    dtm_heights: bool = setting(True, doc="tie points carry DTM heights")
+    dtm_sigma_factor: float = setting(1.0, gt=0, unit="1", doc="the DTM heights' sigma is the project's times this")
+    dtm_height_points: tuple[str, ...] = setting(("*",), doc="glob patterns of the tie points on open terrain")
+    check_as_control: bool = setting(True, doc="test the check points too (as control points)")
+    constant_sigma_m: float = setting(5.0, gt=0, doc="pseudo-observation of the constant terms of the pieces")
 
     def __post_init__(self) -> None:
-        if self.method not in METHODS:
-            raise ProjectFileError(f"cleaning method: expected one of {', '.join(METHODS)}, found {self.method!r}")
-        if not self.piece_lines > 0:
-            raise ProjectFileError(f"cleaning piece_lines: expected a positive number of lines, "
-                                   f"found {self.piece_lines}")
-        if not self.min_pieces >= 1:
-            raise ProjectFileError(f"cleaning min_pieces: expected a whole number of at least 1, "
-                                   f"found {self.min_pieces}")
+        check(self)
 
 
 @dataclass(frozen=True)
 class Cleaning:
-    """The result of :func:`clean`."""
+    """The result of :func:`clean`: what was set aside, and the cleaning adjustment's figures.
+
+    Parameters
+    ----------
+    project : str
+        The project folder.
+    rejected : tuple of RejectedMeasurement
+        Every measurement set aside: kind (image or ground), point, strip, w, MDB, separability, reason.
+    sigma0_before, sigma0_after : float
+        sigma0 of the cleaning adjustment's first solution and after the snooping.
+    model : str
+        The flexible model in words.
+    n_image, n_ground : int
+        Image measurements and ground points in the cleaning adjustment.
+    options : CleaningOptions
+        The options used.
+    dtm_rejected : tuple of str
+        Tie points whose DTM height alone was rejected (not set aside; named for the user).
+    notes : tuple of str
+        Remarks (the snooping stopped at its limit, ...).
+    mdb : dict
+        MDB of every image measurement of the cleaning adjustment, pixels, by ``(point, strip)``.
+    """
 
     project: str
     rejected: tuple[RejectedMeasurement, ...]
@@ -121,15 +165,35 @@ class Cleaning:
 
     @property
     def rejected_keys(self) -> frozenset[tuple[str, str]]:
-        """``(point, strip)`` of every rejected measurement (strip ``""``: the point's ground.csv coordinates)."""
+        """The measurements set aside.
+
+        Returns
+        -------
+        frozenset of (str, str)
+            ``(point, strip)`` of every rejected measurement (strip ``""``: the point's ground.csv
+            coordinates).
+        """
         return frozenset(r.key for r in self.rejected)
 
     @property
     def not_separable(self) -> list[str]:
-        """Points removed whole because the blunder could not be attributed."""
+        """The points removed whole because the blunder could not be attributed to one measurement.
+
+        Returns
+        -------
+        list of str
+            Point ids, sorted.
+        """
         return sorted({r.point for r in self.rejected if not r.separable})
 
     def as_dict(self) -> dict:
+        """What ``cleaning.json`` holds.
+
+        Returns
+        -------
+        dict
+            JSON-able: sigma0 before and after, the counts, every measurement set aside with w and MDB.
+        """
         def num(x: float) -> float | str | None:
             return None if math.isnan(x) else ("inf" if math.isinf(x) else round(float(x), 4))
 
@@ -217,14 +281,39 @@ def _rejected(block: Block, adj: Adjustment, ground: GroundPoints
     return out, sorted(set(dtm) - removed), mdb
 
 
-def clean(project: Project | Path | str, options: CleaningOptions = CleaningOptions(),  # noqa: B008 (frozen)
+def clean(project: Project | Path | str, options: CleaningOptions | None = None,
           progress: ProgressCallback = no_progress) -> Cleaning:
-    """Find and set aside the project's blunders (module docstring); writes ``PROJECT/results/cleaning/``.
+    """Find the project's blunders by a robust adjustment and set them aside (docs/adjustment.md, "Cleaning").
 
-    The measurements are read as the project's files give them (a previous cleaning's set-aside is
-    ignored: cleaning starts afresh and replaces it).
+    Writes ``PROJECT/results/cleaning/rejected.csv`` and ``cleaning.json``; every later adjustment
+    leaves those measurements out until :func:`restore` removes the folder. The measurements are read as
+    the project's files give them (a previous cleaning's set-aside is ignored: cleaning starts afresh
+    and replaces it).
+
+    Parameters
+    ----------
+    project : str, Path or Project
+        The project folder (or its project.toml), or a loaded project.
+    options : CleaningOptions, optional
+        How the block is adjusted and tested (default ``CleaningOptions()``; a project's ``[clean]``
+        table: ``read_settings(project).clean``).
+    progress : callable
+        ``progress(done, total, message)``.
+
+    Returns
+    -------
+    Cleaning
+        Every measurement set aside (with w, MDB and separability), sigma0 before and after.
+
+    Raises
+    ------
+    ProjectFileError
+        A malformed project file, points.csv or ground.csv.
+    AdjustmentError
+        The flexible model cannot be set up or solved.
     """
-    project = project if isinstance(project, Project) else Project.load(project)
+    options = options or CleaningOptions()
+    project = Project.from_user_input(project)
     points, ground = read_measurements(project, set_aside=False)
     variant = cleaning_variant(project, options)
     cleaning_ground = _checks_as_control(ground) if options.check_as_control else ground

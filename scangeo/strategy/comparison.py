@@ -87,8 +87,8 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
         check points (:mod:`scangeo.strategy.crossvalidation`; 0: none).
     callback : progress ``callback(done, total, message)``.
     """
-    root = Path(project_root)
-    project = Project.load(root)
+    project = Project.from_user_input(project_root)
+    root = project.root
     if variants_file is None:
         path = ensure_variants_file(root, problem_strip, breaks_lines, callback=callback)
     else:
@@ -106,7 +106,7 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
     for i, name in enumerate(chosen):
         sub = scaled(callback, i, i + 1, len(chosen))
         try:
-            result = run_variant(root, variants[name], path,
+            result = run_variant(project, variants[name], path,
                                  lambda d, t, m="", sub=sub, name=name: sub(d, t, f"{name}: {m}"))
             write_results(result)
             summaries.append(summarise(result, truth))

@@ -22,7 +22,7 @@ from pathlib import Path
 from scangeo.adjustment.diagnosis.diagnose import diagnose
 from scangeo.adjustment.diagnosis.output import write_diagnosis
 from scangeo.atomic import write_text
-from scangeo.errors import ProjectFileError
+from scangeo.errors import ArgumentError, ProjectFileError
 from scangeo.io.project import Project
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.resources import DEFAULT_VARIANTS
@@ -116,19 +116,32 @@ def ensure_variants_file(project_root, problem_strip: str | None = None,
     """
     root = Path(project_root)
     path = root / "variants.toml"
+    given = problem_strip is not None or breaks_lines is not None
+    if given and problem_strip is None:
+        raise ArgumentError("{breaks_lines}: needs the problem strip they belong to",
+                            breaks_lines=list(breaks_lines or ()))
     if path.exists():
-        if problem_strip is not None or breaks_lines is not None:
-            log.warning("%s exists: --problem-strip/--breaks-lines are not used", path)
+        if given and not _holds(path, ProblemStrip(str(problem_strip), tuple(breaks_lines or ()))):
+            where = str(path).replace("{", "{{").replace("}", "}}")
+            raise ArgumentError(where + " exists and holds other variants: {problem_strip} and {breaks_lines} "
+                                "fill in the default variants only (remove the file to have them written)",
+                                problem_strip=problem_strip, breaks_lines=list(breaks_lines or ()))
         return path
     if problem_strip is None:
-        if breaks_lines is not None:
-            raise ProjectFileError(f"{path}: --breaks-lines needs --problem-strip (the strip they belong to)")
         diagnosis = diagnose(root, callback=callback)
         write_diagnosis(diagnosis)
         problems = [ProblemStrip(s, diagnosis.breaks_of(s), "scangeo diagnose") for s in diagnosis.problem_strips]
         return write_variants_file(root, problems)
-    problem = ProblemStrip(str(problem_strip), tuple(breaks_lines or ()), "the command line")
+    problem = ProblemStrip(str(problem_strip), tuple(breaks_lines or ()), "problem_strip, breaks_lines")
     return write_variants_file(root, [problem])
+
+
+def _holds(path: Path, problem: ProblemStrip) -> bool:
+    """Whether the variants file is the default variants filled in for ``problem`` (comments aside)."""
+    def body(text: str) -> list[str]:
+        return [line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")]
+
+    return body(path.read_text(encoding="utf-8")) == body(render_default_variants([problem]))
 
 
 __all__ = ["DEFAULT_VARIANTS", "ProblemStrip", "ensure_variants_file", "render_default_variants",

@@ -131,8 +131,8 @@ def read_trajectory_csv(path, crs=None) -> GpsImuStream:
     else:
         if crs is None:
             raise TrajectoryError(
-                f"{path}: x,y,z columns need the CRS of x and y (trajectory_crs or crs in project.toml; "
-                "--crs for scangeo info)"
+                f"{path}: x,y,z columns need the CRS of x and y (trajectory_crs or crs in project.toml, "
+                "or the crs argument)"
             )
         to_geo = pyproj.Transformer.from_crs(parse_crs(crs, f"{path}: the CRS of x, y"), "EPSG:4326", always_xy=True)
         lon_deg, lat_deg = to_geo.transform(data[:, 1], data[:, 2])

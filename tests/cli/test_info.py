@@ -178,3 +178,10 @@ def test_detection_and_errors(tmp_path, capsys):
     assert f"{bad} line 3: time 0.000000 repeats the previous" in capsys.readouterr().err
     with pytest.raises(ScangeoError, match="unknown kind"):
         summarise(bad, kind="lidar")
+
+
+def test_the_cli_lists_the_kinds_the_summary_knows():
+    from scangeo.cli.info import KINDS
+    from scangeo.io.summary import KINDS as SUMMARY_KINDS
+
+    assert KINDS == SUMMARY_KINDS

@@ -78,7 +78,7 @@ def test_interrupted_run_leaves_no_las_under_a_final_name(tiny, tmp_path, monkey
     monkeypatch.setattr("scangeo.lidar.evaluation.write_corrected", failing)
     out = tmp_path / "out"
     with pytest.raises(KeyboardInterrupt):
-        lidar_adjust(tiny, strips=out)
+        lidar_adjust(tiny, corrected_strips=out)
     assert calls["n"] == 1
     assert not list(out.glob("*.la[sz]")) and not list(out.rglob(".*"))
 

@@ -68,7 +68,7 @@ def test_rerun_replaces_only_matched_rows(landcover_block, tmp_path):
     assert section is not None and section.title == "Matched points"
     html = "\n".join(section.parts)
     assert html.count('class="report-figure"') == 1 and "01-02" in html and "01@ortho.tif" in html
-    points = _rows(root / "match_points.csv")
+    points = _rows(root / "results" / "match_points.csv")
     assert points[0] == ["point", "kind", "x", "y", "strips"] and len(points) - 1 == len(ties) + len(roles)
 
 

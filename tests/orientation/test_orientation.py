@@ -28,7 +28,7 @@ from scangeo.orientation.file import (
     direct_orientation,
     load_adjusted_geometry,
     load_orientation,
-    read_orientation,
+    read_orientation_file,
     strip_geometries,
     write_orientation,
 )
@@ -55,7 +55,7 @@ def adjusted(tmp_path_factory):
 
 def test_geometry_from_the_file_alone_reproduces_the_check_residuals(adjusted):
     root, result = adjusted
-    doc = read_orientation(root / "results" / VARIANT.name / "orientation.json")
+    doc = read_orientation_file(root / "results" / VARIANT.name / "orientation.json")
     assert doc.variant == VARIANT.name and doc.adjusted and doc.calibrated == ("boresight", "scale_error")
     # only the project, its point files and orientation.json
     project = Project.load(root)
@@ -91,7 +91,7 @@ def test_the_file_holds_the_adjusted_values_in_si_units(adjusted):
     assert data["breaks"]["01"] == [models["01.2"]["t_start"]]
     assert models["01.2"]["names"][0] == "x1"  # the follower's constants are eliminated (continuity)
     # the correction function of the file is the adjustment's
-    doc = read_orientation(root / "results" / VARIANT.name / "orientation.json")
+    doc = read_orientation_file(root / "results" / VARIANT.name / "orientation.json")
     s = result.block.strips["01"]
     coef = {m.key: p[m.key].values for m in result.block.models}
     expected = result.block.models.correction("01", s.epochs, s.gpsimu[:, :3], coef)
@@ -139,7 +139,7 @@ def _broken(tmp_path, adjusted, edit):
 def test_a_bad_file_is_named_with_its_key(tmp_path, adjusted, edit, key, text):
     path = _broken(tmp_path, adjusted, edit)
     with pytest.raises(OrientationFileError) as err:
-        read_orientation(path)
+        read_orientation_file(path)
     assert str(path) in str(err.value) and key in str(err.value) and text in str(err.value)
 
 
@@ -148,14 +148,14 @@ def test_unreadable_missing_and_foreign_files(tmp_path, adjusted):
     path = tmp_path / "orientation.json"
     path.write_text('{"schema": "scangeo.orientation/1",\n "variant": }')
     with pytest.raises(OrientationFileError, match=r"orientation.json line 2: not JSON"):
-        read_orientation(path)
+        read_orientation_file(path)
     with pytest.raises(OrientationFileError, match="no such file"):
-        read_orientation(tmp_path / "none.json")
+        read_orientation_file(tmp_path / "none.json")
     project = Project.load(root)
-    with pytest.raises(OrientationFileError, match=r"no orientation for variant 'P9'.*scangeo adjust"):
+    with pytest.raises(OrientationFileError, match=r"no orientation for variant 'P9' \(adjust the variant first"):
         load_orientation(project, "P9")
     # a file written for another project frame is refused, not silently misplaced
-    doc = read_orientation(root / "results" / VARIANT.name / "orientation.json")
+    doc = read_orientation_file(root / "results" / VARIANT.name / "orientation.json")
     frame = dataclasses.replace(doc.reference, frame=type(doc.reference.frame)(0.8, 0.2, 0.0))
     other = root / "results" / "MOVED"
     other.mkdir()
@@ -189,7 +189,7 @@ def test_pushbroom_tables_and_line_time_tables_round_trip(tmp_path, adjusted):
     table = s.timing.time_of_line(np.arange(s.lines)) + 1e-4 * np.sin(np.arange(s.lines))
     strips = {"01": StripOrientation("01", s.lines, LineTiming(float(table[0]), 25.0, table), s.spline)}
     doc = Orientation("X", True, sensor, doc.mounting, strips, doc.reference)
-    back = read_orientation(write_orientation(doc, tmp_path / "orientation.json"))
+    back = read_orientation_file(write_orientation(doc, tmp_path / "orientation.json"))
     g, h = doc.geometry("01"), back.geometry("01")
     line, pixel = np.linspace(0, s.lines - 1, 7), np.linspace(0, n - 1, 7)
     p_S, R = g.pose(g.time_of(line, pixel))

@@ -7,8 +7,9 @@ import re
 import pytest
 
 from scangeo.errors import ScangeoError
+from scangeo.match.options import MatchOptions
 from scangeo.pipeline.fingerprints import changes, file_stamps, stage_fingerprint
-from scangeo.pipeline.run import read_settings
+from scangeo.pipeline.settings import Settings, read_settings
 from scangeo.pipeline.stages import VARIANTS_MARKER, _variants_are_ours
 
 
@@ -47,17 +48,22 @@ def test_changes_name_what_differs():
 
 def test_settings_are_checked(tmp_path):
     path = tmp_path / "run.toml"
-    path.write_text('[rectify]\nresampling = "nearest"\n[compare]\nfolds = 0\n', encoding="utf-8")
-    s = read_settings(path)
-    assert s.rectify.resampling == "nearest" and s.rectify.mosaic is True and s.folds == 0
-    assert read_settings(None).rectify.mosaic is True and read_settings(None).folds == 4
-    for text, message in (("[orthophoto]\n", "unknown table [orthophoto]"),
-                          ("[compare]\nfolds = 1\n", "folds: expected 0 (none) or an integer of 2 or more"),
+    path.write_text('[rectify]\nresampling = "nearest"\n[compare]\nfolds = 0\n[clean]\npiece_lines = 500\n',
+                    encoding="utf-8")
+    s = read_settings(tmp_path)  # PROJECT/run.toml
+    assert s.rectify.resampling == "nearest" and s.rectify.mosaic is True and s.compare.folds == 0
+    assert s.clean.piece_lines == 500.0 and s.match == MatchOptions()
+    assert read_settings(tmp_path, path) == s
+    assert read_settings(tmp_path / "elsewhere") == Settings() and Settings().compare.folds == 4
+    for text, message in (("[orthophoto]\n", "run.toml: unknown table [orthophoto] (expected one of clean, compare, "
+                                              "match, rectify)"),
+                          ("[compare]\nfolds = 1\n", "[compare.folds]: expected 0 (none) or 2 or more, found 1"),
                           ("[compare]\nfold = 3\n", "unknown key 'fold'"),
+                          ("[clean]\npiece_lines = 0\n", "run.toml [clean.piece_lines]: expected a number > 0 (line)"),
                           ('[rectify]\nresampling = "lanczos"\n', "lanczos")):
         path.write_text(text, encoding="utf-8")
         with pytest.raises(ScangeoError, match=re.escape(message)):
-            read_settings(path)
+            read_settings(tmp_path)
 
 
 def test_variants_toml_is_the_runs_only_while_nobody_edited_it(tmp_path):

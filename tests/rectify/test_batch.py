@@ -17,7 +17,7 @@ from scangeo.errors import OrientationFileError
 from scangeo.rectify.batch import is_complete, rectify_project
 from scangeo.rectify.options import RectifyOptions
 
-OPTS = RectifyOptions(resolution=5.0, resampling="bilinear")
+OPTS = RectifyOptions(resolution=5.0, resampling="bilinear", mosaic=False)
 
 
 @pytest.fixture(scope="module")
@@ -146,7 +146,7 @@ def test_killed_run_leaves_nothing_finished_looking_and_a_rerun_matches_an_unint
     root = fresh_copy(project, tmp_path, "killed")
     folder = root / "results" / "DG" / "ortho"
     cmd = [sys.executable, "-m", "scangeo", "rectify", str(root), "--variant", "DG", "--resolution", "5",
-           "--resampling", "bilinear", "--no-progress"]
+           "--resampling", "bilinear", "--no-mosaic", "--no-progress"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 120
     while not (folder / "01.tif").exists() and proc.poll() is None and time.monotonic() < deadline:
@@ -203,7 +203,7 @@ def test_mosaic_takes_each_cell_from_the_strip_closest_to_nadir(project, tmp_pat
 def test_cli_rectify_and_its_errors(project, tmp_path, capsys):
     root = fresh_copy(project, tmp_path)
     cfg = tmp_path / "rectify.toml"
-    cfg.write_text('[rectify]\nresampling = "nearest"\nlayers = ["scan_angle"]\n')
+    cfg.write_text('[rectify]\nresampling = "nearest"\nlayers = ["scan_angle"]\nmosaic = false\n')
     assert main(["rectify", str(root), "--variant", "DG", "--strips", "02", "--resolution", "5",
                  "--config", str(cfg), "--glt", "--igm", "--no-progress"]) == 0
     out = capsys.readouterr().out

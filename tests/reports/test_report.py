@@ -192,8 +192,8 @@ def test_corrections_follow_the_injected_gps_error_and_each_orientation_is_read_
     root, c, _ = compared_small
     project = Project.load(root)
     reads = []
-    real = corrections.read_orientation
-    monkeypatch.setattr(corrections, "read_orientation", lambda path: reads.append(path) or real(path))
+    real = corrections.read_orientation_file
+    monkeypatch.setattr(corrections, "read_orientation_file", lambda path: reads.append(path) or real(path))
     section = report._corrections_section(project, c)
     adjusted = [v.name for v in c.variants if v.error is None and v.strategy != "DG"]
     # one read per variant for every strip's figure (it was one per variant and strip: quadratic in strips)

@@ -134,6 +134,7 @@ def test_clean_command_restores_and_checks_its_options(cleaned, tmp_path, capsys
 
     root = shutil.copytree(cleaned[0], tmp_path / "p")
     assert main(["clean", str(root), "--piece-lines", "0", "--no-progress"]) == 1
-    assert "piece_lines" in capsys.readouterr().err and rejected_path(root).exists()
+    assert "--piece-lines 0: expected a number > 0 (line), found 0.0" in capsys.readouterr().err
+    assert rejected_path(root).exists()
     assert main(["clean", str(root), "--restore"]) == 0
     assert "used again" in capsys.readouterr().out and not rejected_path(root).parent.exists()

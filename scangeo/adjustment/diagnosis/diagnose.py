@@ -25,7 +25,6 @@ from __future__ import annotations
 import fnmatch
 import logging
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -44,6 +43,7 @@ from scangeo.adjustment.keys import Ground
 from scangeo.adjustment.plausibility import sigma0_warning
 from scangeo.adjustment.results import VariantResult, run_variant
 from scangeo.adjustment.variants import Variant
+from scangeo.io.project import Project
 from scangeo.progress import ProgressCallback, no_progress
 
 log = logging.getLogger(__name__)
@@ -80,7 +80,31 @@ def _r(a, d):
 
 @dataclass
 class Diagnosis:
-    """The result of :func:`diagnose`."""
+    """The result of :func:`diagnose`: the problem strips, their breaks, and the fits that chose them.
+
+    Parameters
+    ----------
+    project : str
+        The project folder.
+    strips : list of str
+        The strips diagnosed, in the project's order.
+    n_lines : dict
+        Strip id -> image lines.
+    breaks : list of BreakEstimate
+        Every break found: strip, line (image lines), its interval (low, high), how it was placed.
+    fit, null : Fit
+        The piecewise fit with the breaks and without any (BIC, parameters, serial correlation).
+    sigma0 : float
+        sigma0 of the SE adjustment diagnosed.
+    series : list of StripSeries
+        Per strip the misclosures along it (for plots).
+    notes : list of str
+        Remarks (too few tie points, a break dropped, ...).
+    options : SelectionOptions
+        The break selection's options.
+    channels : tuple of str
+        The residual channels fitted.
+    """
 
     project: str
     strips: list[str]
@@ -96,13 +120,38 @@ class Diagnosis:
 
     @property
     def problem_strips(self) -> list[str]:
-        """Strips with at least one break, in the project's order."""
+        """The strips with at least one break.
+
+        Returns
+        -------
+        list of str
+            Strip ids, in the project's order.
+        """
         return [s for s in self.strips if any(b.strip == s for b in self.breaks)]
 
     def breaks_of(self, strip: str) -> tuple[float, ...]:
+        """A strip's breaks.
+
+        Parameters
+        ----------
+        strip : str
+            The strip's id.
+
+        Returns
+        -------
+        tuple of float
+            Its break lines (image lines, rounded to whole lines; empty: no break).
+        """
         return tuple(round(b.line) for b in self.breaks if b.strip == strip)
 
     def as_dict(self) -> dict:
+        """What ``diagnosis.json`` holds (docs/formats.md).
+
+        Returns
+        -------
+        dict
+            JSON-able: problem strips, breaks with their intervals, the criterion, the series.
+        """
         return {"project": self.project, "strips": self.strips, "n_lines": self.n_lines,
                 "problem_strips": self.problem_strips,
                 "breaks": [{"strip": b.strip, "line": round(b.line, 1), "low": round(b.low, 1),
@@ -283,11 +332,12 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
     refine : options of placing every break by adjusting the S model around the BIC's line
         (:mod:`scangeo.adjustment.diagnosis.refine`); None keeps the BIC's lines.
     """
-    root = Path(project_root)
+    project = Project.from_user_input(project_root)
+    root = project.root
     options = options or SelectionOptions()
     steps = 4 if refine is not None else 3
     callback(0, steps, "diagnosis: adjusting SE")
-    result = run_variant(root, se_variant())
+    result = run_variant(project, se_variant())
     callback(1, steps, "diagnosis: choosing breaks")
     data, series = pattern_data(result, dtm_height_points, image_channels)
     notes = []
@@ -305,7 +355,7 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
             n_lines = dict(zip(data.strips, data.n_lines))
             proposed = breaks
             breaks, _ = refine_breaks(
-                breaks, n_lines, s_model_cost(root, dtm_height_points, refine.position_degree), refine,
+                breaks, n_lines, s_model_cost(project, dtm_height_points, refine.position_degree), refine,
                 lambda i, n: callback(3 + i / n, steps, f"diagnosis: placing break {i} of {n} with the S model"))
             notes += dropped_notes(proposed, breaks, refine.test_level)
     callback(steps, steps, "diagnosis: done")

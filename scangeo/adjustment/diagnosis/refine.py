@@ -83,7 +83,7 @@ def s_model_cost(project_root, dtm_height_points: Sequence[str] = ("*",), positi
     The project's files are read once; every probe starts its unknowns where the previous probe left
     them (the same answer in fewer iterations: the candidates differ by one break line).
     """
-    project = Project.load(project_root)
+    project = Project.from_user_input(project_root)
     points, ground = read_measurements(project)
     start: dict = {}
 

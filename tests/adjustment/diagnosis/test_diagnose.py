@@ -44,9 +44,10 @@ def test_diagnose_command_writes_variants_for_the_problem_strip(problem_small, t
     d = json.loads((root / "results" / "diagnosis.json").read_text())
     assert d["problem_strips"] == ["02"] and len(d["series"]) == 3
     assert [b["method"] for b in d["breaks"]] == ["BIC", "BIC"] and d["breaks"][0]["bic_line"] is None
-    # an existing variants file is kept unless --overwrite
+    # an existing variants file is kept unless --overwrite; the library's error in the command line's words
     assert main(["diagnose", str(root), "--no-progress"]) == 1
-    assert "exists" in capsys.readouterr().err
+    assert "variants.toml exists: replace it (--overwrite) or write no variants (--no-write-variants)" in \
+        capsys.readouterr().err
 
 
 @pytest.fixture(scope="module")
