@@ -17,6 +17,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.stats
 
+from scangeo.adjustment.calibration import describe_change
 from scangeo.adjustment.gpsimu import GpsImuSamples
 from scangeo.adjustment.ground import DtmHeights, GroundControl
 from scangeo.adjustment.image import ImageObservations
@@ -93,8 +94,10 @@ class Block:
     roles: dict[str, str]
     notes: list[str] = field(default_factory=list)
     #: the t-tests of ``test_calibration`` (:func:`test_calibration`): unknown, component, t, critical,
-    #: value, sigma, start, kept
+    #: value, sigma, start, kept (SI units)
     calibration_tests: list[dict] = field(default_factory=list)
+    #: the calibration unknowns' values before the adjustment (project.toml's), by key
+    calibration_start: dict[Key, np.ndarray] = field(default_factory=dict)
 
     def role(self, point: str) -> str:
         return self.roles.get(point, "tie")
@@ -244,7 +247,9 @@ def build_block(project: Project, variant: Variant, points: ImagePoints, ground:
     groups = _observation_groups(setup)
     for note in setup.notes:
         log.warning("%s", note)
-    return Block(project, variant, strips, setup.models, params, groups, points, ground, setup.roles, setup.notes)
+    start = {key: params[key].values.copy() for key, _, _ in CALIBRATION_KEYS if key in params}
+    return Block(project, variant, strips, setup.models, params, groups, points, ground, setup.roles, setup.notes,
+                 calibration_start=start)
 
 
 def _orientation_unknowns(setup: _Setup, params: Parameters) -> None:
@@ -443,7 +448,8 @@ def test_calibration(block: Block, adjust_it: Callable[[], Adjustment]) -> Adjus
     """
     v, params = block.variant, block.parameters
     names = {key: name for key, name, _ in CALIBRATION_KEYS if name in v.test_calibration}
-    start = {key: params[key].values.copy() for key in names if key in params}
+    units = {key: unit for key, _, unit in CALIBRATION_KEYS}
+    start = {key: block.calibration_start[key] for key in names if key in block.calibration_start}
     tests = block.calibration_tests
     adjustment = adjust_it()
     while True:
@@ -461,17 +467,17 @@ def test_calibration(block: Block, adjust_it: Callable[[], Adjustment]) -> Adjus
         t, key, i, value, sigma = min(candidates, key=lambda c: c[0])
         component = params[key].names[i]
         entry = {"unknown": names[key], "component": component, "t": t, "critical": crit, "value": value,
-                 "sigma": sigma, "start": float(start[key][i])}
+                 "sigma": sigma, "start": float(start[key][i]), "unit": units[key]}
         if t >= crit:
             for t_k, key_k, i_k, value_k, sigma_k in candidates:
                 tests.append({"unknown": names[key_k], "component": params[key_k].names[i_k], "t": t_k,
                               "critical": crit, "value": value_k, "sigma": sigma_k,
-                              "start": float(start[key_k][i_k]), "kept": True})
+                              "start": float(start[key_k][i_k]), "unit": units[key_k], "kept": True})
             return adjustment
         tests.append({**entry, "kept": False})
-        block.notes.append(f"calibration test: {names[key]} {component} changed by {value - start[key][i]:.3g} "
-                           f"+- {sigma:.2g} (t = {t:.2f} < {crit:.2f}, alpha {v.calibration_alpha:g}): not "
-                           "determined by the observations, fixed at its start value")
+        change = describe_change(names[key], component, units[key], value - start[key][i], sigma)
+        block.notes.append(f"calibration test: {change} (t = {t:.2f} < {crit:.2f}, alpha {v.calibration_alpha:g}): "
+                           "not determined by the observations, fixed at its start value")
         params[key].free[i] = False
         params[key].values[i] = start[key][i]
         adjustment = adjust_it()

@@ -3,7 +3,9 @@
 
 For every free calibration unknown (boresight, lever arm, time offset, a whiskbroom's scan index and
 scale, a pushbroom's across-track offset and scale and along-track offset): the estimate, its
-a-posteriori sigma, the t-test against zero, the prior's sigma where it has one, and the share of its
+a-posteriori sigma, the t-test against zero, its start value (project.toml's) with the change from it
+and that change's t-test (``t_change``, at the variant's ``calibration_alpha``: did the calibration
+move it significantly?), the prior's sigma where it has one, and the share of its
 information that comes from the observations rather than from its prior,
 ``data_share = 1 - sigma_apriori^2 / sigma_prior^2`` (both without sigma0: 1 = determined by the
 data alone, 0 = only by its prior). Then the correlation matrix of all of them, and the pairs above
@@ -16,6 +18,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.stats
 
 from scangeo.adjustment.keys import CALIBRATION_KEYS
 from scangeo.lsq.keys import Key
@@ -46,6 +49,19 @@ def label(name: str, component: str) -> str:
     return name if component == name or component in ("dt", "index", "scale") else f"{name}.{component}"
 
 
+def shown(unit: str, value: float) -> tuple[float, str]:
+    """A value in the block's unit (rad, m, s, 1) as shown in reports: (value, unit)."""
+    f, name = _SHOWN[unit]
+    return value * f, name
+
+
+def describe_change(name: str, component: str, unit: str, change: float, sigma: float) -> str:
+    """``across_scale changed by 0.00086 +- 0.00055``, in the units reports show (deg for angles)."""
+    c, u = shown(unit, change)
+    s, _ = shown(unit, sigma)
+    return f"{label(name, component)} changed by {c:.3g} +- {s:.2g}{' ' + u if u else ''}"
+
+
 def calibration_summary(result, threshold: float = 0.95) -> dict:
     """``{"parameters": [...], "correlation": {"names", "matrix"}, "correlated": [...]}`` (module docstring);
     empty lists when the variant calibrates nothing."""
@@ -53,7 +69,8 @@ def calibration_summary(result, threshold: float = 0.95) -> dict:
     stats, params = adj.statistics, adj.parameters
     free = _free(result)
     if not free:
-        return {"parameters": [], "correlation": {"names": [], "matrix": []}, "correlated": []}
+        return {"parameters": [], "correlation": {"names": [], "matrix": []}, "correlated": [],
+                "tests": tests_shown(result)}
     cols = np.array([c for *_, c in free])
     scale = adj.solution.system.scale[cols]
     q = stats.inverse.block(cols) / np.outer(scale, scale)  # a-priori cofactors (sigma0 = 1)
@@ -61,20 +78,26 @@ def calibration_summary(result, threshold: float = 0.95) -> dict:
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = q / np.outer(sd, sd)
     sigma0 = stats.sigma0
+    critical = float(scipy.stats.t.ppf(1 - result.variant.calibration_alpha / 2, max(stats.redundancy, 1)))
     significance = {(c.key, c.component): c for key in dict.fromkeys(k for k, *_ in free)
                     for c in stats.significance(key)}
     rows, names = [], []
     for k, (key, name, unit, i, _) in enumerate(free):
         block = params[key]
         comp = block.names[i]
-        f, shown = _SHOWN[unit]
+        f, unit_shown = _SHOWN[unit]
         c = significance[(key, comp)]
         prior = None if block.prior_sigma is None or not np.isfinite(block.prior_sigma[i]) else float(
             block.prior_sigma[i])
         share = None if prior is None else max(0.0, 1.0 - float(q[k, k]) / prior**2)
         names.append(label(name, comp))
-        rows.append({"name": names[-1], "calibrate": name, "unit": shown, "value": _num(c.value * f),
+        start = result.block.calibration_start.get(key)
+        x0 = float(start[i]) if start is not None else 0.0
+        t_change = abs(c.value - x0) / c.sigma if c.sigma > 0 else None
+        rows.append({"name": names[-1], "calibrate": name, "unit": unit_shown, "value": _num(c.value * f),
                      "sigma": _num(c.sigma * f), "t": _num(c.t), "significant": c.significant,
+                     "start": _num(x0 * f), "change": _num((c.value - x0) * f), "t_change": _num(t_change),
+                     "significant_change": bool(t_change is not None and t_change > critical),
                      "prior_sigma": _num(None if prior is None else prior * f),
                      "data_share": _num(share)})
     pairs = []
@@ -88,7 +111,18 @@ def calibration_summary(result, threshold: float = 0.95) -> dict:
                     "(see data_share)")})
     matrix = [[_num(round(float(v), 4)) for v in row] for row in corr]
     return {"parameters": rows, "sigma0": _num(sigma0), "correlation": {"names": names, "matrix": matrix},
-            "correlated": pairs}
+            "correlated": pairs, "tests": tests_shown(result)}
+
+
+def tests_shown(result) -> list[dict]:
+    """The variant's ``test_calibration`` decisions in the units reports show."""
+    out = []
+    for t in getattr(result.block, "calibration_tests", []):
+        f, unit = _SHOWN[t["unit"]]
+        out.append({"name": label(t["unknown"], t["component"]), "unit": unit, "value": _num(t["value"] * f),
+                    "start": _num(t["start"] * f), "sigma": _num(t["sigma"] * f), "t": _num(t["t"]),
+                    "critical": _num(t["critical"]), "kept": t["kept"]})
+    return out
 
 
 __all__ = ["calibration_summary", "label"]

@@ -19,6 +19,7 @@ from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
 from scangeo.sensors.models import Whiskbroom
 from scangeo.textfile import read_text
+from scangeo.trajectory.checks import strip_times_of, uncovered_lines
 from scangeo.trajectory.readers import read_sbet, read_trajectory_csv
 
 KINDS = ("trajectory", "dtm", "image", "points", "ground", "project")
@@ -313,10 +314,6 @@ def _strip_summary(project, strip_id: str) -> dict[str, Any]:
         first, last = (float(v) for v in timing.time_of_line(np.array([0.0, n - 1.0])))
         out.update({"lines": n, "line_time_s": {"start": round(first, 6), "end": round(last, 6)}})
         stream = project.stream(strip_id, check=False)  # coverage is reported below, not raised
-        edges = np.array([0.0, project.sensor.model.pixels - 1.0])
-        half_scan = float(np.abs(project.sensor.model.time_offset(edges)).max())
-        nav_first = first - half_scan + project.sensor.mounting.time_offset
-        nav_last = last + half_scan + project.sensor.mounting.time_offset
         out.update(
             {
                 "trajectory_records": len(stream),
@@ -324,7 +321,7 @@ def _strip_summary(project, strip_id: str) -> dict[str, Any]:
                     "start": round(float(stream.time[0]), 6),
                     "end": round(float(stream.time[-1]), 6),
                 },
-                "covered": bool(stream.time[0] <= nav_first and nav_last <= stream.time[-1]),
+                "covered": uncovered_lines(stream, strip_times_of(project, strip_id)).size == 0,
             }
         )
     except ScangeoError as exc:

@@ -269,6 +269,11 @@ def run(project: str | Path | Project, *, references: Sequence[str | Path] = (),
                         **settings.as_dict()}
     manifest.recommended = None
     ctx = Context(root, loaded, settings, {}, previous, _look_angles(root))
+    cannot = {s.name: why for s in plan if (why := s.cannot_run(ctx))}
+    for asked in (from_stage, until):
+        if asked in cannot:
+            raise ProjectFileError(f"stage {asked} cannot run on {root}: {cannot[asked]}")
+    plan = [s for s in plan if s.name not in cannot]
     forced = set(names[names.index(from_stage):]) if from_stage else set()
     progress = _forward_only(progress)
     total, edge = sum(s.weight for s in plan), 0.0
@@ -285,7 +290,8 @@ def run(project: str | Path | Project, *, references: Sequence[str | Path] = (),
             outcomes.append(outcome)
     for name in names:
         if name not in {o.name for o in outcomes}:
-            why = ("tie points in points.csv (--match matches anyway)" if name == "match" and not match_why
+            why = (f"cannot run: {cannot[name]}" if name in cannot
+                   else "tie points in points.csv (--match matches anyway)" if name == "match" and not match_why
                    else f"after --until {until}")
             outcomes.append(StageOutcome(name, "not run", reason=why))
     outcomes.sort(key=lambda o: names.index(o.name))

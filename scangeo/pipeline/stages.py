@@ -119,6 +119,15 @@ class Stage:
     options: Callable[[Context], dict[str, Any]]
     work: Callable[[Context, ProgressCallback], tuple[dict[str, Any], list[Path]]]
     doc: str = ""
+    #: why the stage cannot run on this project (None: it can), e.g. rectify without an image
+    cannot_run: Callable[[Context], str | None] = lambda ctx: None
+
+
+def no_images(ctx: Context) -> str | None:
+    """Why a stage that reads the images cannot run: no strip of the project has one."""
+    if ctx.images():
+        return None
+    return "no strip has an image (project.toml [[strips]] image)"
 
 
 # -- check -------------------------------------------------------------------------------------------------
@@ -269,7 +278,7 @@ STAGES: tuple[Stage, ...] = (
     Stage("match", 0.20, (), _match_files,
           lambda c: {"options": asdict(c.settings.match),
                      "references": [relative_name(p, c.root) for p in c.settings.references]},
-          _match, "tie points (and control against --reference) from the images"),
+          _match, "tie points (and control against --reference) from the images", no_images),
     Stage("clean", 0.15, (), lambda c: c.base_files() + c.points_files(), lambda c: asdict(c.settings.clean), _clean,
           "blunders found by a robust adjustment and set aside for every later adjustment"),
     Stage("diagnose", 0.13, ("clean",), lambda c: c.base_files() + c.points_files(), _no_options, _diagnose,
@@ -280,7 +289,7 @@ STAGES: tuple[Stage, ...] = (
           "every variant adjusted, compared, cross-validated; the recommended variant"),
     Stage("rectify", 0.12, ("compare",), lambda c: c.base_files() + c.images(),
           lambda c: asdict(c.settings.rectify), _rectify,
-          "orthoimages and mosaic of the recommended variant, with STAC items"),
+          "orthoimages and mosaic of the recommended variant, with STAC items", no_images),
     Stage("report", 0.03, ("clean", "diagnose", "compare", "rectify"),
           lambda c: c.base_files() + c.points_files() + [report_path(c.root, existing=True)],
           _no_options, _report, "the HTML report (a quicklook of the mosaic) and the residual vectors (GeoPackage)"),

@@ -81,7 +81,8 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
         variants ``scangeo/data/variants.toml`` filled in with ``problem_strip`` and ``breaks_lines`` or, without
         them, with the problem strips and breaks the diagnosis finds (``scangeo diagnose``; a simulation's
         truth is never used to build variants, only for the true-error table)).
-    reference : the variant that is 100 %.
+    reference : the variant that is 100 % (when the file has no such variant: its first, e.g. an imported
+        project's PARGE).
     names : the variants to run (default all, in the file's order).
     folds : folds of the cross-validation over the control points that recommends a variant without
         check points (:mod:`scangeo.strategy.crossvalidation`; 0: none).
@@ -116,6 +117,8 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
             log.warning("variant %s failed: %s", name, exc)
             summaries.append(VariantSummary(name, variants[name].strategy, variants[name].description, error=str(exc)))
         callback(i + 1, len(chosen), f"{name}: done")
+    if reference not in chosen:
+        reference = chosen[0]
     comparison = Comparison(str(root), str(path), reference, [s.id for s in project.strips], summaries,
                             truth is not None)
     if folds >= 2:

@@ -64,13 +64,21 @@ def _ranges(lines: np.ndarray) -> str:
     return ", ".join(parts)
 
 
-def check_coverage(stream: GpsImuStream, strip: StripTimes) -> None:
-    """Raise TrajectoryError naming the lines of the strip the trajectory does not cover."""
+def uncovered_lines(stream: GpsImuStream, strip: StripTimes) -> np.ndarray:
+    """The lines of the strip whose navigation times the trajectory does not cover (to TIME_RESOLUTION_S)."""
     first = strip.line_times + strip.offset - strip.half_scan
     last = strip.line_times + strip.offset + strip.half_scan
     t0, t1 = float(stream.time[0]), float(stream.time[-1])
-    out = np.flatnonzero((first < t0 - TIME_RESOLUTION_S) | (last > t1 + TIME_RESOLUTION_S))
+    return np.flatnonzero((first < t0 - TIME_RESOLUTION_S) | (last > t1 + TIME_RESOLUTION_S))
+
+
+def check_coverage(stream: GpsImuStream, strip: StripTimes) -> None:
+    """Raise TrajectoryError naming the lines of the strip the trajectory does not cover."""
+    out = uncovered_lines(stream, strip)
     if out.size:
+        first = strip.line_times + strip.offset - strip.half_scan
+        last = strip.line_times + strip.offset + strip.half_scan
+        t0, t1 = float(stream.time[0]), float(stream.time[-1])
         raise TrajectoryError(
             f"trajectory {stream.source} does not cover lines {_ranges(out)} of strip {strip.strip_id} "
             f"(it runs from {t0:.3f} to {t1:.3f} s; the strip's lines need {first[0]:.3f} to {last[-1]:.3f} s)"

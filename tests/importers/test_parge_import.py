@@ -115,3 +115,25 @@ def test_a_line_without_gcps_imports_and_its_boresight_cannot_be_calibrated(tmp_
     assert project.sensor.kind == "pushbroom" and len(GroundPoints.read(out / "ground.csv")) == 0
     with pytest.raises(AdjustmentError, match="control"):
         adjust(out, "BORESIGHT")
+
+
+def test_scangeo_run_on_an_imported_line_compares_the_variants_and_says_why_it_cannot_rectify(tmp_path, capsys):
+    out = tmp_path / "project"
+    import_parge(shared_file(LINES["SWIR"]), out)
+    assert main(["run", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "rectify   not run (cannot run: no strip has an image" in printed
+    assert "match     not run (cannot run: no strip has an image" in printed
+    manifest = json.loads((out / "results" / "run.json").read_text())
+    assert {n: s["status"] for n, s in manifest["stages"].items() if n in ("check", "clean", "compare", "report")} == \
+        {"check": "ran", "clean": "ran", "compare": "ran", "report": "ran"}
+    compare = manifest["stages"]["compare"]["summary"]
+    assert set(compare["variants"]) == {"PARGE", "BORESIGHT", "CALIBRATED"}
+    comparison = json.loads((out / "results" / "comparison.json").read_text())
+    assert comparison["reference"] == "PARGE"
+    cv = comparison["crossvalidation"]["rms_px"]
+    assert set(cv) == {"PARGE", "BORESIGHT", "CALIBRATED"} and max(cv.values()) < 0.5  # px, on the SWIR line
+    assert (out / "results" / "report.html").stat().st_size > 0
+    # asking for what cannot run is an error naming why, not a traceback
+    assert main(["run", str(out), "--until", "rectify"]) == 1
+    assert "stage rectify cannot run" in capsys.readouterr().err

@@ -67,7 +67,9 @@ def test_files_read_back(compared_small):
     # the recommendation without check points: a correction of the problem strip, by 2-fold cross-validation
     assert again.recommended == c.recommended and c.recommended in ("P2", "P4", "S2", "S4")
     cv = c.crossvalidation
-    assert cv["folds"] == 2 and "DG" not in cv["rms_px"] and cv["rms_px"][c.recommended] < cv["rms_px"]["SE"]
+    assert cv["folds"] == 2 and cv["rms_px"][c.recommended] < cv["rms_px"]["SE"]
+    # DG, GPS/IMU as measured with nothing fitted, is the baseline: the problem strip's drift makes it the worst
+    assert cv["rms_px"]["DG"] == max(cv["rms_px"].values()) > 2 * cv["rms_px"][c.recommended]
     assert "Recommendation without check points" in (root / "results" / "comparison.md").read_text()
     rows = list(csv.DictReader(open(root / "results" / "comparison.csv")))
     assert list(rows[0]) == CSV_FIELDS
