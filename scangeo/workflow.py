@@ -156,6 +156,14 @@ def _one_way_to_run(workers: int, scheduler: str | None) -> None:
                             workers=workers, scheduler=scheduler)
 
 
+def _needs_references(references: Sequence[str | Path], **given: object) -> None:
+    """The heights of control points (``reference_dtm``, its sigma) apply only with reference orthoimages."""
+    given = {name: value for name, value in given.items() if value is not None}
+    if given and not references:
+        raise ArgumentError(" and ".join(f"{{{name}}}" for name in given) + ": the heights of control points, which "
+                            "come only with reference orthoimages ({references})", **given, references=[])
+
+
 def match_points(project: str | Path | Project, variant: str = "DG", *, references: Sequence[str | Path] = (),
                  reference_dtm: str | Path | None = None, reference_dtm_sigma: float | None = None,
                  options: MatchOptions | None = None, workers: int = 1, scheduler: str | None = None,
@@ -196,11 +204,13 @@ def match_points(project: str | Path | Project, variant: str = "DG", *, referenc
     Raises
     ------
     ArgumentError
-        ``workers`` below 1, or both ``workers`` and ``scheduler``.
+        ``workers`` below 1, or both ``workers`` and ``scheduler``; ``reference_dtm`` or
+        ``reference_dtm_sigma`` without ``references``.
     ProjectFileError
         No strip has an image; a file of the project is malformed.
     """
     _one_way_to_run(workers, scheduler)
+    _needs_references(references, reference_dtm=reference_dtm, reference_dtm_sigma=reference_dtm_sigma)
     return match_project(project, variant, references=references, reference_dtm=reference_dtm,
                          reference_dtm_sigma=reference_dtm_sigma, options=options, workers=workers,
                          scheduler=scheduler, progress=progress)
@@ -336,10 +346,18 @@ def compare(project: str | Path | Project, *, variants_file: str | Path | None =
     Raises
     ------
     ArgumentError
-        ``folds`` is 1 or negative.
+        ``folds`` is 1 or negative; ``breaks_lines`` without ``problem_strip``; either with a
+        ``variants_file`` (they fill in the default variants only), or with a ``PROJECT/variants.toml``
+        that holds other variants.
     ProjectFileError
-        A malformed project or variants file; ``breaks_lines`` without ``problem_strip``.
+        A malformed project or variants file.
     """
+    if variants_file is not None and (problem_strip is not None or breaks_lines is not None):
+        given = {k: v for k, v in (("problem_strip", problem_strip),
+                                   ("breaks_lines", list(breaks_lines) if breaks_lines is not None else None))
+                 if v is not None}
+        raise ArgumentError(" and ".join(f"{{{k}}}" for k in given) + " fill in the default variants; "
+                            "{variants_file} gives its own", **given, variants_file=str(variants_file))
     try:
         folds = CompareSettings(folds=folds).folds
     except OptionsError as exc:
@@ -404,10 +422,13 @@ def diagnose(project: str | Path | Project, *, dtm_height_points: Sequence[str] 
     ------
     ArgumentError
         ``max_breaks`` below 0; ``PROJECT/variants.toml`` exists and neither ``overwrite`` nor
-        ``write_variants=False`` says what to do with it.
+        ``write_variants=False`` says what to do with it; ``overwrite`` without ``write_variants``.
     """
     if max_breaks < 0:
         raise ArgumentError("{max_breaks}: expected 0 or more", max_breaks=max_breaks)
+    if overwrite and not write_variants:
+        raise ArgumentError("{overwrite} with {write_variants}: nothing to overwrite", overwrite=True,
+                            write_variants=False)
     loaded = Project.from_user_input(project)
     target = loaded.root / "variants.toml"
     if write_variants and target.exists() and not overwrite:

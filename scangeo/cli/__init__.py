@@ -257,7 +257,7 @@ def _flag(actions: list[argparse.Action], name: str, value: object) -> str:
             if a.const == value:
                 return longest
             continue
-        return f"{longest} {_words(value)}"
+        return longest if value is None or value in ([], ()) else f"{longest} {_words(value)}"
     return f"{name}={value!r}"
 
 

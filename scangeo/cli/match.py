@@ -24,7 +24,7 @@ def add_parser(subparsers, common) -> None:
     p.add_argument("project", help="the project folder")
     option_argument(p, "--variant", option="scangeo.workflow:match_points.variant",
                     help="orientation that predicts where to look")
-    p.add_argument("--reference", nargs="+", default=[], metavar="ORTHO",
+    p.add_argument("--reference", dest="references", nargs="+", default=[], metavar="ORTHO",
                    help="reference orthoimage(s) for control points (any raster with a CRS)")
     p.add_argument("--reference-dtm", default=None, metavar="DTM",
                    help="heights of control points (default: the project's DTM)")
@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     from scangeo.workflow import match_points
 
     result = match_points(
-        args.project, references=args.reference, reference_dtm=args.reference_dtm,
+        args.project, references=args.references, reference_dtm=args.reference_dtm,
         reference_dtm_sigma=args.reference_dtm_sigma, options=options_of(args), scheduler=args.scheduler,
         progress=progress_of(args), **passed(args, "variant", "workers"),
     )

@@ -34,7 +34,7 @@ def add_parser(subparsers, common) -> None:
                     "0 done, 1 a stage failed, 2 usage, 3 the project is locked by another run, 130 interrupted.",
     )
     p.add_argument("project", help="the project folder")
-    p.add_argument("--reference", nargs="+", default=[], metavar="ORTHO",
+    p.add_argument("--reference", dest="references", nargs="+", default=[], metavar="ORTHO",
                    help="reference orthoimage(s) for control points (the match stage)")
     p.add_argument("--reference-dtm", default=None, metavar="DTM",
                    help="heights of the matched control points (default: the project's DTM)")
@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         with OutputLock(args.project, "scangeo run"):
-            result = run_pipeline(args.project, references=args.reference, reference_dtm=args.reference_dtm,
+            result = run_pipeline(args.project, references=args.references, reference_dtm=args.reference_dtm,
                                   from_stage=args.from_stage, until=args.until, match=args.match,
                                   settings_file=args.config, progress=progress_of(args))
     except OutputLockedError as exc:

@@ -240,7 +240,8 @@ def run(project: str | Path | Project, *, references: Sequence[str | Path] = (),
     Raises
     ------
     ArgumentError
-        ``from_stage`` or ``until`` is not a stage, or ``from_stage`` comes after ``until``.
+        ``from_stage`` or ``until`` is not a stage, or ``from_stage`` comes after ``until``;
+        ``reference_dtm`` without ``references``; a match argument on a laser project.
     StageFailed
         A stage stopped with an error (chained; the manifest records the stage as failed).
     """
@@ -254,6 +255,9 @@ def run(project: str | Path | Project, *, references: Sequence[str | Path] = (),
     if loaded.is_laser and images_only:
         raise ArgumentError(" and ".join(f"{{{k}}}" for k in images_only) + ": for images; a laser project has no "
                             "match stage", **images_only)
+    if reference_dtm is not None and not references:
+        raise ArgumentError("{reference_dtm}: the heights of control points, which come only with reference "
+                            "orthoimages ({references})", reference_dtm=reference_dtm, references=[])
     settings_file = settings_file_of(root, settings_file)
     settings = RunSettings(tuple(Path(r) for r in references), Path(reference_dtm) if reference_dtm else None,
                            match, read_settings(root, settings_file))

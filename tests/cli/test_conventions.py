@@ -231,3 +231,23 @@ def test_a_match_report_where_an_older_scangeo_wrote_it_is_still_read(tmp_path):
     new.parent.mkdir()
     new.write_text("{}", encoding="utf-8")
     assert report_path(tmp_path, existing=True) == new
+
+
+def test_an_argument_that_cannot_apply_is_an_error(small_block, tmp_path, capsys):
+    import scangeo
+    from scangeo.errors import ArgumentError
+
+    with pytest.raises(ArgumentError, match=r"^reference_dtm='d.tif': the heights of control points, which come "
+                                            r"only with reference orthoimages \(references=\[\]\)$"):
+        scangeo.match_points(small_block, reference_dtm="d.tif")
+    with pytest.raises(ArgumentError, match=r"^problem_strip='02' fill in the default variants; "
+                                            r"variants_file='v.toml' gives its own$"):
+        scangeo.compare(small_block, variants_file="v.toml", problem_strip="02")
+    with pytest.raises(ArgumentError, match=r"^overwrite=True with write_variants=False: nothing to overwrite$"):
+        scangeo.diagnose(small_block, overwrite=True, write_variants=False)
+    project = copy_project(small_block, tmp_path / "p")
+    assert main(["run", str(project), "--reference-dtm", "d.tif", "--no-progress"]) == 1
+    assert ("--reference-dtm d.tif: the heights of control points, which come only with reference orthoimages "
+            "(--reference)") in capsys.readouterr().err
+    assert main(["diagnose", str(project), "--overwrite", "--no-write-variants", "--no-progress"]) == 1
+    assert "--overwrite with --no-write-variants: nothing to overwrite" in capsys.readouterr().err
