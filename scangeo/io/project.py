@@ -248,7 +248,7 @@ class Project:
         """
         if isinstance(self.scanner, LaserSensor):
             raise ProjectFileError(f"{self.file} [sensor.kind]: a laser project; this needs a line scanner's images "
-                                   "(whiskbroom or pushbroom)")
+                                   "(whiskbroom or pushbroom); a laser project runs through scangeo run (docs/run.md)")
         return self.scanner
 
     @property

@@ -237,8 +237,9 @@ def _rejections_section(root: Path, r: dict) -> html.Section:
     return html.Section("Rejected observations", "rejections", parts)
 
 
-def write_laser_report(root: Path) -> tuple[Path, int]:
-    """``results/report.html`` of a compared laser project (module docstring); returns it and its figure count."""
+def write_laser_report(root: Path, out: Path | None = None) -> tuple[Path, int]:
+    """``report.html`` of a compared laser project into ``out`` (default PROJECT/results; module docstring);
+    returns it and its figure count."""
     root = Path(root)
     c = _read_json(root / "results" / "comparison.json")
     name = c.get("recommended")
@@ -252,7 +253,9 @@ def write_laser_report(root: Path) -> tuple[Path, int]:
                             f"{r['sigma0']:.3f}, converged: {r['converged']}. scangeo {__version__}, "
                             f"{datetime.datetime.now(datetime.UTC).isoformat(timespec='seconds')}.")]
     text = html.document(f"scangeo laser report: {root.name}", intro, sections)
-    path = write_text(root / "results" / "report.html", text)
+    folder = Path(out) if out is not None else root / "results"
+    folder.mkdir(parents=True, exist_ok=True)
+    path = write_text(folder / "report.html", text)
     return path, text.count('class="report-figure"')
 
 

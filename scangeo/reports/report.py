@@ -47,6 +47,7 @@ from scangeo.reports.corrections import (
 )
 from scangeo.reports.diagnosis_section import diagnosis_section
 from scangeo.reports.geopackage import write_geopackage
+from scangeo.reports.laser import write_laser_report
 from scangeo.reports.matching import match_section
 from scangeo.reports.quicklook import quicklook_section
 from scangeo.reports.reliability import reliability_section
@@ -283,9 +284,13 @@ def _check_points(root: Path) -> np.ndarray:
 def write_report(
     project_root, out=None, *, geopackage: bool = True, callback: ProgressCallback = no_progress
 ) -> ReportFiles:
-    """Write ``report.html`` (and ``residuals.gpkg``) of a compared project into ``out`` (default PROJECT/results)."""
+    """Write ``report.html`` (and ``residuals.gpkg``) of a compared project into ``out`` (default PROJECT/results);
+    of a laser project its report (:func:`scangeo.reports.laser.write_laser_report`)."""
     project = Project.from_user_input(project_root)
     root = project.root
+    if project.is_laser:  # the laser's report (reports/laser.py): no residual vectors, no GeoPackage
+        html_path, count = write_laser_report(root, Path(out) if out else None)
+        return ReportFiles(html_path, None, count)
     comparison = read_comparison(root / "results")
     folder = Path(out) if out else root / "results"
     folder.mkdir(parents=True, exist_ok=True)
