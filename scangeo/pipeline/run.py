@@ -274,9 +274,10 @@ def run(project: str | Path | Project, *, references: Sequence[str | Path] = (),
     manifest.recommended = None
     ctx = Context(root, loaded, settings, {}, previous, _look_angles(root))
     cannot = {s.name: why for s in plan if (why := s.cannot_run(ctx))}
-    for asked in (from_stage, until):
+    for argument, asked in (("from_stage", from_stage), ("until", until)):
         if asked in cannot:
-            raise ProjectFileError(f"stage {asked} cannot run on {root}: {cannot[asked]}")
+            raise ArgumentError(f"{{{argument}}}: stage {asked} cannot run on {root}: {cannot[asked]}",
+                                **{argument: asked})
     plan = [s for s in plan if s.name not in cannot]
     forced = set(names[names.index(from_stage):]) if from_stage else set()
     progress = _forward_only(progress)
