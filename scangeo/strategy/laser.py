@@ -244,7 +244,10 @@ def compare_laser(project: Project | Path | str, variants: dict[str, Variant] | 
             errors[name] = str(exc)
     best, why = _recommend(results)
     callback(1.0, 1.0, "variants compared")
-    return LaserComparison(str(project.root), str(path), results, errors, best, why)
+    source = (str(path) if variants is file_variants and path.parent == project.root
+              else "the paper's models (scangeo/data/laser_variants.toml)" if variants is file_variants
+              else "given")
+    return LaserComparison(str(project.root), source, results, errors, best, why)
 
 
 def write_laser_comparison(root: Path, comparison: LaserComparison) -> list[Path]:
