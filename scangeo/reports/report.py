@@ -37,6 +37,7 @@ from scangeo.orientation.file import FILE_NAME as ORIENTATION_FILE
 from scangeo.orientation.file import read_orientation_file
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.reports import figures, html
+from scangeo.reports.calibration_section import calibration_section
 from scangeo.reports.corrections import (
     breaks_of,
     correction_series,
@@ -322,6 +323,9 @@ def write_report(
     chosen = comparison.recommended or comparison.best or comparison.reference  # the variant scangeo run rectifies
     sections.insert(2, quicklook_section(root / "results", chosen, {sid: f.footprint for sid, f in frames.items()},
                                          _check_points(root)))
+    calibration = calibration_section(root, comparison, project.sensor.model.pixels)  # estimates, tests, residuals
+    if calibration is not None:
+        sections.insert(3, calibration)
     sections.append(_notes_section(project, comparison))
     shown = [n for n in dict.fromkeys([comparison.reference, comparison.best]) if n in names]
     sections.append(reliability_section(project.root / "results", shown))  # MDB and external reliability maps

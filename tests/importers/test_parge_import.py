@@ -133,7 +133,21 @@ def test_scangeo_run_on_an_imported_line_compares_the_variants_and_says_why_it_c
     assert comparison["reference"] == "PARGE"
     cv = comparison["crossvalidation"]["rms_px"]
     assert set(cv) == {"PARGE", "BORESIGHT", "CALIBRATED"} and max(cv.values()) < 0.5  # px, on the SWIR line
-    assert (out / "results" / "report.html").stat().st_size > 0
+    # the calibration report: on the SWIR line the control GCPs determine the boresight alone; the look
+    # angles' calibration and the time offset are not significant and are fixed (test_calibration)
+    html = (out / "results" / "report.html").read_text()
+    for part in ("<h2>Calibration</h2>", 'id="calibration-bought"', 'id="calibration-tests-CALIBRATED"',
+                 'id="fig-calibration-BORESIGHT"', 'id="calibration-correlation-BORESIGHT"'):
+        assert part in html, part
+    report = json.loads((out / "results" / "CALIBRATED" / "report.json").read_text())["calibration"]
+    assert {t["name"]: t["kept"] for t in report["tests"]} == {
+        "across_offset": False, "across_scale": False, "along_offset": False, "time_offset": False}
+    boresight = {p["name"]: p for p in report["parameters"]}
+    assert set(boresight) == {"boresight.roll", "boresight.pitch", "boresight.heading"}
+    # PARGE's roll and pitch confirmed to their sigmas (0.004 deg); the heading is the least determined
+    assert all(abs(boresight[f"boresight.{a}"]["change"]) < 3 * boresight[f"boresight.{a}"]["sigma"] < 0.015
+               for a in ("roll", "pitch"))
+    assert boresight["boresight.heading"]["sigma"] > 3 * boresight["boresight.roll"]["sigma"]
     # asking for what cannot run is an error naming why, not a traceback
     assert main(["run", str(out), "--until", "rectify"]) == 1
     assert "stage rectify cannot run" in capsys.readouterr().err
