@@ -15,7 +15,15 @@ the final file is assembled from the spool in the cloud-optimised order:
   level, each preceded by its size (4 bytes) and followed by its last 4 bytes repeated.
 
 Pixel-interleaved, predictor 2 (horizontal differencing) for integer types and predictor 3 (the
-floating-point predictor: byte planes, then differencing) for floats, deflate level 1 by default.
+floating-point predictor: byte planes, then differencing) for floats, deflate level 1. The level has
+GDAL's meaning (the ``LEVEL`` of its deflate, libdeflate's scale) on both routes: level 1, the
+fastest, is ISA-L's level 1 here, whose blocks are 1.4-1.6 % larger than libdeflate's level 1
+(docs/performance.md); another level is GDAL's to write (:meth:`GeoTiffProfile.scangeo_writes
+<scangeo.rectify.geotiff.GeoTiffProfile.scangeo_writes>`).
+
+The layout is GDAL's COG driver's, which this module writes by hand: :data:`TESTED_GDAL` are the GDAL
+versions whose COG driver the tests compare it with (tests/rectify/test_cog_properties.py); under
+another GDAL, :func:`gdal_in_tested_range` is False and GDAL's COG driver writes (a note in the log).
 The georeferencing and metadata tags (GeoKeys, pixel scale and tie point, GDAL's nodata and
 metadata with the band descriptions, the software tag) are GDAL's own: they are copied from a
 one-cell GeoTIFF that GDAL writes in memory with the same CRS, transform, bands and tags, so a
@@ -31,6 +39,7 @@ coarsest factor, as for :class:`~scangeo.rectify.overviews.LevelTiles`).
 """
 from __future__ import annotations
 
+import logging
 import math
 import os
 import struct
@@ -47,7 +56,16 @@ from isal import isal_zlib
 from rasterio.windows import Window
 
 from scangeo.atomic import commit
+from scangeo.errors import ScangeoError
 from scangeo.rectify.overviews import halve
+
+log = logging.getLogger(__name__)
+
+#: the GDAL versions (major, minor; both ends included) whose COG driver's layout and tags this writer
+#: is tested against; under another GDAL the COG driver writes
+TESTED_GDAL = ((3, 10), (3, 10))
+#: the deflate level this writer encodes (GDAL's scale; ISA-L's level 1)
+LEVEL = 1
 
 #: bytes per value of each TIFF field type
 _TYPE_SIZE = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 6: 1, 7: 1, 8: 2, 9: 4, 10: 8, 11: 4, 12: 8, 13: 4, 16: 8, 17: 8, 18: 8}
@@ -67,6 +85,31 @@ _GHOST = (
     "BLOCK_TRAILER=LAST_4_BYTES_REPEATED\n"
     "KNOWN_INCOMPATIBLE_EDITION=NO\n "
 )
+
+
+class CogLayoutError(ScangeoError, RuntimeError):
+    """The COG writer's file would not have the layout it computed (a bug: the file is not written)."""
+
+
+def gdal_in_tested_range(version: str | None = None) -> bool:
+    """Whether ``version`` (default: the GDAL rasterio runs on) is within :data:`TESTED_GDAL`; the first
+    False of a process is noted in the log."""
+    version = version or rasterio.__gdal_version__
+    try:
+        major_minor = tuple(int(v) for v in version.split(".")[:2])
+    except ValueError:
+        major_minor = (0, 0)
+    ok = TESTED_GDAL[0] <= major_minor <= TESTED_GDAL[1]
+    global _noted
+    if not ok and not _noted:
+        _noted = True
+        log.info("GDAL %s is outside the versions scangeo's COG writer is tested with (%s to %s): GDAL's COG "
+                 "driver writes the orthoimages", version, ".".join(map(str, TESTED_GDAL[0])),
+                 ".".join(map(str, TESTED_GDAL[1])))
+    return ok
+
+
+_noted = False
 
 
 @dataclass(frozen=True)
@@ -194,7 +237,8 @@ class CogWriter:
     ----------
     spool : a file for the encoded blocks until the final layout is written (removed by
         :meth:`finish` and :meth:`close`).
-    level : deflate level (ISA-L's 0-3; ``None``: 1); ``compress="none"`` stores the blocks raw.
+    level : deflate level on GDAL's scale: 1 or ``None`` (:data:`LEVEL`, ISA-L's level 1); ``compress="none"``
+        stores the blocks raw.
     threads : encoding threads.
     backlog_bytes : blocks waiting for an encoder, bytes at most (but two blocks).
     """
@@ -212,7 +256,8 @@ class CogWriter:
         self.nodata, self.crs, self.transform = nodata, crs, transform
         self.bs = blocksize
         self.compress, self.predictor = compress, predictor and compress != "none"
-        self.level = 1 if level is None else min(max(int(level), 0), 3)
+        if compress == "deflate" and level not in (None, LEVEL):
+            raise ValueError(f"CogWriter: deflate level {level} (this writer encodes level {LEVEL}; GDAL the others)")
         integer = np.issubdtype(self.dtype, np.integer)
         unset = nodata is None or (integer and math.isnan(float(nodata)))
         #: the value of cells no tile wrote (and of the padding of the edge blocks)
@@ -302,7 +347,7 @@ class CogWriter:
         if d.dtype.byteorder == ">":
             d = d.astype(d.dtype.newbyteorder("<"))
         if self.compress == "deflate":
-            return isal_zlib.compress(d, self.level)
+            return isal_zlib.compress(d, LEVEL)
         return d.tobytes()
 
     def _encode(self, k: int, index: int, block: np.ndarray) -> None:
@@ -396,7 +441,9 @@ class CogWriter:
         for j, d in enumerate(dirs):
             parts.append(_ifd_bytes(d, ifd_at[j], ifd_at[j + 1] if j + 1 < len(dirs) else 0, big))
         prefix = b"".join(parts)
-        assert len(prefix) == data_start, (len(prefix), data_start)
+        if len(prefix) != data_start:
+            raise CogLayoutError(f"{path}: the header and directories take {len(prefix)} bytes, the layout "
+                                 f"placed the first block at {data_start} (a bug in scangeo's COG writer)")
         with open(self._spool_path, "rb") as src, open(path, "wb") as dst:
             dst.write(prefix)
             dst.flush()

@@ -27,7 +27,8 @@ from rasterio.windows import Window
 from scangeo.atomic import commit
 from scangeo.errors import RectifyOptionsError
 from scangeo.io.schema import Rule, check, setting
-from scangeo.rectify.cog_writer import BACKLOG_BYTES, CogWriter
+from scangeo.rectify.cog_writer import BACKLOG_BYTES, CogWriter, gdal_in_tested_range
+from scangeo.rectify.cog_writer import LEVEL as COG_LEVEL
 from scangeo.rectify.output_grid import OutputGrid
 from scangeo.rectify.overviews import with_overviews
 
@@ -61,7 +62,8 @@ class GeoTiffProfile:
     compress : str
         ``deflate`` (default, readable everywhere), ``zstd``, ``lzw`` or ``none``.
     level : int or None
-        Compression level (None: 1 for deflate and zstd, the fastest: on a 10,000-line,
+        Compression level, GDAL's ``LEVEL`` whichever writer writes (None: 1 for deflate and
+        zstd, the fastest: on a 10,000-line,
         11-band uint16 Daedalus strip deflate 1 wrote 115 MB in 0.93 s against GDAL's default 6,
         116 MB in 1.20 s; zstd 1 117 MB in 0.48 s; docs/performance.md).
     predictor : bool
@@ -76,7 +78,7 @@ class GeoTiffProfile:
         Compression threads (``ALL_CPUS`` or a number).
     writer : str
         Who compresses and lays out a COG. ``"scangeo"`` (default):
-        :class:`~scangeo.rectify.cog_writer.CogWriter`, deflate by ISA-L (levels 1-3) as the tiles
+        :class:`~scangeo.rectify.cog_writer.CogWriter`, deflate level 1 by ISA-L as the tiles
         are made, for every case it covers (:meth:`scangeo_writes`: deflate or none, integers and
         floats); GDAL's COG driver for the rest. ``"gdal"``: GDAL's COG driver always
         (deflate by libdeflate after the tiles are written; the benchmark's 10,000-line 11-band
@@ -100,7 +102,7 @@ class GeoTiffProfile:
     cog: bool = setting(True, doc="cloud-optimised layout (false: a plain tiled GeoTIFF)")
     threads: str | int = setting("ALL_CPUS", rule=_THREADS, unit="1", doc="compression threads")
     writer: str = setting("scangeo", choices=_WRITERS,
-                          doc="who writes a COG: scangeo (deflate levels 1-3 or none; the rest goes to GDAL) or gdal")
+                          doc="who writes a COG: scangeo (deflate level 1 or none; the rest goes to GDAL) or gdal")
 
     def __post_init__(self) -> None:
         check(self)
@@ -128,14 +130,15 @@ class GeoTiffProfile:
         Returns
         -------
         bool
-            True for a COG, deflate at level 1-3 or no compression, integers or floats; False when
-            GDAL's COG driver writes it.
+            True for a COG, deflate at level 1 or no compression, integers or floats, under a GDAL
+            the writer is tested with (:func:`~scangeo.rectify.cog_writer.gdal_in_tested_range`);
+            False when GDAL's COG driver writes it.
         """
         if self.writer != "scangeo" or not self.cog or self.compress not in ("deflate", "none"):
             return False
-        if self.compress == "deflate" and self.level is not None and self.level > 3:
+        if self.compress == "deflate" and self.level not in (None, COG_LEVEL):
             return False
-        return np.dtype(dtype).kind in "uif"
+        return np.dtype(dtype).kind in "uif" and gdal_in_tested_range()
 
     def for_image(self, count: int, dtype, block_bytes: float = BLOCK_BYTES) -> GeoTiffProfile:
         """This profile for an output of ``count`` bands of ``dtype``.

@@ -11,7 +11,8 @@ band, and the final copy reads the overviews from there (COG: ``OVERVIEWS=FORCE_
 GTiff: ``COPY_SRC_OVERVIEWS=YES``); only compression remains for GDAL.
 
 Level ``k`` (factor ``2**k``) has ``ceil(size / 2**k)`` cells per side, as GDAL's own; an
-odd last row or column averages the cells it has. Integer types are rounded half up.
+odd last row or column averages the cells it has. Integer types are rounded half up; a mean of
+valid cells that rounds to the nodata value is moved one step towards the mean (it stays valid).
 
 When the tiles of the resampling pass are aligned on the coarsest level (every tile's size a
 multiple of its factor), :class:`LevelTiles` computes the levels from each tile as it is written,
@@ -67,7 +68,10 @@ def _halve(src, out, nodata, use_nodata, integer):  # pragma: no cover - compile
             if n == 0:
                 out[b, r, c] = nodata
             elif integer:
-                out[b, r, c] = math.floor(s / n + 0.5)
+                m = math.floor(s / n + 0.5)
+                if use_nodata and m == nodata:  # valid cells give a valid cell: one step towards their mean
+                    m = nodata - 1 if s / n < nodata else nodata + 1
+                out[b, r, c] = m
             else:
                 out[b, r, c] = s / n
 

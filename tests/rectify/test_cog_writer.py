@@ -211,8 +211,10 @@ def test_a_writer_that_fails_or_is_closed_leaves_nothing(tmp_path, monkeypatch):
 
 def test_which_outputs_scangeo_writes_itself():
     assert GeoTiffProfile().scangeo_writes(np.uint16)
-    assert GeoTiffProfile(level=3).scangeo_writes(np.uint16)
-    assert not GeoTiffProfile(level=6).scangeo_writes(np.uint16)  # above ISA-L's levels: GDAL's libdeflate
+    assert GeoTiffProfile(level=1).scangeo_writes(np.uint16)
+    # the level is GDAL's on both routes: the own writer encodes level 1 only, GDAL's libdeflate the others
+    assert not GeoTiffProfile(level=3).scangeo_writes(np.uint16)
+    assert not GeoTiffProfile(level=6).scangeo_writes(np.uint16)
     assert GeoTiffProfile().scangeo_writes(np.float32)  # with the floating-point predictor (3)
     assert GeoTiffProfile(predictor=False).scangeo_writes(np.float32)
     assert not GeoTiffProfile(compress="zstd").scangeo_writes(np.uint16)

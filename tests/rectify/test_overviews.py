@@ -98,6 +98,19 @@ def test_levels_average_the_valid_cells(dtype, nodata):
         assert np.allclose(got[b][~empty].astype(float), ref[~empty], rtol=1e-6, atol=0)
 
 
+@pytest.mark.parametrize("dtype, nodata, cells, expected", [
+    ("int16", 0, [[-1, 1], [0, 0]], 1),  # a mean of 0 from valid cells is not nodata
+    ("int16", 0, [[-1, 0], [0, 0]], -1),  # -1 rounds half up to 0: one step towards the mean
+    ("uint16", 65535, [[65534, 65534], [65535, 65533]], 65534),
+    ("uint8", 0, [[0, 0], [0, 0]], 0),  # no valid cell: nodata
+])
+def test_valid_cells_never_average_to_nodata(dtype, nodata, cells, expected):
+    from scangeo.rectify.overviews import halve
+
+    got = halve(np.array([cells], dtype), nodata)
+    assert got.shape == (1, 1, 1) and int(got[0, 0, 0]) == expected
+
+
 def test_the_final_file_carries_every_level_in_chunks_with_its_metadata(tmp_path, monkeypatch):
     from scangeo.rectify import overviews
 
