@@ -22,6 +22,7 @@ import rasterio
 
 from scangeo import __version__
 from scangeo.pipeline.run import run
+from scangeo.reports.tables import read_comparison
 from tests.session_projects import copy_project
 
 SETTINGS = "[compare]\nfolds = 2\n"
@@ -50,6 +51,24 @@ def ran(textured_block, tmp_path_factory):
     return root, result, calls
 
 
+def _check_report(root: Path, recommended: str) -> None:
+    """report.html holds the run's comparison: a table row per variant and strip, each variant's section,
+    the diagnosis's breaks, a figure per chart, the recommendation."""
+    text = (root / "results" / "report.html").read_text(encoding="utf-8")
+    c = read_comparison(root / "results")
+    names = [v.name for v in c.variants]
+    assert len(names) >= 3 and recommended in names
+    table = text[text.index('id="comparison-table"'):]
+    table = table[:table.index("</table>")]
+    assert table.count("<tr>") > len([v for v in c.variants if v.error is None])
+    for v in names:
+        assert f"<h3>{v}</h3>" in text and f">{v}</td>" in table, v
+    for part in ('id="fig-rms"', 'id="breaks-table"', 'id="fig-diagnosis"', 'id="accounting-table"'):
+        assert part in text, part
+    assert text.count("data:image/png;base64,") >= len(names) + 2
+    assert f"Recommended without check points: {recommended} (" in text
+
+
 def test_one_run_makes_the_orthoimages_and_the_report(ran):
     root, result, calls = ran
     assert result.ran == ["check", "match", "clean", "diagnose", "compare", "rectify", "report"]
@@ -65,7 +84,7 @@ def test_one_run_makes_the_orthoimages_and_the_report(ran):
             assert src.tags()["variant"] == name and src.crs is not None
             assert np.count_nonzero(src.read(1)) > 0.3 * src.width * src.height
     assert (ortho / "mosaic.tif").exists()
-    assert (root / "results" / "report.html").stat().st_size > 10_000
+    _check_report(root, name)
     # one progress display: fractions of one total, never backwards, ending at 1
     fractions = [d / t for d, t, _ in calls if t]
     assert fractions[-1] == 1.0 and min(fractions) >= 0.0
@@ -119,6 +138,7 @@ def test_an_edited_control_point_reruns_from_clean_not_match(ran, tmp_path):
 KILLER = textwrap.dedent("""
     import os, signal, sys, time
     from scangeo.pipeline.run import run
+from scangeo.reports.tables import read_comparison
 
     seen = 0
 

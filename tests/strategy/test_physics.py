@@ -90,11 +90,19 @@ def test_the_diagnosis_finds_the_problem_strip(vienna):
     assert all(v.error is None and v.converged for v in c.variants)
 
 
-def test_the_breaks_lie_within_300_lines_of_the_injected_ones(vienna):
+def test_each_injected_break_lies_in_the_95_percent_interval_of_a_found_one(vienna):
+    # the diagnosis's own statement of its precision, held to: a found break per injected one, whose 95 %
+    # interval holds it (the intervals' coverage measured: 37 of 40 breaks over 20 seeds, docs/adjustment.md)
+    # and spans at most a tenth of the strip (seeds 1 and 2 at quarter length: 108-146 of 1750 lines, the
+    # injected lines 9-46 lines from the found ones)
     _, problem, _, truth, d, _ = vienna
-    found = [b["line"] for b in d["breaks"] if b["strip"] == problem]
+    found = [b for b in d["breaks"] if b["strip"] == problem]
+    lines = round(tomllib.loads(preset_path("vienna2000").read_text())["flight"]["lines"] * FACTOR)
+    assert len(found) == len(truth["breaks_lines"]), (found, truth["breaks_lines"])
     for line in truth["breaks_lines"]:
-        assert min(abs(f - line) for f in found) <= 300.0, (found, truth["breaks_lines"])
+        b = min(found, key=lambda b: abs(b["line"] - line))
+        assert b["low"] <= line <= b["high"], (line, b)
+        assert b["high"] - b["low"] <= 0.1 * lines, (b, lines)
 
 
 def test_direct_georeferencing_is_several_pixels_off(vienna):
