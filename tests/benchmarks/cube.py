@@ -55,29 +55,34 @@ def make_cube_project(root: Path, lines: int, pixels: int) -> None:
     simulate(root, load_preset("pushbroom", over))
 
 
-def cube_values(line0: int, line1: int, pixels: int, band: int, bands: int) -> np.ndarray:
-    """Lines ``line0:line1`` of one band of the synthetic cube (float32): smooth spatial structure,
-    a spectrum, fine texture; the same values whatever the interleave."""
-    li = np.arange(line0, line1, dtype=np.float32)[:, None]
+def spatial_pattern(lines: int, pixels: int) -> np.ndarray:
+    """The synthetic cube's spatial structure (lines, pixels) float32: smooth hills and a fine texture."""
+    li = np.arange(lines, dtype=np.float32)[:, None]
     pi = np.arange(pixels, dtype=np.float32)[None, :]
-    base = 1000.0 + 400.0 * np.sin(li * 0.013) * np.cos(pi * 0.009) + 150.0 * np.sin(li * 0.31 + pi * 0.17)
-    return (base * (0.4 + 0.6 * band / bands) + 3.0 * band).astype(np.float32)
+    return (1000.0 + 400.0 * np.sin(li * 0.013) * np.cos(pi * 0.009) + 150.0 * np.sin(li * 0.31 + pi * 0.17)
+            ).astype(np.float32)
+
+
+def band_of(base: np.ndarray, band: int, bands: int) -> np.ndarray:
+    """Band ``band`` of the cube on the lines of ``base``: the pattern times a spectrum, plus an offset."""
+    return base * np.float32(0.4 + 0.6 * band / bands) + np.float32(3.0 * band)
 
 
 def write_envi(path: Path, lines: int, pixels: int, bands: int, interleave: str, chunk: int = 64) -> None:
-    """An ENVI cube (raw little-endian float32 + ``.hdr``) written a chunk of lines at a time: memory
-    is one chunk of lines x pixels x bands, whatever the cube's size."""
+    """An ENVI cube (raw little-endian float32 + ``.hdr``) written a band (BSQ) or a chunk of lines
+    (BIL) at a time: memory is the spatial pattern (lines x pixels) and one such piece, whatever the
+    number of bands."""
     from scangeo.atomic import atomic_path, write_text
 
+    base = spatial_pattern(lines, pixels)
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         if interleave == "bsq":
             for b in range(bands):
-                for l0 in range(0, lines, chunk * 8):
-                    f.write(cube_values(l0, min(lines, l0 + chunk * 8), pixels, b, bands).tobytes())
+                f.write(band_of(base, b, bands).tobytes())
         elif interleave == "bil":
             for l0 in range(0, lines, chunk):
-                l1 = min(lines, l0 + chunk)
-                block = np.stack([cube_values(l0, l1, pixels, b, bands) for b in range(bands)], axis=1)
+                part = base[l0:l0 + chunk]
+                block = np.stack([band_of(part, b, bands) for b in range(bands)], axis=1)
                 f.write(block.tobytes())  # (lines, bands, pixels): line-interleaved
         else:
             raise ValueError(interleave)
