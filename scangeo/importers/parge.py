@@ -189,6 +189,7 @@ def import_parge(status, out, *, sensor_model=None, dtm=None, geoid: float | str
                       look_angles=look_source, points=ids, parge_offsets=st.offsets,
                       parge_sensor_boresight_rad=list(st.sensor_boresight),
                       history=[asdict(e) for e in st.events], image=st.image_name, dem=st.dem_name,
+                      mean_convergence_deg=float(np.degrees(np.mean(convergence))),
                       conventions=CONVENTIONS)
         record["folder"] = str(out)
         write_text(tmp / "import.json", json.dumps(record, indent=1, default=_json_default) + "\n")
