@@ -151,3 +151,33 @@ def test_scangeo_run_on_an_imported_line_compares_the_variants_and_says_why_it_c
     # asking for what cannot run is an error naming why, not a traceback
     assert main(["run", str(out), "--until", "rectify"]) == 1
     assert "stage rectify cannot run" in capsys.readouterr().err
+
+
+def test_a_given_geoid_and_dtm_are_what_the_project_uses(tmp_path):
+    """The geoid argument replaces PARGE's height offset (a number, or a raster of N); a given DTM is
+    referred to by its absolute path and no stand-in is written."""
+    import rasterio
+    from affine import Affine
+
+    status = shared_file(LINES["SWIR"])
+    number = import_parge(status, tmp_path / "number", geoid=7.25)
+    assert Project.load(tmp_path / "number").geoid.undulation(np.radians(64.86), np.radians(-147.84)) == 7.25
+    assert "7.250 m (given)" in number.geoid
+    geoid = tmp_path / "geoid.tif"
+    with rasterio.open(geoid, "w", driver="GTiff", width=4, height=4, count=1, dtype="float32", crs="EPSG:4326",
+                       transform=Affine(1.0, 0, -150.0, 0, -1.0, 67.0)) as dst:
+        dst.write(np.full((1, 4, 4), 8.5, "float32"))
+    dtm = tmp_path / "dtm.tif"
+    with rasterio.open(dtm, "w", driver="GTiff", width=400, height=500, count=1, dtype="float32", crs="EPSG:32606",
+                       transform=Affine(5.0, 0, 458700.0, 0, -5.0, 7194400.0)) as dst:
+        dst.write(np.full((1, 500, 400), 180.0, "float32"))
+    import_parge(status, tmp_path / "raster", geoid=str(geoid), dtm=dtm)
+    project = Project.load(tmp_path / "raster")
+    assert project.geoid.path and float(project.geoid.undulation(np.radians(64.86), np.radians(-147.84))) == 8.5
+    assert project.dtm_path == dtm.resolve() and not (tmp_path / "raster" / "dtm_from_gcps.tif").exists()
+    # the default: PARGE's height offset, so that the project's heights are PARGE's navarr heights
+    default = import_parge(status, tmp_path / "default")
+    st = scipy.io.readsav(str(status), python_dict=True)
+    assert "PARGE's height offset" in default.geoid
+    assert Project.load(tmp_path / "default").geoid.undulation(0.0, 0.0) == pytest.approx(
+        st["aux"][6]["OFFSET"], abs=1e-4)
