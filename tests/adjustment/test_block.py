@@ -376,3 +376,28 @@ def test_strips_read_once_reads_each_trajectory_once_and_hands_out_copies(tiny_p
         assert reads == ["1", "1", "1"]
     strip_data(project, "1")  # outside: read every time again
     assert reads == ["1", "1", "1", "1"]
+
+
+def test_a_model_per_mission_for_images(small, tmp_path):
+    """Strategy ME: one GPS/IMU model per mission ([[strips]] mission); one mission is the block's model."""
+    from scangeo.adjustment.block import build_models, strip_data
+
+    project = Project.load(small)
+    strips = {s.id: strip_data(project, s.id) for s in project.strips}
+    per_mission, block = Variant("M", "ME"), Variant("B", "BE")
+    one = build_models(project, per_mission, strips)
+    assert [m.id for m in one] == ["mission 1"] and one.models["mission 1"].strips == tuple(strips)
+    be = build_models(project, block, strips).models["block"]
+    assert (one.models["mission 1"].t_start, one.models["mission 1"].t_end) == (be.t_start, be.t_end)
+    root = tmp_path / "p"
+    shutil.copytree(small, root)
+    text = (root / "project.toml").read_text()
+    for k, sid in enumerate(strips):
+        text = text.replace(f'id = "{sid}"\n', f'id = "{sid}"\nmission = "{"AB"[k % 2]}"\n')
+    (root / "project.toml").write_text(text)
+    two = Project.load(root)
+    models = build_models(two, per_mission, {s.id: strip_data(two, s.id) for s in two.strips})
+    expected: dict[str, tuple[str, ...]] = {}
+    for k, sid in enumerate(strips):
+        expected[f"mission {'AB'[k % 2]}"] = expected.get(f"mission {'AB'[k % 2]}", ()) + (sid,)
+    assert {m.id: m.strips for m in models} == expected and len(expected) == 2
