@@ -157,6 +157,7 @@ def test_adjust_variant_is_build_then_adjust_with_the_variants_settings(shifted,
     assert again.statistics.sigma0 == pytest.approx(plain.statistics.sigma0, rel=1e-5)  # both converged
 
 
+@pytest.mark.numerics  # two numerical routes: run under a second BLAS kernel too (.ci/run)
 def test_snooping_by_update_agrees_with_full_resolutions(shifted, tmp_path):
     # the low-rank update after each removal against a full solution and selected inversion after
     # each removal: the same observations rejected, the same final adjustment
@@ -281,6 +282,7 @@ def test_boresight_calibration_and_the_index_error_it_cannot_tell_apart(tmp_path
     assert keys & {ScanIndex(), Boresight()}
 
 
+@pytest.mark.numerics  # two numerical routes: run under a second BLAS kernel too (.ci/run)
 def test_scipy_fallback_gives_the_same_adjustment(shifted):
     require_cholmod()  # SuperLU against CHOLMOD, never SuperLU against itself
     fast = run_variant(shifted, Variant("A", "SE", attitude_degree=-1, snooping=False, backend="cholmod"))

@@ -157,6 +157,7 @@ def clean(block):
     return run_variant(block, VARIANT)
 
 
+@pytest.mark.numerics  # two numerical routes: run under a second BLAS kernel too (.ci/run)
 def test_reliability_agrees_with_a_dense_inverse(clean):
     rel = variant_reliability(clean).reliability
     sol = clean.adjustment.solution

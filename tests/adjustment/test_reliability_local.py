@@ -45,6 +45,7 @@ def test_strip_windows_share_a_neighbourhood_and_cover_every_strip(seven):
     assert strip_neighbourhoods(seven.adjustment.solution, radius=6, core=1) == {}
 
 
+@pytest.mark.numerics  # two numerical routes: run under a second BLAS kernel too (.ci/run)
 def test_partial_solve_equals_the_full_solve_at_the_rows_asked_for(seven):
     sol, st = seven.adjustment.solution, seven.adjustment.statistics
     n = sol.layout.n
@@ -82,6 +83,7 @@ def test_near_rows_get_the_exact_effects_and_the_far_rows_none(seven):
     assert exact.length[far].max() < 0.01 * exact.length.max()
 
 
+@pytest.mark.numerics  # two numerical routes: run under a second BLAS kernel too (.ci/run)
 def test_external_reliability_over_the_near_rows_equals_the_one_over_every_row(seven):
     sol, st = seven.adjustment.solution, seven.adjustment.statistics
     every = compute_reliability(sol, st, strip_probes(seven, radius=None), point_key=Ground)

@@ -102,6 +102,14 @@ def test_match(bad, small_block, tmp_path, capsys):
     run_bad(["match", "{p}", "--no-progress"], bad, small_block, tmp_path, capsys)
 
 
+RUN_TOML = write("run.toml", "[compare]\nfolds = 0\n")
+
+
+@pytest.mark.parametrize("bad", refused("run", "run.toml", before=RUN_TOML, args=("--config", "{p}/run.toml")))
+def test_run_config(bad, small_block, tmp_path, capsys):
+    run_bad(["run", "{p}", "--no-progress"], bad, small_block, tmp_path, capsys)
+
+
 Q_CSV = write("q.csv", "point,line,pixel\nA,10,20\n")
 G_CSV = write("g.csv", "point,x,y\nA,10,20\n")
 

@@ -57,6 +57,7 @@ def _blocks(Q, k):
     return np.array([Q[k * s: k * s + k, k * s: k * s + k] for s in range(n)])
 
 
+@pytest.mark.numerics  # two numerical routes: run under a second BLAS kernel too (.ci/run)
 @pytest.mark.parametrize("tilts", [False, True])
 def test_offset_covariance_equals_dense_computation(tilts):
     # tilts: a cross strip's ties all lie on its axis, so its across tilt is undetermined
@@ -150,6 +151,7 @@ def test_design_plot_written(tmp_path):
     assert len(scenarios) == 3
 
 
+@pytest.mark.numerics  # two numerical routes: run under a second BLAS kernel too (.ci/run)
 def test_noisy_adjustment_agrees_with_weighted_least_squares():
     """Offsets, tilts, residuals and sigma0 of noisy observations against the normal equations solved
     densely (numpy), within the rounding of a Cholesky solve of this conditioning (1e-9 relative)."""
@@ -210,6 +212,7 @@ def test_area_reliability_of_the_regular_block():
     assert np.all(rel["tie areas"]["mdb_m"] >= 4.13 * layout.sigma_tie - 1e-12)   # MDB >= delta0 sigma
 
 
+@pytest.mark.numerics  # two numerical routes: run under a second BLAS kernel too (.ci/run)
 def test_network_design_unchanged_from_the_dense_solver():
     """The 21-strip design (docs/lidar.md section 3) to 1e-9 relative of the dense inverse's figures,
     recomputed here by the independent dense computation."""

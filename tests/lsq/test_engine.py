@@ -21,6 +21,7 @@ def levelling_parameters(truth, fixed="P0"):
     return params
 
 
+@pytest.mark.numerics  # two numerical routes: run under a second BLAS kernel too (.ci/run)
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_levelling_matches_dense_least_squares(backend):
     rng = np.random.default_rng(1)
@@ -53,6 +54,7 @@ def test_levelling_matches_dense_least_squares(backend):
     assert result.solution.converged and len(result.solution.iterations) <= 2
 
 
+@pytest.mark.numerics  # two numerical routes: run under a second BLAS kernel too (.ci/run)
 def test_covariance_block_matches_dense_inverse():
     rng = np.random.default_rng(2)
     stations = np.array([[0, 0], [100, 0], [0, 100], [100, 100], [50, -40]], float)

@@ -13,6 +13,7 @@ from .problems import levelling_network
 from .test_engine import levelling_parameters
 
 
+@pytest.mark.numerics  # two numerical routes: run under a second BLAS kernel too (.ci/run)
 def test_couplings_are_those_of_the_dense_inverse_before_and_after_a_removal():
     rng = np.random.default_rng(2)
     truth, group = levelling_network(rng, n_points=15, n_lines=50)
