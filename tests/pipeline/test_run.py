@@ -23,6 +23,7 @@ import rasterio
 from scangeo import __version__
 from scangeo.pipeline.run import run
 from scangeo.reports.tables import read_comparison
+from tests.rectify.test_cog_properties import check_written_cog
 from tests.session_projects import copy_project
 
 SETTINGS = "[compare]\nfolds = 2\n"
@@ -84,6 +85,8 @@ def test_one_run_makes_the_orthoimages_and_the_report(ran):
             assert src.tags()["variant"] == name and src.crs is not None
             assert np.count_nonzero(src.read(1)) > 0.3 * src.width * src.height
     assert (ortho / "mosaic.tif").exists()
+    for path in sorted(ortho.glob("*.tif")):  # rio-cogeo's strict validation; a first overview is the 2 x 2 mean
+        check_written_cog(path)
     _check_report(root, name)
     # one progress display: fractions of one total, never backwards, ending at 1
     fractions = [d / t for d, t, _ in calls if t]

@@ -169,6 +169,29 @@ def check_case(tmp, dtype: str, bands: int, height: int, width: int, nodata, blo
         assert {c: t for c, t in x.items() if c not in layout} == {c: t for c, t in y.items() if c not in layout}
 
 
+def check_written_cog(path) -> None:
+    """A COG scangeo wrote (an orthoimage, a mosaic): rio-cogeo's strict validation, and its first overview
+    level, if any, the 2 x 2 mean of the full resolution's valid cells (integers rounded half up, a valid
+    mean never the nodata value)."""
+    valid, errors, warns = cogeo.cog_validate(str(path), strict=True, quiet=True)
+    assert valid and not errors and not warns, (path, errors, warns)
+    with rasterio.open(path) as src:
+        if not src.overviews(1):
+            return
+        data, nodata = src.read(), src.nodata
+        shape = (src.count, -(-src.height // 2), -(-src.width // 2))
+        first = src.read(out_shape=shape)
+    reference = mean_2x2(data.astype(float), nodata)
+    empty = _empty(data, nodata, 2)
+    if data.dtype.kind != "f":
+        reference = np.floor(reference + 0.5)
+        if nodata is not None:
+            mean = mean_2x2(data.astype(float), nodata)
+            hit = ~empty & (reference == nodata)
+            reference[hit] = np.where(mean[hit] < nodata, nodata - 1, nodata + 1)
+    _close(first, reference, empty, nodata, data.dtype, 0, f"{path}: first overview against the 2 x 2 mean")
+
+
 def _nodata(dtype: str):
     if np.dtype(dtype).kind == "f":
         return st.sampled_from([None, -9999.0, float("nan")])
