@@ -30,7 +30,7 @@ from __future__ import annotations
 import json
 import logging
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -44,7 +44,7 @@ from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rotation import matrix_to_rph, rph_to_matrix
-from scangeo.sensors.strip import Mounting
+from scangeo.sensors.strip import Mounting, StripGeometry
 from scangeo.trajectory.readers import write_trajectory_csv
 from scangeo.trajectory.stream import GpsImuStream
 
@@ -172,8 +172,9 @@ def import_parge(status, out, *, sensor_model=None, dtm=None, geoid: float | str
         hypotheses = _hypotheses(st, roll, st.pitch, heading)
         if st.gcps.used.any():
             project = Project.load(tmp)
+            nominal = project.geometry(strip, check=False)  # the spline fitted once; each hypothesis its mounting
             for i, h in enumerate(hypotheses):
-                hypotheses[i] = _fitted(project, strip, st, h)
+                hypotheses[i] = _fitted(project, nominal, st, h)
             chosen = min(hypotheses, key=lambda h: math.hypot(*h.fit_px) if h.fit_px else math.inf)
         else:
             chosen = _default_hypothesis(hypotheses)
@@ -396,14 +397,13 @@ def _as_boresight(roll, pitch, heading, remainder_deg) -> tuple[tuple[float, flo
     return (float(rph[0]), float(rph[1]), float(rph[2])), float(angle)
 
 
-def _fitted(project: Project, strip: str, st: ParGeStatus, h: OffsetHypothesis) -> OffsetHypothesis:
+def _fitted(project: Project, nominal: StripGeometry, st: ParGeStatus, h: OffsetHypothesis) -> OffsetHypothesis:
     """The hypothesis with the rms of the used GCPs' residuals (lines, pixels) under its boresight,
     at the measured lines' poses, as the adjustment computes them (``measurement_time = "line"``)."""
-    from dataclasses import replace
-
     mounting = Mounting(project.sensor.mounting.lever_arm_B, np.radians(h.boresight_deg),
                         project.sensor.mounting.time_offset)
-    geometry = project.geometry(strip, mounting=mounting, check=False)
+    geometry = StripGeometry(nominal.sensor, nominal.spline, nominal.timing, nominal.n_lines, mounting,
+                             nominal.strip_id)
     used = st.gcps.used
     xyz = st.gcps.xyz[used]
     p_P = project.map_frame.map_to_project(xyz[:, 0], xyz[:, 1], xyz[:, 2])
