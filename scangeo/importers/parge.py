@@ -34,6 +34,7 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+import pyproj
 
 from scangeo.atomic import atomic_directory, write_csv, write_text
 from scangeo.errors import MissingFileError, ParGeFileError, ProjectFileError
@@ -275,8 +276,6 @@ def _geoid(st: ParGeStatus, geoid, notes: list[str]) -> tuple[float | str, str]:
 
 def _convergence(st: ParGeStatus) -> np.ndarray:
     """Meridian convergence (rad) of the map CRS at every record: true heading = grid heading + gamma."""
-    import pyproj
-
     crs = pyproj.CRS.from_wkt(st.crs_wkt)
     if crs.is_geographic:
         return np.zeros(st.lines)
@@ -325,7 +324,7 @@ def _write_project_toml(tmp: Path, st: ParGeStatus, strip: str, rate: float, geo
                   else f"geoid = {json.dumps(str(geoid))}")
     text = f"""# Imported by scangeo import parge from {st.path.name} ({st.camera}); decisions in import.json
 [project]
-crs = {json.dumps(st.crs_wkt)}
+crs = {json.dumps(_crs_text(st.crs_wkt))}
 dtm = {json.dumps(dtm_name)}
 {geoid_line}
 origin = [{origin[0]:.9f}, {origin[1]:.9f}, {origin[2]:.3f}]
@@ -347,6 +346,12 @@ first_line_time = {st.start_seconds!r}
 lines = {st.lines}
 """
     write_text(tmp / "project.toml", text)
+
+
+def _crs_text(wkt: str) -> str:
+    """``EPSG:32606`` where PROJ identifies the status file's WKT with an EPSG code, else the WKT."""
+    code = pyproj.CRS.from_wkt(wkt).to_epsg(min_confidence=90)
+    return f"EPSG:{code}" if code else wkt
 
 
 def _hypotheses(st: ParGeStatus, roll: np.ndarray, pitch: np.ndarray, heading: np.ndarray) -> list[OffsetHypothesis]:

@@ -8,6 +8,11 @@ them; its band description and metadata say what it is, so nobody takes it for a
 from __future__ import annotations
 
 import numpy as np
+import rasterio
+from affine import Affine
+from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
+
+from scangeo.atomic import atomic_path
 
 #: Cell size of the stand-in (m): finer than the GCPs' spacing (tens of metres), coarse enough to be small.
 CELL_M = 5.0
@@ -21,12 +26,6 @@ def write_gcp_dtm(path, xyz: np.ndarray | None, box: tuple[float, float, float, 
 
     ``xyz``: the GCPs' map coordinates and heights; None writes a plane at ``flat_height``.
     """
-    import rasterio
-    from affine import Affine
-    from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
-
-    from scangeo.atomic import atomic_path
-
     x0, y0 = np.floor(box[0] / CELL_M) * CELL_M, np.floor(box[1] / CELL_M) * CELL_M
     x1, y1 = np.ceil(box[2] / CELL_M) * CELL_M, np.ceil(box[3] / CELL_M) * CELL_M
     cols, rows = int(round((x1 - x0) / CELL_M)), int(round((y1 - y0) / CELL_M))

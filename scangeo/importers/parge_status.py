@@ -35,8 +35,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from scipy.io import readsav
 
-from scangeo.errors import ParGeFileError
+from scangeo.errors import MissingFileError, ParGeFileError
 
 #: aux entries that hold the navigation channels' offsets (index in ``aux``)
 AUX_CHANNELS = {"roll": 0, "pitch": 1, "yaw": 2, "heading": 3, "easting": 4, "northing": 5, "height": 6}
@@ -207,11 +208,7 @@ def parse_events(history) -> list[OffsetEvent]:
 
 
 def _read_save(path: Path) -> dict:
-    from scipy.io import readsav
-
     if not path.exists():
-        from scangeo.errors import MissingFileError
-
         raise MissingFileError(f"{path}: no such PARGE status file")
     head = path.read_bytes()[:2]
     if head != b"SR":
