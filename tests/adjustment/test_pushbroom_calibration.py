@@ -19,7 +19,7 @@ from scangeo.adjustment.outputs import report_dict, write_results
 from scangeo.adjustment.results import run_variant
 from scangeo.adjustment.variants import Variant
 from scangeo.errors import AdjustmentError
-from scangeo.orientation.file import read_orientation
+from scangeo.orientation.file import read_orientation_file
 from scangeo.simulate.block import simulate
 from scangeo.simulate.config import load_preset
 
@@ -90,7 +90,7 @@ def test_an_uncalibrated_detector_leaves_residuals_the_calibration_removes(block
 def test_the_calibrated_sensor_flows_into_the_orientation_file(block, calibrated, tmp_path):
     root, _ = block
     out = write_results(calibrated, tmp_path / "CAL")
-    doc = read_orientation(out / "orientation.json")
+    doc = read_orientation_file(out / "orientation.json")
     p = calibrated.adjustment.parameters
     assert set(CALIBRATION) <= set(doc.calibrated)
     assert doc.sensor.across_offset == float(p[AcrossOffset()].values[0]) != 0.0
