@@ -7,7 +7,7 @@ the one recorded in ``PROJECT/results/run.json`` (:mod:`scangeo.pipeline.manifes
 finished, when an output it recorded is gone, when a stage whose results it reads ran in this call,
 or from ``from_stage`` on. Otherwise it is up to date and only its record is carried over. So a
 second run does nothing, an edited ground.csv reruns from clean on, a changed ``[rectify]`` setting
-reruns rectify alone, and a killed run resumes at the stage it was in (docs/run.md). The habits
+reruns rectify and the report, and a killed run resumes at the stage it was in (docs/run.md). The habits
 follow OpenDroneMap's staged pipeline: ``--rerun-from`` is ``from_stage``, ``--end-with`` ``until``.
 """
 from __future__ import annotations

@@ -118,7 +118,7 @@ def test_montafon_rejects_about_what_chance_gives_besides_the_moved_roofs(montaf
     on this block before, 299 on the full one)."""
     root, block, result = montafon
     truth = json.loads((root / "truth.json").read_text())["truth"]
-    alpha = 2 * norm.sf(block.options.critical_value)
+    alpha = 2 * norm.sf(block.variant.critical_value)
     w = result.statistics.w_tests()
     tested = sum(int(np.isfinite(wg).sum()) for g, wg in zip(result.solution.groups, w)
                  if g.kind == "observation" and g.snooped)

@@ -112,7 +112,7 @@ def test_the_manifest_records_inputs_stages_and_the_recommended_variant(ran):
     assert sorted(rec["orthoimages"]) == [f"{folder}/{n}.tif" for n in ("01", "02", "mosaic")]
 
 
-def test_a_second_run_does_nothing_and_a_rectify_setting_reruns_rectify_alone(ran, tmp_path):
+def test_a_second_run_does_nothing_and_a_rectify_setting_reruns_rectify_and_the_report(ran, tmp_path):
     root = copy_project(ran[0], tmp_path / "block")  # new mtimes and inodes: the files are hashed again
     again = run(root)
     assert again.ran == []
@@ -120,8 +120,9 @@ def test_a_second_run_does_nothing_and_a_rectify_setting_reruns_rectify_alone(ra
     assert again.recommended == ran[1].recommended
     (root / "run.toml").write_text(SETTINGS + '[rectify]\nresampling = "nearest"\n', encoding="utf-8")
     changed = run(root)
-    assert changed.ran == ["rectify"]
+    assert changed.ran == ["rectify", "report"]  # the report's quicklook shows the mosaic
     assert "options changed: resampling" in changed.outcome("rectify").reason
+    assert changed.outcome("report").reason == "stage rectify ran"
 
 
 def test_an_edited_control_point_reruns_from_clean_not_match(ran, tmp_path):
