@@ -53,8 +53,8 @@ def ran(textured_block, tmp_path_factory):
 
 
 def _check_report(root: Path, recommended: str) -> None:
-    """report.html holds the run's comparison: a table row per variant and strip, each variant's section,
-    the diagnosis's breaks, a figure per chart, the recommendation."""
+    """report.html holds the run's comparison: the table's rows with every variant, each variant's section,
+    the diagnosis (its breaks table when it found breaks), the figures, the recommendation."""
     text = (root / "results" / "report.html").read_text(encoding="utf-8")
     c = read_comparison(root / "results")
     names = [v.name for v in c.variants]
@@ -64,8 +64,10 @@ def _check_report(root: Path, recommended: str) -> None:
     assert table.count("<tr>") > len([v for v in c.variants if v.error is None])
     for v in names:
         assert f"<h3>{v}</h3>" in text and f">{v}</td>" in table, v
-    for part in ('id="fig-rms"', 'id="breaks-table"', 'id="fig-diagnosis"', 'id="accounting-table"'):
+    for part in ('id="fig-rms"', 'id="fig-diagnosis"', 'id="crossvalidation-table"', 'id="accounting-table"'):
         assert part in text, part
+    breaks = json.loads((root / "results" / "diagnosis.json").read_text(encoding="utf-8"))["breaks"]
+    assert ('id="breaks-table"' in text) == bool(breaks)
     assert text.count("data:image/png;base64,") >= len(names) + 2
     assert f"Recommended without check points: {recommended} (" in text
 
