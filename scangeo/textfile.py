@@ -75,6 +75,7 @@ def read_text(path: str | os.PathLike | Traversable, expected: str, error: type[
             f"Windows-1252 file?; expected {expected} saved as UTF-8)"
         ) from None
 
+
 def _wide_encoding(raw: bytes) -> str | None:
     """"UTF-16" or "UTF-32" when mostly ASCII text in that encoding without a mark, else None."""
     head = raw[:400]
