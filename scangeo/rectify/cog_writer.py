@@ -63,7 +63,7 @@ log = logging.getLogger(__name__)
 
 #: the GDAL versions (major, minor; both ends included) whose COG driver's layout and tags this writer
 #: is tested against; under another GDAL the COG driver writes
-TESTED_GDAL = ((3, 10), (3, 10))
+TESTED_GDAL = ((3, 9), (3, 10))
 #: the deflate level this writer encodes (GDAL's scale; ISA-L's level 1)
 LEVEL = 1
 

@@ -242,7 +242,8 @@ def test_outside_the_tested_gdal_the_cog_driver_writes(monkeypatch, caplog):
     from scangeo.rectify.geotiff import GeoTiffProfile
 
     assert gdal_in_tested_range()
-    assert not gdal_in_tested_range("3.11.0") and not gdal_in_tested_range("3.9.2")
+    assert gdal_in_tested_range("3.9.3") and gdal_in_tested_range("3.10.0")
+    assert not gdal_in_tested_range("3.11.0") and not gdal_in_tested_range("3.8.5")
     monkeypatch.setattr(cog_writer, "_noted", False)
     monkeypatch.setattr(rasterio, "__gdal_version__", "3.12.1")
     with caplog.at_level("INFO", logger="scangeo.rectify.cog_writer"):
