@@ -355,28 +355,39 @@ def _crs_text(wkt: str) -> str:
 
 
 def _hypotheses(st: ParGeStatus, roll: np.ndarray, pitch: np.ndarray, heading: np.ndarray) -> list[OffsetHypothesis]:
-    """Every split of the history's offset changes into held by the arrays / still to apply."""
+    """Every split of the history's offset changes into held by the arrays / still to apply.
+
+    The history is read two ways. Added: each boresight result and offset event adds to the offsets
+    (``aux`` = the offsets older than the history + every change; true of both shared lines). Set: a
+    boresight result sets the offsets to itself and the later events add to it. The states after
+    each change, under both readings (the same ones once), are the candidates; the arrays holding
+    none and all of the offsets are two of them."""
     total = np.degrees([st.offsets["roll"], st.offsets["pitch"], st.offsets["heading"]])
     changes = [np.array(e.degrees) for e in st.events]
     before = total - (np.sum(changes, axis=0) if changes else 0.0)  # offsets older than the history kept
-    steps: list[tuple[str, np.ndarray]] = []
+    states: list[tuple[str, np.ndarray]] = [("the arrays hold none of PARGE's offsets", np.zeros(3))]
+    held = before.copy()
     if np.abs(before).max() > 1e-6:  # the history prints 8 digits
-        steps.append(("offsets older than the history", before))
-    steps += [(_event_name(e), c) for e, c in zip(st.events, changes)]
-    out = []
-    held = np.zeros(3)
-    for k in range(len(steps) + 1):
-        if k:
-            held = held + steps[k - 1][1]
-        remainder = total - held
-        if k == 0:
-            text = "the arrays hold none of PARGE's offsets"
-        elif k == len(steps):
-            text = "the arrays hold all of PARGE's offsets"
-        else:
-            text = f"the arrays hold the offsets up to {steps[k - 1][0]}, not the later ones"
+        states.append(("the arrays hold the offsets older than the history, not its changes", held.copy()))
+    for k, (e, c) in enumerate(zip(st.events, changes)):
+        held = held + c
+        last = k == len(changes) - 1
+        states.append(("the arrays hold all of PARGE's offsets" if last and np.abs(held - total).max() < 1e-6 else
+                       f"the arrays hold the offsets up to {_event_name(e)}, not the later ones", held.copy()))
+    set_state: np.ndarray | None = None
+    for e, c in zip(st.events, changes):  # the other reading: a boresight result sets the offsets
+        set_state = c.copy() if e.kind == "crossbore" else (None if set_state is None else set_state + c)
+        if set_state is not None:
+            states.append((f"the arrays hold the offsets as set by the boresight results, up to {_event_name(e)}",
+                           set_state.copy()))
+    states.append(("the arrays hold all of PARGE's offsets", total.copy()))
+    out: list[OffsetHypothesis] = []
+    for text, state in states:
+        remainder = total - state
+        if any(np.abs(np.array(h.remainder_deg) - remainder).max() < 1e-6 for h in out):
+            continue  # the same split, reached the other way
         bs, worst = _as_boresight(roll, pitch, heading, remainder)
-        out.append(OffsetHypothesis(k, text, tuple(float(v) for v in remainder), bs, worst))  # type: ignore[arg-type]
+        out.append(OffsetHypothesis(len(out), text, tuple(float(v) for v in remainder), bs, worst))  # type: ignore[arg-type]
     return out
 
 

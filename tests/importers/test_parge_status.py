@@ -6,6 +6,8 @@ variable names as text, so renaming one (same length) removes that variable and 
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import scipy.io
@@ -13,8 +15,8 @@ import scipy.io
 from scangeo.cli import main
 from scangeo.errors import ParGeFileError
 from scangeo.importers.hyspex import HySpexSensorModel
-from scangeo.importers.parge import import_parge
-from scangeo.importers.parge_status import ParGeStatus, parse_events
+from scangeo.importers.parge import _hypotheses, import_parge
+from scangeo.importers.parge_status import OffsetEvent, ParGeStatus, parse_events
 from tests.conftest import shared_file
 
 SWIR = "hyspex/20200522_Husky_SWIR_boresight_IFSAR.gcs"
@@ -140,3 +142,23 @@ def test_an_existing_folder_with_files_is_not_overwritten(tmp_path):
     (out / "mine.txt").write_text("keep")
     assert main(["import", "parge", str(shared_file(SWIR)), str(out)]) == 1
     assert (out / "mine.txt").read_text() == "keep" and len(list(out.iterdir())) == 1
+
+
+def test_the_offset_hypotheses_read_the_history_as_added_and_as_set():
+    """Two boresight results and an offset event: read as added, the offsets are their sum; read as
+    set, the second result replaced the first. PARGE's offsets decide nothing here: every state of
+    either reading is a candidate, each once, with none and all of the offsets among them."""
+    st = ParGeStatus.read(shared_file(SWIR))
+    events = (OffsetEvent("t1", "crossbore", (0.2, 0.1, -0.1), "GC_CROSSBORE"),
+              OffsetEvent("t2", "crossbore", (0.25, 0.12, -0.08), "GC_CROSSBORE"),
+              OffsetEvent("t3", "offset", (0.0, 0.01, 0.0), "M_OFFSET_EVENT"))
+    total = np.array([0.25, 0.13, -0.08])  # set by the second result, plus the event
+    status = dataclasses.replace(st, events=events, offsets={**st.offsets, **dict(zip(
+        ("roll", "pitch", "heading"), np.radians(total)))})
+    remainders = [np.round(h.remainder_deg, 6) for h in _hypotheses(status, -st.roll, st.pitch, st.heading)]
+    # none held; the older offsets (added: total - the three changes); the second result and the event
+    # to apply (after the second result, both readings); all; the first result set, the rest to apply
+    expected = ([0.25, 0.13, -0.08], [0.45, 0.23, -0.18], [0.0, 0.01, 0.0], [0.0, 0.0, 0.0], [0.05, 0.03, 0.02])
+    assert len(remainders) == len(expected)
+    for want in expected:
+        assert any(np.allclose(r, want, atol=1e-6) for r in remainders), (want, remainders)
