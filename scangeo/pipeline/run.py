@@ -276,8 +276,8 @@ def run(project: str | Path | Project, *, references: Sequence[str | Path] = (),
     cannot = {s.name: why for s in plan if (why := s.cannot_run(ctx))}
     for argument, asked in (("from_stage", from_stage), ("until", until)):
         if asked in cannot:
-            raise ArgumentError(f"{{{argument}}}: stage {asked} cannot run on {root}: {cannot[asked]}",
-                                **{argument: asked})
+            why = f" stage {asked} cannot run on {root}: {cannot[asked]}".replace("{", "{{").replace("}", "}}")
+            raise ArgumentError(f"{{{argument}}}:" + why, **{argument: asked})
     plan = [s for s in plan if s.name not in cannot]
     forced = set(names[names.index(from_stage):]) if from_stage else set()
     progress = _forward_only(progress)

@@ -174,7 +174,9 @@ def start_strip_task(task: StripTask, progress: ProgressCallback = no_progress,
         "sigma0": "" if source.sigma0 is None else f"{source.sigma0:.6g}",
         "scangeo_fingerprint": task.fingerprint,
     }
-    return rectify_strip(geometry, cfg.image, output, task.options, tags=tags, bands=bands, progress=progress,
+    # the mosaic needs each strip's view zenith layer; a strip rectified alone writes only the layers asked for
+    options = task.options.replace(layers=task.options.strip_layers)
+    return rectify_strip(geometry, cfg.image, output, options, tags=tags, bands=bands, progress=progress,
                          finaliser=finaliser)
 
 

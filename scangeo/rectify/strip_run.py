@@ -177,7 +177,7 @@ class StripRun:
 
     @property
     def layers(self) -> tuple[str, ...]:
-        return self.options.strip_layers
+        return self.options.layers
 
 
 def start_run(geometry: MapStripGeometry, grid: OutputGrid, options: RectifyOptions, src: rasterio.io.DatasetReader,
@@ -185,7 +185,7 @@ def start_run(geometry: MapStripGeometry, grid: OutputGrid, options: RectifyOpti
     """Tile size, working arrays (in memory when they take at most a quarter of the budget, else
     memory-mapped files in ``work_dir``) and z-buffer of a strip."""
     dtype = np.dtype(src.dtypes[0])
-    extra = tuple(n for n in ("view_zenith", "ground_pixel") if n in options.strip_layers)
+    extra = tuple(n for n in ("view_zenith", "ground_pixel") if n in options.layers)
     work_bytes = WorkArrays.nbytes(grid.shape, extra)
     in_memory = work_bytes <= options.memory_budget_mb * 2**20 / 4
     tile = choose_tile_size(options, geometry, src.count, dtype.itemsize, grid.resolution,

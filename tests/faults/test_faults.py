@@ -71,9 +71,11 @@ def assert_same_outputs(a: Path, b: Path) -> None:
             import rasterio
 
             with rasterio.open(fa) as sa, rasterio.open(fb) as sb:
-                assert sa.profile == sb.profile, rel
+                pa, pb = dict(sa.profile), dict(sb.profile)
+                na, nb = pa.pop("nodata"), pb.pop("nodata")  # a float layer's NaN nodata equals NaN
+                assert pa == pb and (na == nb or (na != na and nb != nb)), rel
                 assert sa.tags() == sb.tags(), rel
-                assert np.array_equal(sa.read(), sb.read()), rel
+                assert np.array_equal(sa.read(), sb.read(), equal_nan=True), rel
         else:
             assert fa.read_bytes() == fb.read_bytes(), rel
 
@@ -161,14 +163,15 @@ def test_simulate_killed_then_rerun(tmp_path):
 
 
 def test_full_disk(small_block, tmp_path):
-    """adjust writing its results onto a 64 KiB tmpfs: a clear error, nothing left on the disk."""
+    """adjust writing its results onto a 64 KiB tmpfs (mounted as PROJECT/results): a clear error, nothing left
+    on the disk."""
     if not shutil.which("unshare"):
         pytest.skip("full disk: no unshare(1) to mount a small tmpfs")
     root = copy_project(small_block, tmp_path / "p")
-    disk = tmp_path / "disk"
-    disk.mkdir()
+    disk = root / "results"
+    disk.mkdir(exist_ok=True)
     script = (f"mount -t tmpfs -o size=64k tmpfs {disk} || exit 99; "
-              f"{sys.executable} -m scangeo adjust {root} --out {disk}/SE --no-progress; echo rc=$?; "
+              f"{sys.executable} -m scangeo adjust {root} --no-progress; echo rc=$?; "
               f"find {disk} -mindepth 1")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
     r = subprocess.run(["unshare", "-r", "-m", "sh", "-c", script], capture_output=True, text=True, env=env)

@@ -1,8 +1,6 @@
 """Internal overviews: on by default above OVERVIEW_MIN_SIZE cells, forced on or off by the option."""
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
 import pytest
 import rasterio
@@ -54,12 +52,11 @@ def test_the_option_from_files_and_the_command_line():
         RectifyOptions.from_dict({"geotiff": {"overviews": "yes"}})
     with pytest.raises(RectifyOptionsError, match=r"GeoTiffProfile.overviews: expected true or false or one of auto"):
         GeoTiffProfile(overviews="always")
+    from scangeo.cli import build_parser
     from scangeo.cli.rectify import options_of
 
-    base = dict.fromkeys(("resolution", "bounds", "resampling", "layers", "igm", "glt", "mosaic", "occlusion",
-                          "max_error_px", "memory_budget_mb"))
-    for flag, expected in ((None, "auto"), (True, True), (False, False)):
-        args = argparse.Namespace(config=None, overviews=flag, **base)
+    for flags, expected in (([], "auto"), (["--overviews"], True), (["--no-overviews"], False)):
+        args = build_parser().parse_args(["rectify", "nowhere", "--variant", "DG", *flags])
         assert options_of(args).geotiff.overviews == expected
 
 

@@ -6,7 +6,7 @@ import shutil
 import pytest
 
 from scangeo.adjustment.variants import read_variants
-from scangeo.errors import ProjectFileError
+from scangeo.errors import ArgumentError, ProjectFileError
 from scangeo.strategy.default_variants import (
     DEFAULT_VARIANTS,
     ProblemStrip,
@@ -63,11 +63,14 @@ def test_problem_strip_from_the_command_line(problem_small, tmp_path):
         ensure_variants_file(root, "9", (100.0,))
     with pytest.raises(ProjectFileError, match="break line 5000 is not inside strip 01"):
         ensure_variants_file(root, "01", (100.0, 5000.0))
-    with pytest.raises(ProjectFileError, match="needs --problem-strip"):
+    with pytest.raises(ArgumentError, match=r"^breaks_lines=\[100.0\]: needs the problem strip they belong to$"):
         ensure_variants_file(root, None, (100.0,))
     assert not (root / "variants.toml").exists()
     v = read_variants(ensure_variants_file(root, "01", (150.0, 300.0)))
     assert v["S4"].strip_models("01").breaks_lines == (150.0, 300.0)
-    # an existing file is kept as it is
+    assert ensure_variants_file(root, "01", (150.0, 300.0)) == root / "variants.toml"  # the same again: kept
+    # an existing file is kept as it is; a problem strip for it is not silently dropped
     (root / "variants.toml").write_text('[variants.MINE]\nstrategy = "SE"\n')
     assert list(read_variants(ensure_variants_file(root))) == ["MINE"]
+    with pytest.raises(ArgumentError, match=r"variants.toml exists and holds other variants: problem_strip='01'"):
+        ensure_variants_file(root, "01", (150.0, 300.0))
