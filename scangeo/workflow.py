@@ -57,7 +57,7 @@ from scangeo.simulate.config import load_preset, merge, preset_path
 from scangeo.simulate.laser import is_laser_preset, load_laser_config, simulate_laser
 from scangeo.strategy.cleaning import Cleaning, CleaningOptions, clean
 from scangeo.strategy.comparison import compare_project
-from scangeo.strategy.default_variants import ProblemStrip, write_variants_file
+from scangeo.strategy.default_variants import write_diagnosed_variants
 from scangeo.strategy.laser import adjust_laser_variant
 
 
@@ -439,8 +439,7 @@ def diagnose(project: str | Path | Project, *, dtm_height_points: Sequence[str] 
                   refine=DEFAULT_REFINE if refine else None, callback=progress)
     files = write_diagnosis(d)
     if write_variants:
-        problems = [ProblemStrip(s, d.breaks_of(s), "scangeo diagnose") for s in d.problem_strips]
-        files.append(write_variants_file(loaded.root, problems))
+        files.append(write_diagnosed_variants(loaded.root, d, "scangeo diagnose"))
     return DiagnosisRun(d, files)
 
 

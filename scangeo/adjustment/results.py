@@ -51,6 +51,8 @@ class CheckResiduals:
     pixel: np.ndarray
     status: np.ndarray
     sigma_px: np.ndarray | None = None
+    #: the measured image line of every row (its place along the strip)
+    at_line: np.ndarray | None = None
 
 
 @dataclass
@@ -224,7 +226,7 @@ def evaluate_checks(result_block: Block, geometry_of) -> CheckResiduals:
     ``measurement_time = "line"``: at the measured lines, as the adjustment does)."""
     b = result_block
     given = {str(p): i for i, p in enumerate(b.ground.point)}
-    pts, strips, dl, dp, st, sig = [], [], [], [], [], []
+    pts, strips, dl, dp, st, sig, at = [], [], [], [], [], [], []
     for sid in b.strips:
         sel = [i for i, (p, s) in enumerate(zip(b.points.point, b.points.strip))
                if str(s) == sid and b.role(str(p)) == "check" and str(p) in given]
@@ -246,10 +248,11 @@ def evaluate_checks(result_block: Block, geometry_of) -> CheckResiduals:
             dp.append(pixel - b.points.pixel[rows])
             st.append(status & ~16)  # over-scanning flag: the first sighting is a valid answer
         sig.append(b.points.sigma_px[rows])
+        at.append(b.points.line[rows])
     if not pts:
         e = np.zeros(0)
-        return CheckResiduals(e.astype(object), e.astype(object), e, e, e.astype(int), e)
-    return CheckResiduals(*(np.concatenate(c) for c in (pts, strips, dl, dp, st, sig)))
+        return CheckResiduals(e.astype(object), e.astype(object), e, e, e.astype(int), e, e)
+    return CheckResiduals(*(np.concatenate(c) for c in (pts, strips, dl, dp, st, sig, at)))
 
 
 def read_measurements(project: Project, set_aside: bool = True) -> tuple[ImagePoints, GroundPoints]:

@@ -18,8 +18,8 @@ def add_parser(subparsers, common) -> None:
                     "the report (report.html, residuals.gpkg; docs/reports.md). Without PROJECT/variants.toml the "
                     "project is diagnosed (scangeo diagnose: problem strips and breaks from an SE adjustment) and the "
                     "default variants (shipped with scangeo; docs/reports.md) are filled in and written there. A "
-                    "cross-validation over the control points recommends a variant without check points. Settings: "
-                    "the [compare] table of PROJECT/run.toml (or --config), replaced by the flags.",
+                    "cross-validation over the control points, weighed with the check points, recommends a variant. "
+                    "Settings: the [compare] table of PROJECT/run.toml (or --config), replaced by the flags.",
     )
     p.add_argument("project", help="the project folder")
     p.add_argument("--variants", dest="variants_file", default=None, metavar="FILE",
@@ -54,8 +54,17 @@ def run(args) -> int:
     if comparison.best:
         print(f"reference {comparison.reference}; best (lowest check-point rms): {comparison.best}")
     if comparison.recommended:
-        print(f"recommended without check points: {comparison.recommended} "
-              f"({(comparison.crossvalidation or {}).get('reason', '')})")
+        cv = comparison.crossvalidation or {}
+        evidence = cv.get("evidence") or {}
+        print(f"recommended: {comparison.recommended} ({cv.get('reason', '')})")
+        if evidence.get("margin"):
+            print(f"  margin: {evidence['margin']}")
+        if evidence.get("disagreement"):
+            print(f"  THE EVIDENCE DISAGREES: {evidence['disagreement']}")
+        for other, why in (evidence.get("contradicts_checks") or {}).items():
+            print(f"  NOTE: {comparison.recommended} is significantly worse at the check points than {other}: {why}")
+        if (evidence.get("independent_check") or {}).get("text"):
+            print(f"  {evidence['independent_check']['text']}")
     for v in comparison.variants:
         if v.error:
             print(f"variant {v.name} failed: {v.error}")

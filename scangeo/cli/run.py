@@ -94,12 +94,21 @@ def summary_lines(result) -> list[str]:
         lines.append("problem strips: " + ("; ".join(
             f"{s} (breaks at lines {', '.join(f'{b:g}' for b in breaks) or 'none'})" for s, breaks in problems.items())
             or "none"))
+        lines += [f"  {a['text']}" for a in diagnose.get("attribution", [])]
     compare = result.summary_of("compare") if not laser else {}
     if compare:
         name = compare["recommended"]
         v = compare["variants"].get(name, {})
         rms = v.get("check_rms_px")
         lines.append(f"recommended variant: {name} ({compare['why']})")
+        if compare.get("margin"):
+            lines.append(f"  margin: {compare['margin']}")
+        if compare.get("disagreement"):
+            lines.append(f"  THE EVIDENCE DISAGREES: {compare['disagreement']}")
+        for other, why in (compare.get("contradicts_checks") or {}).items():
+            lines.append(f"  NOTE: {name} is significantly worse at the check points than {other}: {why}")
+        if compare.get("independent_check"):
+            lines.append(f"  {compare['independent_check']}")
         lines.append(f"  sigma0 {v.get('sigma0') or float('nan'):.3f}; check-point rms "
                      + (f"{rms:.3f} px" if rms is not None else "- (no check points)")
                      + "".join(f"; strip {sid} along {c.get('rms_along_px') or float('nan'):.2f} / across "

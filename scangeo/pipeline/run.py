@@ -366,6 +366,9 @@ def _recommended(ctx: Context) -> dict[str, Any] | None:
         return None
     name = compare["recommended"]
     out = {"variant": name, "why": compare["why"], **compare["variants"].get(name, {})}
+    for key in ("margin", "cv_choice", "check_choice", "disagreement", "contradicts_checks", "independent_check"):
+        if compare.get(key):
+            out[key] = compare[key]
     rectify = ctx.records.get("rectify", {}).get("summary")
     if rectify and rectify.get("variant") == name:
         out["orthoimages"] = rectify["orthoimages"]

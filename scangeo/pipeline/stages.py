@@ -35,7 +35,7 @@ from scangeo.reports.stac import write_stac_items
 from scangeo.reports.tables import write_comparison
 from scangeo.strategy.cleaning import CleaningOptions, clean
 from scangeo.strategy.comparison import compare_project
-from scangeo.strategy.default_variants import ProblemStrip, write_variants_file
+from scangeo.strategy.default_variants import write_diagnosed_variants
 from scangeo.textfile import read_text
 
 log = logging.getLogger(__name__)
@@ -205,13 +205,16 @@ def _diagnose(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any],
     target = ctx.root / "variants.toml"
     problems = {s: list(d.breaks_of(s)) for s in d.problem_strips}
     if _variants_are_ours(target, ctx.previous.get("diagnose")):
-        write_variants_file(ctx.root, [ProblemStrip(s, tuple(b), "scangeo run: diagnose") for s, b in problems.items()],
-                            header=VARIANTS_MARKER)
+        write_diagnosed_variants(ctx.root, d, "scangeo run: diagnose", header=VARIANTS_MARKER)
         variants = "written from the diagnosis"
     else:
         variants = "kept (not written by scangeo run, or edited since)"
         log.info("%s: kept as it is (yours); the diagnosis is in results/diagnosis.md", target)
     summary = {"problem_strips": problems, "se_sigma0": d.sigma0,
+               "attribution": [{"strip": c.strip, "ambiguous": c.ambiguous, "text": c.sentence(),
+                                "runner_up": None if c.runner_up is None else c.runner_up.as_dict()}
+                               for c in d.attribution],
+               "other_attributions": {a.label: {s: list(b) for s, b in a.breaks.items()} for a in d.plausible()},
                "notes": list(d.notes), "variants": variants,
                "variants_sha256": file_stamps([target], ctx.root)["variants.toml"]["sha256"]}
     return summary, [*outputs, target]
@@ -222,8 +225,10 @@ def _diagnose(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any],
 def _compare(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
     c = compare_project(ctx.root, ctx.root / "variants.toml", folds=ctx.settings.folds, callback=progress)
     outputs = write_comparison(c)
+    evidence = (c.crossvalidation or {}).get("evidence") or {}
     if c.recommended:
-        chosen, why = c.recommended, f"recommended by the cross-validation: {(c.crossvalidation or {}).get('reason')}"
+        chosen, why = c.recommended, ("recommended weighing the cross-validation and the check points: "
+                                      f"{(c.crossvalidation or {}).get('reason')}")
     elif c.best:
         chosen, why = c.best, "the lowest check-point rms (the cross-validation recommended none)"
     elif c.reference_summary() is not None:
@@ -236,7 +241,11 @@ def _compare(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], 
         variants[v.name] = {"error": v.error, "sigma0": v.sigma0, "check_rms_px": v.check_pooled_rms(),
                             "rejected": v.rejected,
                             "strips": {sid: e.get("check", {}) for sid, e in v.strips.items()}}
-    summary = {"recommended": chosen, "why": why, "best": c.best, "reference": c.reference, "variants": variants}
+    summary = {"recommended": chosen, "why": why, "best": c.best, "reference": c.reference, "variants": variants,
+               "margin": evidence.get("margin"), "cv_choice": evidence.get("cv_choice"),
+               "check_choice": evidence.get("check_choice"), "disagreement": evidence.get("disagreement"),
+               "contradicts_checks": evidence.get("contradicts_checks") or {},
+               "independent_check": (evidence.get("independent_check") or {}).get("text")}
     return summary, [*outputs, *(ctx.root / "results" / v.name for v in c.variants if v.error is None)]
 
 

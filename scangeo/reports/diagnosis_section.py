@@ -1,8 +1,10 @@
 """The report's section on the diagnosis and the recommendation (docs/reports.md).
 
 Per strip, the tie points' DTM misclosures after SE over the image lines, with the proposed breaks
-and their 95 % intervals (``PROJECT/results/diagnosis.json``); the recommendation of the
-cross-validation and BIC; and the pairs of unknowns correlated above 0.95 with their notes.
+and their 95 % intervals (``PROJECT/results/diagnosis.json``); the attribution of every problem strip
+against its runner-up (ambiguous or not); the recommendation weighing the cross-validation and the
+check points, its margin, each evidence's choice and their disagreement; and the pairs of unknowns
+correlated above 0.95 with their notes.
 """
 from __future__ import annotations
 
@@ -39,6 +41,17 @@ def misclosure_plot(diagnosis: dict) -> bytes:
     return png(fig)
 
 
+def _alternative(a: dict | None) -> str:
+    """An alternative attribution of diagnosis.json in words: kind, strips and breaks, BIC difference."""
+    if not a:
+        return "-"
+    kind = {"moved": f"on strip {a.get('other')} instead", "merged": f"merged on strip {a.get('other')}",
+            "dropped": "none on this strip", "shared": f"shared with strip {a.get('other')}",
+            "breaks": f"a problem strip {a.get('strip')}"}.get(a.get("kind", ""), a.get("kind", ""))
+    lines = "; ".join(f"{s}: {', '.join(f'{b:.0f}' for b in v) or '-'}" for s, v in (a.get("breaks") or {}).items())
+    return f"{kind} ({lines or 'no breaks'}): BIC {a['delta_bic']:+.1f}"
+
+
 def diagnosis_section(project_root, comparison: Comparison) -> html.Section:
     """The section (module docstring); parts that are missing say so."""
     sec = html.Section("Diagnosis and recommendation", "diagnosis")
@@ -64,6 +77,23 @@ def diagnosis_section(project_root, comparison: Comparison) -> html.Section:
         if rows:
             sec.parts.append(html.table(["strip", "break line", "95 % interval", "BIC's line",
                                          "F test in the split model"], rows, table_id="breaks-table"))
+        attribution = d.get("attribution", [])
+        if attribution:
+            rows = [[a.get("strip") or "none", _alternative(a.get("runner_up")), _alternative(a.get("richer")),
+                     "yes" if a.get("ambiguous") else "no"] for a in attribution]
+            sec.parts.append(html.table(["problem strip", "runner-up (competing attribution)", "richer alternative",
+                                         "ambiguous"], rows, table_id="attribution-table", text_columns=(0, 1, 2),
+                                        wide_columns=(1, 2)))
+            sec.parts.append(html.paragraph(
+                "A competing attribution (the drift on another strip, merged from two, or none) within a BIC of "
+                f"{attribution[0].get('threshold', 10):g}, or a richer one (the drift shared with another strip) "
+                "that fits better, makes the attribution ambiguous (docs/adjustment.md, \"Attribution\")."))
+            if d.get("ambiguous"):
+                sec.parts.append(html.paragraph(
+                    "The attribution is ambiguous: the data explain the drift nearly as well on another strip (or "
+                    "shared by two). The comparison built the P and S variants of every plausible attribution "
+                    "(named with its strips as a suffix) and lets the cross-validation and the check points decide.",
+                    "note warn"))
         if d.get("notes"):  # a sigma0 far above 1 (with its likely causes), breaks the split model dropped
             sec.parts.append(html.bullet_list([f"note: {n}" for n in d["notes"]]))
         if d.get("series"):
@@ -72,12 +102,29 @@ def diagnosis_section(project_root, comparison: Comparison) -> html.Section:
     tables = markdown_tables(comparison)
     if "cross-validation" in tables:
         cv = comparison.crossvalidation or {}
+        evidence = cv.get("evidence") or {}
         sec.parts.append(html.paragraph(
-            f"Recommended without check points: {comparison.recommended} ({cv.get('reason', '')}). "
+            f"Recommended: {comparison.recommended} ({cv.get('reason', '')}). "
             f"{cv.get('folds')}-fold cross-validation over the {cv.get('points')} control points (each fold held out "
-            "as check points in turn), BIC within groups of identical observations."))
+            "as check points in turn), weighed with the check points: no variant significantly worse at the check "
+            "points than another, then the lowest rms over held-out control and check points within its noise, "
+            "then BIC within groups of identical observations and the most control points."))
+        items = []
+        if evidence.get("margin"):
+            items.append(f"margin: {evidence['margin']}")
+        if evidence.get("cv_choice") or evidence.get("check_choice"):
+            items.append(f"the cross-validation alone would choose {evidence.get('cv_choice') or '-'}, the check "
+                         f"points alone {evidence.get('check_choice') or '-'}")
+        if (evidence.get("independent_check") or {}).get("text"):
+            items.append(evidence["independent_check"]["text"])
+        sec.parts.append(html.bullet_list(items))
+        if evidence.get("disagreement"):
+            sec.parts.append(html.paragraph(f"The evidence disagrees: {evidence['disagreement']}.", "note warn"))
+        for other, why in (evidence.get("contradicts_checks") or {}).items():
+            sec.parts.append(html.paragraph(f"{comparison.recommended} is significantly worse at the check points "
+                                            f"than {other}: {why}.", "note warn"))
         sec.parts.append(html.table(*tables["cross-validation"], table_id="crossvalidation-table",
-                                    text_columns=(0, 4)))
+                                    text_columns=(0, 6, 7)))
     if "correlations" in tables:
         sec.parts.append("<h3>Correlated unknowns (|r| &gt; 0.95)</h3>")
         kinds = correlation_kinds(comparison)

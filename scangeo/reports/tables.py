@@ -79,10 +79,16 @@ def markdown_tables(c: Comparison) -> dict[str, tuple[list[str], list[list[str]]
         tables["true error"] = (t_head, t_rows)
     cv = c.crossvalidation
     if cv:
-        cv_head = ["variant", "cross-validated rms px", "held-out measurements", "BIC", "observations (group)",
-                   "recommended"]
+        evidence = cv.get("evidence") or {}
+        rms = evidence.get("rms_px") or {}
+        rejected = evidence.get("rejected_by_checks") or {}
+        cv_head = ["variant", "cross-validated rms px", "held-out measurements", "check-point rms px",
+                   "held-out and check rms px", "BIC", "observations (group)",
+                   "significantly worse at check points than", "recommended"]
         cv_rows = [[v.name, _f(cv["rms_px"].get(v.name), 3), str(cv["n"].get(v.name, "")),
+                    _f((rms.get(v.name) or {}).get("check"), 3), _f((rms.get(v.name) or {}).get("all"), 3),
                     _f(cv["bic"].get(v.name), 1), cv["group"].get(v.name, ""),
+                    ", ".join(rejected.get(v.name, {})) or "-",
                     "**yes**" if v.name == cv.get("recommended") else ""] for v in c.variants if v.error is None]
         tables["cross-validation"] = (cv_head, cv_rows)
     kinds = correlation_kinds(c)
@@ -127,7 +133,7 @@ def markdown(c: Comparison) -> str:
     out = [f"# Comparison of strategies: {c.project}", "",
            f"Variants from `{c.variants_file}`. Reference: **{c.reference}** (100 %)"
            + (f"; best (lowest check-point rms): **{best}**" if best else "")
-           + (f"; recommended without check points: **{rec}**." if rec else "."),
+           + (f"; recommended (cross-validation weighed with the check points): **{rec}**." if rec else "."),
            f"sigma0 % {c.reference}: the paper's ratio (P/S carry DTM heights the reference does not); sigma0 % "
            f"{c.reference}_DTM: over the same observations (the reference run with the same DTM heights).",
            "Check points: rms of the residuals (model - measured) along track in lines (= pixels) and across "
@@ -140,11 +146,20 @@ def markdown(c: Comparison) -> str:
                 _md_table(*tables["true error"])]
     if "cross-validation" in tables:
         cv = c.crossvalidation or {}
-        out += ["", "## Recommendation without check points", "",
+        evidence = cv.get("evidence") or {}
+        out += ["", "## Recommendation", "",
                 f"{cv.get('folds')}-fold cross-validation over the {cv.get('points')} control points (each fold "
-                "held out as check points in turn; rms along and across together) and BIC over identical "
-                f"observations. Recommended: **{rec}** ({cv.get('reason', '')}).", "",
-                _md_table(*tables["cross-validation"])]
+                "held out as check points in turn; rms along and across together), weighed with the check points "
+                "(docs/reports.md), and BIC over identical observations. "
+                f"Recommended: **{rec}** ({cv.get('reason', '')}).", ""]
+        notes = [f"margin: {evidence['margin']}" if evidence.get("margin") else "",
+                 (f"the cross-validation alone would choose {evidence.get('cv_choice') or '-'}, the check points alone "
+                  f"{evidence.get('check_choice') or '-'}") if evidence.get("cv_choice") else "",
+                 f"**the evidence disagrees**: {evidence['disagreement']}" if evidence.get("disagreement") else "",
+                 *(f"**{rec} is significantly worse at the check points than {k}**: {v}"
+                   for k, v in (evidence.get("contradicts_checks") or {}).items()),
+                 (evidence.get("independent_check") or {}).get("text", "")]
+        out += [f"* {n}" for n in notes if n] + ["", _md_table(*tables["cross-validation"])]
     if "correlations" in tables:
         out += ["", "## Correlated unknowns (|r| > 0.95)", ""]
         out += [f"* **{kind}**: {text}" for kind, (text, _) in correlation_kinds(c).items()]

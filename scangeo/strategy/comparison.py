@@ -24,8 +24,9 @@ from scangeo.errors import DTMError, InputFileError, ProjectFileError, ScangeoEr
 from scangeo.io.project import Project
 from scangeo.progress import ProgressCallback, no_progress, scaled
 from scangeo.reports.correlations import correlated_pairs
-from scangeo.strategy.crossvalidation import cross_validate
+from scangeo.strategy.crossvalidation import cross_validate, held_out_residuals
 from scangeo.strategy.default_variants import ensure_variants_file
+from scangeo.strategy.evidence import Residuals
 from scangeo.truth.true_error import Truth
 
 log = logging.getLogger(__name__)
@@ -84,8 +85,8 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
     reference : the variant that is 100 % (when the file has no such variant: its first, e.g. an imported
         project's PARGE).
     names : the variants to run (default all, in the file's order).
-    folds : folds of the cross-validation over the control points that recommends a variant without
-        check points (:mod:`scangeo.strategy.crossvalidation`; 0: none).
+    folds : folds of the cross-validation over the control points, which with the check points recommends
+        a variant (:mod:`scangeo.strategy.crossvalidation`, :mod:`scangeo.strategy.evidence`; 0: none).
     callback : progress ``callback(done, total, message)``.
     """
     project = Project.from_user_input(project_root)
@@ -104,6 +105,7 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
     callback(0, len(chosen), "reading the truth" if (root / "truth").exists() else "comparing")
     truth = Truth.load(project)
     summaries = []
+    checks: dict[str, Residuals] = {}  # the check points' residuals per variant: evidence for the recommendation
     for i, name in enumerate(chosen):
         sub = scaled(callback, i, i + 1, len(chosen))
         try:
@@ -111,6 +113,7 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
                                  lambda d, t, m="", sub=sub, name=name: sub(d, t, f"{name}: {m}"))
             write_results(result)
             summaries.append(summarise(result, truth))
+            checks[name] = held_out_residuals(result, sorted({str(p) for p in result.checks.point}))
         except (InputFileError, DTMError):
             raise  # a defect of the project's files fails every variant alike: stop with its message
         except ScangeoError as exc:
@@ -122,7 +125,7 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
     comparison = Comparison(str(root), str(path), reference, [s.id for s in project.strips], summaries,
                             truth is not None)
     if folds >= 2:
-        cv = cross_validate(root, variants, summaries, folds, path, callback)
+        cv = cross_validate(root, variants, summaries, folds, path, callback, checks)
         comparison.crossvalidation = cv.as_dict()
         log.info("recommended: %s (%s)", cv.recommended, cv.reason)
     return comparison

@@ -1,7 +1,6 @@
-"""A recommendation without check points: k-fold cross-validation over the control points, and BIC.
+"""The recommendation: k-fold cross-validation over the control points, BIC, and the check points.
 
-Check points say which variant is best only if they exist and stay out of every decision. The
-recommendation uses what the adjustment itself uses:
+The cross-validation and the information criterion use what the adjustment itself uses:
 
 * **Cross-validation.** The full control points of ``ground.csv`` (role ``control``; height-only
   and planimetric points stay as they are) are dealt into ``k`` folds (sorted by id, every k-th point
@@ -15,15 +14,16 @@ recommendation uses what the adjustment itself uses:
   observations (same count and DTM heights): there it says whether the richer model's fit pays for
   its unknowns.
 
-Recommended: among the variants whose cross-validated rms is within ``tolerance`` (5 %) of the
-lowest, the one with the lowest BIC within its group of identical observations, and of those group
-winners the one that uses the most control points (the cross-validation cannot separate them, and an
-orientation resting on more ground truth is the safer choice; measured: S4's true error is at or below
-S2's on 4 of 6 simulated vienna2000 blocks and at most 11 % above it on the other two), then the lowest
-cross-validated rms.
+The recommendation weighs the cross-validation together with the check points, each with its noise
+(:mod:`~.evidence`): no candidate significantly worse at the check points than another adjusted
+variant, then the ones within the noise of the lowest rms over held-out control and check points
+together, then among those the lowest BIC within its group of identical observations, then the one
+that uses the most control points (the evidence cannot separate them, and an orientation resting on
+more ground truth is the safer choice; measured: S4's true error is at or below S2's on 4 of 6
+simulated vienna2000 blocks and at most 11 % above it on the other two), then the lowest rms.
 DG (GPS/IMU as measured) is cross-validated too: with nothing fitted, its held-out residuals are what the
 GPS/IMU and the fixed calibration give, the baseline an adjusted variant must beat (an imported line's
-PARGE variant). The check points are not used.
+PARGE variant).
 """
 from __future__ import annotations
 
@@ -41,6 +41,7 @@ from scangeo.adjustment.variants import Variant
 from scangeo.errors import ScangeoError
 from scangeo.io.points import GroundPoints
 from scangeo.progress import ProgressCallback, no_progress
+from scangeo.strategy.evidence import Evidence, Residuals, TieBreak, weigh
 
 log = logging.getLogger(__name__)
 
@@ -58,21 +59,22 @@ class CrossValidation:
     control: dict[str, int] = field(default_factory=dict)
     recommended: str | None = None
     reason: str = ""
-    tolerance: float = 0.05
     errors: dict[str, str] = field(default_factory=dict)
     #: sigma0 far above 1 in the recommended variant (:func:`scangeo.adjustment.plausibility.sigma0_warning`)
     warnings: list[str] = field(default_factory=list)
+    #: the weighing of the evidence (:class:`scangeo.strategy.evidence.Decision`): margin, each evidence's
+    #: choice, their disagreement, the check points' independent measure
+    evidence: dict = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         return {"folds": self.folds, "points": self.points, "rms_px": self.rms_px, "n": self.n, "bic": self.bic,
                 "group": self.group, "control": self.control, "recommended": self.recommended, "reason": self.reason,
-                "tolerance": self.tolerance, "errors": self.errors, "warnings": self.warnings}
+                "errors": self.errors, "warnings": self.warnings, "evidence": self.evidence}
 
     @classmethod
     def from_dict(cls, d: dict) -> CrossValidation:
         return cls(**{k: d[k] for k in ("folds", "points", "rms_px", "n", "bic", "group", "control", "recommended",
-                                        "reason",
-                                        "tolerance", "errors", "warnings") if k in d})
+                                        "reason", "errors", "warnings", "evidence") if k in d})
 
 
 def folds_of(control_ids, k: int) -> list[list[str]]:
@@ -97,54 +99,55 @@ def bic_of(summary) -> float | None:
     return float(summary.sigma0 ** 2 * r + a["unknowns"] * math.log(max(n, 2)))
 
 
-def recommend(cv: CrossValidation, summaries) -> None:
-    """Fill in ``cv.recommended`` and ``cv.reason`` (module docstring)."""
-    ok = {s.name: s for s in summaries if s.error is None and s.name in cv.rms_px and math.isfinite(cv.rms_px[s.name])}
+def recommend(cv: CrossValidation, summaries, evidence: dict[str, Evidence]) -> None:
+    """Fill in ``cv.recommended``, ``cv.reason`` and ``cv.evidence`` (module docstring; :func:`.evidence.weigh`)."""
+    ok = [s.name for s in summaries if s.error is None and s.name in cv.rms_px and math.isfinite(cv.rms_px[s.name])]
     if not ok:
         cv.reason = "no variant could be cross-validated"
         return
-    best = min(cv.rms_px[n] for n in ok)
-    near = [n for n in ok if cv.rms_px[n] <= best * (1.0 + cv.tolerance)]
-    winners = []
-    for g in sorted({cv.group[n] for n in near}):
-        members = [n for n in near if cv.group[n] == g]
-        winners.append(min(members, key=lambda n: (cv.bic.get(n, math.inf), cv.rms_px[n])))
-    cv.recommended = min(winners, key=lambda n: (-cv.control.get(n, 0), cv.rms_px[n]))
-    others = [n for n in near if n != cv.recommended]
-    lowest = cv.rms_px[cv.recommended] == best
-    cv.reason = (f"cross-validated rms {cv.rms_px[cv.recommended]:.3f} px"
-                 + (" (the lowest)" if lowest else f" (lowest {best:.3f} px)")
-                 + (f"; {', '.join(others)} within {100 * cv.tolerance:.0f} %: the lowest BIC among the variants "
-                    "with the same observations, then the most control points decided" if others else ""))
+    decision = weigh(ok, evidence, TieBreak(cv.bic, cv.group, cv.control), cv.folds)
+    cv.recommended = decision.recommended
+    cv.reason = decision.reason
+    cv.evidence = decision.as_dict()
+
+
+def held_out_residuals(result, fold: list[str]) -> Residuals:
+    """The residuals of the fold's points, projected with an orientation adjusted without them."""
+    c = result.checks
+    sel = np.isin(c.point.astype(str), fold) & (c.status == 0)
+    return Residuals(c.point[sel].astype(str), c.strip[sel].astype(str), np.asarray(c.at_line)[sel], c.line[sel],
+                     c.pixel[sel])
 
 
 def cross_validate(project_root, variants: dict[str, Variant], summaries, folds: int = 4, variants_file=None,
-                   callback: ProgressCallback = no_progress, tolerance: float = 0.05) -> CrossValidation:
-    """Cross-validate every variant of ``summaries`` (module docstring); ``folds`` >= 2."""
+                   callback: ProgressCallback = no_progress,
+                   checks: dict[str, Residuals] | None = None) -> CrossValidation:
+    """Cross-validate every variant of ``summaries`` and recommend one (module docstring); ``folds`` >= 2.
+    ``checks``: per adjusted variant, its check-point residuals (the other evidence)."""
     root = Path(project_root)
     ground = GroundPoints.read(root / "ground.csv") if (root / "ground.csv").exists() else None
     control = [str(p) for p, r in zip(ground.point, ground.role) if str(r) == "control"] if ground is not None else []
     parts = folds_of(control, max(2, folds))
-    cv = CrossValidation(len(parts), len(control), tolerance=tolerance)
+    cv = CrossValidation(len(parts), len(control))
     names = [s.name for s in summaries if s.error is None]
+    evidence = {n: Evidence(check=(checks or {}).get(n, Residuals.empty())) for n in names}
     total = max(1, len(names) * len(parts))
     for i, name in enumerate(names):
         v = variants[name]
-        sq, n = 0.0, 0
+        held: list[Residuals] = []
         try:
             for j, fold in enumerate(parts):
                 callback(i * len(parts) + j, total, f"cross-validation: {name}, fold {j + 1}/{len(parts)}")
-                result = run_variant(root, held_out(v, fold), variants_file)
-                c = result.checks
-                sel = np.isin(c.point.astype(str), fold) & (c.status == 0)
-                sq += float(np.sum(c.line[sel] ** 2) + np.sum(c.pixel[sel] ** 2))
-                n += 2 * int(sel.sum())
+                held.append(held_out_residuals(run_variant(root, held_out(v, fold), variants_file), fold))
         except ScangeoError as exc:
             log.warning("cross-validation of %s failed: %s", name, exc)
             cv.errors[name] = str(exc)
             continue
-        cv.rms_px[name] = math.sqrt(sq / n) if n else math.nan
-        cv.n[name] = n // 2
+        rows = Residuals.concat(held)
+        evidence[name].cv = rows
+        rms = rows.rms()
+        cv.rms_px[name] = rms if rms is not None else math.nan
+        cv.n[name] = rows.n
     for s in summaries:
         if s.error is None:
             b = bic_of(s)
@@ -153,7 +156,7 @@ def cross_validate(project_root, variants: dict[str, Variant], summaries, folds:
             cv.group[s.name] = f"{s.accounting.get('observations')} observations, {s.dtm_heights} DTM heights"
             cv.control[s.name] = sum(s.control.values())
     callback(total, total, "cross-validation: done")
-    recommend(cv, summaries)
+    recommend(cv, summaries, evidence)
     # the recommended variant decides: its sigma0 far above 1 is never silent (a stiffer variant that lost
     # may well have it: a strip model too stiff for its drift is what the comparison is there to show)
     chosen = next((s for s in summaries if s.name == cv.recommended), None)
@@ -165,4 +168,4 @@ def cross_validate(project_root, variants: dict[str, Variant], summaries, folds:
     return cv
 
 
-__all__ = ["CrossValidation", "bic_of", "cross_validate", "folds_of", "held_out", "recommend"]
+__all__ = ["CrossValidation", "bic_of", "cross_validate", "folds_of", "held_out", "held_out_residuals", "recommend"]

@@ -8,6 +8,11 @@ for every problem strip; without a problem strip the P and S variants are left o
 come from the diagnosis (:func:`scangeo.adjustment.diagnosis.diagnose.diagnose`) or from the user; never from a
 simulation's truth. The filled-in text is written to ``PROJECT/variants.toml``, where ``scangeo adjust``
 and ``scangeo compare`` find it.
+
+When the diagnosis calls its attribution ambiguous (:mod:`scangeo.adjustment.diagnosis.attribution`),
+every plausible other attribution gets its own P and S variants beside the chosen one's, named with its
+strips as a suffix (``S4-03``: the drift on strip 03; ``S4-02-03``: split between 02 and 03), so that
+the comparison's evidence decides between them.
 """
 from __future__ import annotations
 
@@ -19,7 +24,7 @@ from dataclasses import dataclass
 from importlib.resources.abc import Traversable
 from pathlib import Path
 
-from scangeo.adjustment.diagnosis.diagnose import diagnose
+from scangeo.adjustment.diagnosis.diagnose import Diagnosis, diagnose
 from scangeo.adjustment.diagnosis.output import write_diagnosis
 from scangeo.atomic import write_text
 from scangeo.errors import ArgumentError, ProjectFileError
@@ -49,34 +54,71 @@ def _sections(text: str) -> list[str]:
     return [text[i:j] for i, j in zip(bounds[:-1], bounds[1:]) if j > i]
 
 
-def render_default_variants(problems: Sequence[ProblemStrip] | ProblemStrip,
-                            template: Path | Traversable = DEFAULT_VARIANTS, header: str = "") -> str:
-    """The text of the default variants file for these problem strips (module docstring)."""
-    if isinstance(problems, ProblemStrip):
-        problems = [problems]
-    out = []
-    dropped: set[str] = set()
-    for sec in _sections(template.read_text(encoding="utf-8")):
+def _facts(problems: Sequence[ProblemStrip]) -> str:
+    return "; ".join(f"strip {p.strip} breaks at lines {', '.join(f'{b:g}' for b in p.breaks_lines) or 'none'}"
+                     + (f" (from {p.source})" if p.source else "") for p in problems)
+
+
+def _blocks(text: str) -> list[tuple[str | None, list[str]]]:
+    """The template's sections grouped by variant: (name, [its table, its strip tables]); None for others."""
+    blocks: list[tuple[str | None, list[str]]] = []
+    for sec in _sections(text):
         head = sec.split("\n", 1)[0].strip()
         m = re.fullmatch(r"\[variants\.([A-Za-z0-9_-]+)\]", head)
-        if m and not problems and re.search(r'^strategy\s*=\s*"[PS]"', sec, flags=re.M):
-            dropped.add(m.group(1))
-            continue
-        m = re.fullmatch(r"\[\[variants\.([A-Za-z0-9_-]+)\.strip\]\]", head)
-        if m and PROBLEM_STRIP in sec:
-            if m.group(1) in dropped:
-                continue
+        s = re.fullmatch(r"\[\[variants\.([A-Za-z0-9_-]+)\.strip\]\]", head)
+        if m:
+            blocks.append((m.group(1), [sec]))
+        elif s and blocks and blocks[-1][0] == s.group(1):
+            blocks[-1][1].append(sec)
+        else:
+            blocks.append((None, [sec]))
+    return blocks
+
+
+def _variant_text(name: str, sections: list[str], problems: Sequence[ProblemStrip], suffix: str = "",
+                  note: str = "") -> str:
+    """One variant's tables with the problem strips filled in (renamed ``NAME-suffix`` with a suffix)."""
+    out = []
+    for sec in sections:
+        if suffix:
+            sec = sec.replace(f"variants.{name}]", f"variants.{name}-{suffix}]", 1)
+            sec = sec.replace(f"variants.{name}.strip]]", f"variants.{name}-{suffix}.strip]]", 1)
+            if note:
+                sec = re.sub(r'^(description\s*=\s*")(.*)"', lambda m: f'{m.group(1)}{m.group(2)} ({note})"', sec,
+                             count=1, flags=re.M)
+        if PROBLEM_STRIP in sec:
             for p in problems:
                 breaks = "[" + ", ".join(repr(float(b)) for b in p.breaks_lines) + "]"
                 out.append(sec.replace(PROBLEM_STRIP, json.dumps(p.strip)).replace(BREAKS_LINES, breaks))
             continue
         out.append(sec)
+    return "".join(out)
+
+
+def render_default_variants(problems: Sequence[ProblemStrip] | ProblemStrip,
+                            template: Path | Traversable = DEFAULT_VARIANTS, header: str = "",
+                            alternatives: Sequence[tuple[str, Sequence[ProblemStrip]]] = ()) -> str:
+    """The text of the default variants file for these problem strips (module docstring); ``alternatives``:
+    other attributions (suffix, their problem strips), each with its own P and S variants."""
+    if isinstance(problems, ProblemStrip):
+        problems = [problems]
+    out = []
+    for name, sections in _blocks(template.read_text(encoding="utf-8")):
+        corrected = name is not None and bool(re.search(r'^strategy\s*=\s*"[PS]"', sections[0], flags=re.M))
+        if not corrected:
+            out.append("".join(sections))
+            continue
+        if problems:
+            out.append(_variant_text(name, sections, problems))  # type: ignore[arg-type]
+        for suffix, alt in alternatives:
+            out.append(_variant_text(name, sections, alt, suffix,  # type: ignore[arg-type]
+                                     f"another attribution: {_facts(alt)}"))
     if problems:
-        facts = "; ".join(f"strip {p.strip} breaks at lines {', '.join(f'{b:g}' for b in p.breaks_lines) or 'none'}"
-                          + (f" (from {p.source})" if p.source else "") for p in problems)
-        header += f"# Filled in for this project: problem strips: {facts}\n"
+        header += f"# Filled in for this project: problem strips: {_facts(problems)}\n"
     else:
         header += "# Filled in for this project: no problem strip, so no P or S variant\n"
+    for suffix, alt in alternatives:
+        header += f"# Variants NAME-{suffix}: the plausible other attribution {_facts(alt)}\n"
     return header + "".join(out)
 
 
@@ -93,16 +135,37 @@ def _check_strip(root: Path, problem: ProblemStrip) -> None:
                                f"{problem.strip} (lines 0..{n - 1})")
 
 
-def write_variants_file(project_root, problems: Sequence[ProblemStrip], header: str = "") -> Path:
-    """Fill in the default variants for ``problems`` and write ``PROJECT/variants.toml`` (checked first)."""
+def write_variants_file(project_root, problems: Sequence[ProblemStrip], header: str = "",
+                        alternatives: Sequence[tuple[str, Sequence[ProblemStrip]]] = ()) -> Path:
+    """Fill in the default variants for ``problems`` (and ``alternatives``, :func:`render_default_variants`) and
+    write ``PROJECT/variants.toml`` (checked first)."""
     root = Path(project_root)
-    for p in problems:
+    for p in [*problems, *(q for _, alt in alternatives for q in alt)]:
         _check_strip(root, p)
     path = root / "variants.toml"
-    write_text(path, render_default_variants(problems, header=header))
-    log.info("wrote the default variants to %s (problem strips: %s)", path,
-             ", ".join(p.strip for p in problems) or "none")
+    write_text(path, render_default_variants(problems, header=header, alternatives=alternatives))
+    log.info("wrote the default variants to %s (problem strips: %s%s)", path,
+             ", ".join(p.strip for p in problems) or "none",
+             "".join(f"; other attribution {s}" for s, _ in alternatives))
     return path
+
+
+def attributions(diagnosis: Diagnosis, source: str
+                 ) -> tuple[list[ProblemStrip], list[tuple[str, list[ProblemStrip]]]]:
+    """The diagnosis's problem strips, and every plausible other attribution (suffix, its problem strips)."""
+    problems = [ProblemStrip(s, diagnosis.breaks_of(s), source) for s in diagnosis.problem_strips]
+    alternatives: list[tuple[str, list[ProblemStrip]]] = []
+    for a in diagnosis.plausible():
+        alt = [ProblemStrip(s, tuple(b)) for s, b in a.breaks.items() if b]
+        if alt and a.label not in {x for x, _ in alternatives}:
+            alternatives.append((a.label, alt))
+    return problems, alternatives
+
+
+def write_diagnosed_variants(project_root, diagnosis: Diagnosis, source: str, header: str = "") -> Path:
+    """``PROJECT/variants.toml`` for a diagnosis: its problem strips and its plausible other attributions."""
+    problems, alternatives = attributions(diagnosis, source)
+    return write_variants_file(project_root, problems, header, alternatives)
 
 
 def ensure_variants_file(project_root, problem_strip: str | None = None,
@@ -130,8 +193,7 @@ def ensure_variants_file(project_root, problem_strip: str | None = None,
     if problem_strip is None:
         diagnosis = diagnose(root, callback=callback)
         write_diagnosis(diagnosis)
-        problems = [ProblemStrip(s, diagnosis.breaks_of(s), "scangeo diagnose") for s in diagnosis.problem_strips]
-        return write_variants_file(root, problems)
+        return write_diagnosed_variants(root, diagnosis, "scangeo diagnose")
     problem = ProblemStrip(str(problem_strip), tuple(breaks_lines or ()), "problem_strip, breaks_lines")
     return write_variants_file(root, [problem])
 
@@ -144,5 +206,5 @@ def _holds(path: Path, problem: ProblemStrip) -> bool:
     return body(path.read_text(encoding="utf-8")) == body(render_default_variants([problem]))
 
 
-__all__ = ["DEFAULT_VARIANTS", "ProblemStrip", "ensure_variants_file", "render_default_variants",
-           "write_variants_file"]
+__all__ = ["DEFAULT_VARIANTS", "ProblemStrip", "attributions", "ensure_variants_file", "render_default_variants",
+           "write_diagnosed_variants", "write_variants_file"]

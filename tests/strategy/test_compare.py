@@ -64,13 +64,18 @@ def test_files_read_back(compared_small):
     again = read_comparison(root / "results")
     assert again.as_dict() == json.loads(json.dumps(c.as_dict()))
     assert again.best == c.best and again.best not in (None, "SE")
-    # the recommendation without check points: a correction of the problem strip, by 2-fold cross-validation
+    # the recommendation: a correction of the problem strip, by 2-fold cross-validation and the check points
     assert again.recommended == c.recommended and c.recommended in ("P2", "P4", "S2", "S4")
     cv = c.crossvalidation
     assert cv["folds"] == 2 and cv["rms_px"][c.recommended] < cv["rms_px"]["SE"]
     # DG, GPS/IMU as measured with nothing fitted, is the baseline: the problem strip's drift makes it the worst
     assert cv["rms_px"]["DG"] == max(cv["rms_px"].values()) > 2 * cv["rms_px"][c.recommended]
-    assert "Recommendation without check points" in (root / "results" / "comparison.md").read_text()
+    ev = cv["evidence"]
+    assert ev["recommended"] == c.recommended and ev["margin"].startswith(f"{c.recommended}, ")
+    assert ev["rms_px"][c.recommended]["check"] == pytest.approx(c.variant(c.recommended).check_pooled_rms())
+    assert not ev["contradicts_checks"] and ev["independent_check"]["folds"] == 2
+    md = (root / "results" / "comparison.md").read_text()
+    assert "## Recommendation" in md and "margin: " in md
     rows = list(csv.DictReader(open(root / "results" / "comparison.csv")))
     assert list(rows[0]) == CSV_FIELDS
     assert len(rows) == len(c.variants) * len(c.strips)

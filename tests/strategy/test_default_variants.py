@@ -74,3 +74,24 @@ def test_problem_strip_from_the_command_line(problem_small, tmp_path):
     assert list(read_variants(ensure_variants_file(root))) == ["MINE"]
     with pytest.raises(ArgumentError, match=r"variants.toml exists and holds other variants: problem_strip='01'"):
         ensure_variants_file(root, "01", (150.0, 300.0))
+
+
+def test_every_plausible_attribution_gets_its_own_p_and_s_variants(tmp_path):
+    path = tmp_path / "variants.toml"
+    text = render_default_variants([ProblemStrip("03", (2403.0, 4888.0))],
+                                   alternatives=[("02", [ProblemStrip("02", (2400.0, 4900.0))]),
+                                                 ("02-03", [ProblemStrip("02", (2390.0,)),
+                                                            ProblemStrip("03", (2403.0, 4888.0))])])
+    path.write_text(text)
+    v = read_variants(path)
+    assert list(v) == ["DG", "BE", "SE", "SE_DTM", "P2", "P2-02", "P2-02-03", "P4", "P4-02", "P4-02-03", "S2",
+                       "S2-02", "S2-02-03", "S4", "S4-02", "S4-02-03"]
+    assert v["S4"].strip_models("03").breaks_lines == (2403.0, 4888.0) and v["S4"].strip_models("02").breaks_lines == ()
+    assert v["S4-02"].strip_models("02").breaks_lines == (2400.0, 4900.0)
+    assert v["S4-02"].strip_models("03").breaks_lines == ()
+    assert v["S2-02-03"].strip_models("02").breaks_lines == (2390.0,)
+    assert v["P4-02"].strip_models("02").position_degree == 4 and v["P4-02"].strip_models("03").position_degree is None
+    # the same set-up otherwise: roles, DTM heights, the description says which attribution
+    assert v["S4-02"].role_of("B003", "check") == "control" and v["S2-02"].role_of("B003", "check") == "check"
+    assert v["S4-02"].dtm_height_at("T001") and "another attribution: strip 02" in v["S4-02"].description
+    assert "# Variants NAME-02: the plausible other attribution strip 02 breaks at lines 2400, 4900" in text

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from scangeo.adjustment.block import strips_read_once
+from scangeo.adjustment.diagnosis.attribution import Attribution, AttributionCheck, attribution_checks
 from scangeo.adjustment.diagnosis.patterns import (
     BreakEstimate,
     Fit,
@@ -117,6 +118,8 @@ class Diagnosis:
     notes: list[str] = field(default_factory=list)
     options: SelectionOptions = field(default_factory=SelectionOptions)
     channels: tuple[str, ...] = ()
+    #: per problem strip (or one for none), the runner-up attribution (:mod:`~.attribution`)
+    attribution: list[AttributionCheck] = field(default_factory=list)
 
     @property
     def problem_strips(self) -> list[str]:
@@ -128,6 +131,25 @@ class Diagnosis:
             Strip ids, in the project's order.
         """
         return [s for s in self.strips if any(b.strip == s for b in self.breaks)]
+
+    @property
+    def ambiguous(self) -> bool:
+        """Whether any attribution is ambiguous (its runner-up within the threshold)."""
+        return any(c.ambiguous for c in self.attribution)
+
+    def plausible(self) -> list[Attribution]:
+        """The other attributions within the threshold, each once (breaks placed by the split model unless
+        the diagnosis kept the BIC's lines)."""
+        out: list[Attribution] = []
+        for c in self.attribution:
+            for a in c.plausible:
+                if all(a.breaks != b.breaks for b in out) and a.breaks != self.chosen_breaks():
+                    out.append(a)
+        return out
+
+    def chosen_breaks(self) -> dict[str, tuple[float, ...]]:
+        """The problem strips and their breaks, as the attribution's ``breaks``."""
+        return {s: self.breaks_of(s) for s in self.problem_strips}
 
     def breaks_of(self, strip: str) -> tuple[float, ...]:
         """A strip's breaks.
@@ -162,6 +184,7 @@ class Diagnosis:
                 "criterion": {"name": "BIC", "with_breaks": self.fit.bic, "without_breaks": self.null.bic,
                               "parameters": self.fit.k, "parameters_without_breaks": self.null.k,
                               "serial_correlation": self.fit.rho, "rss": self.fit.rss, "channels": list(self.channels)},
+                "attribution": [c.as_dict() for c in self.attribution], "ambiguous": self.ambiguous,
                 "se_sigma0": self.sigma0, "notes": list(self.notes),
                 "series": [s.as_dict() for s in self.series]}
 
@@ -335,12 +358,13 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
     project = Project.from_user_input(project_root)
     root = project.root
     options = options or SelectionOptions()
-    steps = 4 if refine is not None else 3
+    steps = 5 if refine is not None else 3
     callback(0, steps, "diagnosis: adjusting SE")
     result = run_variant(project, se_variant())
     callback(1, steps, "diagnosis: choosing breaks")
     data, series = pattern_data(result, dtm_height_points, image_channels)
     notes = []
+    checks: list[AttributionCheck] = []
     n_ties = int((data.channel == 0).sum())
     if n_ties < 10:
         notes.append(f"only {n_ties} tie points with a DTM misclosure: too few to look for breaks")
@@ -351,6 +375,7 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
         null = evaluate(data, [[] for _ in data.strips], fit.rho, options.degree, range(len(data.strips)))
         callback(2, steps, "diagnosis: break intervals")
         breaks = break_intervals(data, fit, options)
+        checks = attribution_checks(data, fit, options)
         if refine is not None and breaks:
             n_lines = dict(zip(data.strips, data.n_lines))
             proposed = breaks
@@ -358,16 +383,45 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
                 breaks, n_lines, s_model_cost(project, dtm_height_points, refine.position_degree), refine,
                 lambda i, n: callback(3 + i / n, steps, f"diagnosis: placing break {i} of {n} with the S model"))
             notes += dropped_notes(proposed, breaks, refine.test_level)
+        if refine is not None:
+            plausible = [a for c in checks for a in c.plausible]
+            for i, a in enumerate(plausible):
+                callback(4 + i / len(plausible), steps, f"diagnosis: placing the breaks of attribution {a.label}")
+                place_breaks(root, a, breaks, dict(zip(data.strips, data.n_lines)), dtm_height_points, refine)
     callback(steps, steps, "diagnosis: done")
     warning = sigma0_warning(float(result.adjustment.statistics.sigma0), "the diagnosis's SE adjustment", root)
     if warning:
         log.warning("%s", warning)
         notes.insert(0, warning)
     d = Diagnosis(str(root), list(data.strips), dict(zip(data.strips, data.n_lines)), breaks, fit, null,
-                  float(result.adjustment.statistics.sigma0), series, notes, options, data.channels)
+                  float(result.adjustment.statistics.sigma0), series, notes, options, data.channels, checks)
+    for c in checks:
+        if c.ambiguous:
+            log.warning("%s", c.sentence())
     log.info("diagnosis of %s: problem strips %s, breaks %s", root, d.problem_strips or "none",
              ", ".join(f"{b.strip}@{b.line:.0f}" for b in breaks) or "none")
     return d
 
 
-__all__ = ["COMPONENTS", "Diagnosis", "StripSeries", "diagnose", "dropped_notes", "pattern_data", "se_variant"]
+def place_breaks(root, attribution: Attribution, chosen: list[BreakEstimate], n_lines: dict[str, int],
+                 dtm_height_points=("*",), refine: RefineOptions = DEFAULT_REFINE) -> None:
+    """The breaks of another attribution placed by the split model, as the chosen ones are: the strips
+    it gives new breaks are refined (:func:`~.refine.refine_breaks`) with the chosen problem strips it
+    keeps split at their placed lines; ``attribution.breaks`` updated in place."""
+    placed = {b.strip for b in chosen}
+    keep = {s: tuple(b.line for b in chosen if b.strip == s) for s in attribution.breaks if s in placed}
+    if attribution.kind == "moved":
+        keep.pop(attribution.strip, None)
+    new = [BreakEstimate(s, float(line), float(line), float(line)) for s, lines in attribution.breaks.items()
+           if s not in keep for line in lines]
+    if not new:
+        return
+    cost = s_model_cost(root, dtm_height_points, refine.position_degree)
+    moved, _ = refine_breaks(new, n_lines, cost, refine, fixed=keep)
+    attribution.breaks = {s: keep[s] if s in keep else tuple(round(b.line, 1) for b in moved if b.strip == s)
+                          for s in attribution.breaks}
+    attribution.placed = True
+
+
+__all__ = ["COMPONENTS", "Diagnosis", "StripSeries", "diagnose", "dropped_notes", "pattern_data", "place_breaks",
+           "se_variant"]

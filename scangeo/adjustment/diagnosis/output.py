@@ -1,8 +1,10 @@
 """The diagnosis's outputs: ``PROJECT/results/diagnosis.json`` and ``diagnosis.md``, and its summary.
 
 ``diagnosis.json`` holds the problem strips, the breaks with their 95 % intervals, the criterion
-(BIC with and without breaks, parameters, serial correlation) and, per strip, the series the fit saw
-(tie-point DTM misclosures and image residuals by line), which the report plots.
+(BIC with and without breaks, parameters, serial correlation), the attribution (per problem strip its
+runner-up, the criterion difference, whether it is ambiguous, and the plausible other attributions
+with their breaks; :mod:`~.attribution`) and, per strip, the series the fit saw (tie-point DTM
+misclosures and image residuals by line), which the report plots.
 """
 from __future__ import annotations
 
@@ -31,6 +33,7 @@ def summary_lines(d: Diagnosis) -> list[str]:
             out.append(f"  strip {s}: good (a constant correction explains it)")
         else:
             out.append(f"  strip {s}: PROBLEM STRIP, a linear drift without breaks")
+    out += [f"  {c.sentence()}" for c in d.attribution]
     out += [f"  note: {n}" for n in d.notes]
     return out
 
@@ -44,6 +47,12 @@ def markdown(d: Diagnosis) -> str:
         verdict = "good" if s in constant and not br else "problem strip"
         lines.append(f"| {s} | {d.n_lines[s]} | {verdict} | "
                      + (", ".join(f"{b.line:.0f} ({b.low:.0f}-{b.high:.0f})" for b in br) or "-") + " |")
+    if d.attribution:
+        lines += ["", "| problem strip | runner-up (competing attribution) | richer alternative | ambiguous |",
+                  "|---|---|---|---|"]
+        for c in d.attribution:
+            lines.append(f"| {c.strip or 'none'} | {c.runner_up.describe() if c.runner_up else '-'} | "
+                         f"{c.richer.describe() if c.richer else '-'} | {'**yes**' if c.ambiguous else 'no'} |")
     return "\n".join(lines) + "\n"
 
 

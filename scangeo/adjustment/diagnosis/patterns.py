@@ -13,7 +13,9 @@ strip is blamed only when that explains the data with fewer parameters than blam
 
 Model selection (:func:`select_breaks`): every strip starts with no break (one line per component:
 what SE with a rigid rotation can absorb); breaks are inserted greedily, each time the one (over all
-strips and candidate lines) that lowers the Bayesian information criterion most,
+strips and candidate lines) that lowers the Bayesian information criterion most (when no single one
+does, the best pair of breaks on one strip, on a coarser grid: an excursion that rises and falls back
+is fitted no better by one kink than by none),
 
     BIC = sum_c n_c log(RSS_c / n_c) + k log(n),        k = rank of the design + number of breaks,
 
@@ -91,6 +93,8 @@ class Fit:
     constant: tuple[int, ...] = ()
     coefficients: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
     residuals: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    #: the other attributions of its problem strips (:func:`alternatives`), when :func:`select_breaks` made it
+    alternatives: list[Alternative] = field(repr=False, default_factory=list)
 
 
 @dataclass
@@ -224,6 +228,9 @@ class SelectionOptions:
     max_breaks : most breaks per strip.
     serial_correlation : correct the likelihood for serial correlation of the residuals.
     degree : 1 (piecewise linear) or 2 (piecewise quadratic, C0) between breaks.
+    pair_candidates : candidate lines per strip for two breaks added at once, when no single step
+        lowers the criterion (an excursion that rises and falls back is not fitted better by one
+        kink than by none); 0: no such step.
     """
 
     candidates: int = 120
@@ -232,6 +239,7 @@ class SelectionOptions:
     max_breaks: int = 4
     serial_correlation: bool = True
     degree: int = 1
+    pair_candidates: int = 30
 
 
 def _with(breaks, s: int, strip_breaks) -> list[list[float]]:
@@ -244,7 +252,7 @@ def _refit_bic(data: PatternData, breaks, rho, degree: int, constant) -> float:
     return evaluate(data, breaks, rho, degree, constant).bic
 
 
-class _Candidates:
+class Candidates:
     """Models scored by :mod:`~.local_fit` (None: not trusted), refitted with :func:`evaluate` where the
     scores are too close to tell (:data:`~.local_fit.MARGIN`). A model is ``base`` with strip ``s``'s
     breaks replaced, or whole ``breaks``."""
@@ -307,7 +315,7 @@ def _best_position(data, breaks, s, j, lines, rho, options, constant=(), index: 
     index = index or BlockIndex(data)
     probe = StripProbe(CurrentFit(index, breaks, options.degree, constant), s)
     n_breaks = sum(len(b) for b in breaks)
-    candidates = _Candidates(data, breaks, rho, options.degree)
+    candidates = Candidates(data, breaks, rho, options.degree)
     for b in lines:
         strip = list(breaks[s])
         strip[j] = float(b)
@@ -317,12 +325,12 @@ def _best_position(data, breaks, s, j, lines, rho, options, constant=(), index: 
     return candidates.models[candidates.best()][1]
 
 
-def _richer(data: PatternData, fit: CurrentFit, options: SelectionOptions) -> _Candidates:
+def _richer(data: PatternData, fit: CurrentFit, options: SelectionOptions) -> Candidates:
     """Every model one step richer than the current one (``fit``): a constant strip made linear, or a break
     added to a non-constant strip, scored against it."""
     index, breaks, constant = fit.index, [list(b) for b in fit.breaks], set(fit.constant)
     n_breaks = sum(len(b) for b in breaks)
-    candidates = _Candidates(data, breaks, None, options.degree)
+    candidates = Candidates(data, breaks, None, options.degree)
     for s in range(len(data.strips)):
         if s in constant:
             r = StripProbe(fit, s).bic((), False, None, n_breaks)
@@ -342,13 +350,46 @@ def _richer(data: PatternData, fit: CurrentFit, options: SelectionOptions) -> _C
     return candidates
 
 
+def _richer_by_two(data: PatternData, fit: CurrentFit, options: SelectionOptions, rho) -> Candidates:
+    """Every model with two breaks more on one strip than the current one (a constant strip made linear
+    too), on a grid of ``options.pair_candidates`` lines per strip, scored with the serial correlation
+    ``rho`` against it. Where the current model's design is well conditioned, a pair the local update
+    does not trust is left out, not refitted: its columns are nearly dependent on the others' (two
+    breaks around a few rows), no credible pair of kinks, and refitting the hundreds of them would cost
+    what the local update saves. Where the current design is not (the strips' common constants are not
+    all determined), every pair is refitted, as every single step is."""
+    index, breaks, constant = fit.index, [list(b) for b in fit.breaks], set(fit.constant)
+    n_breaks = sum(len(b) for b in breaks)
+    candidates = Candidates(data, breaks, rho, options.degree)
+    if options.pair_candidates < 2:
+        return candidates
+    for s in range(len(data.strips)):
+        n = data.n_lines[s]
+        if len(breaks[s]) + 2 > options.max_breaks:
+            continue
+        gap = options.min_gap_fraction * n
+        grid = [float(b) for b in np.linspace(0, n - 1, options.pair_candidates + 2)[1:-1]
+                if index.feasible(s, tuple(breaks[s]), float(b), gap, options.min_rows)]
+        probe = None
+        for i, a in enumerate(grid):
+            for b in grid[i + 1:]:
+                if not index.feasible(s, tuple(breaks[s]) + (a,), b, gap, options.min_rows):
+                    continue
+                probe = probe or StripProbe(fit, s)
+                trial = sorted(breaks[s] + [a, b])
+                r = probe.bic(trial, False, rho, n_breaks + 2)
+                if r is not None or not probe.trusted:
+                    candidates.add(None if r is None else r[0], constant - {s}, s, trial)
+    return candidates
+
+
 def _poorer(data: PatternData, index: BlockIndex, breaks, constant: set[int], rho, options: SelectionOptions
-            ) -> _Candidates:
+            ) -> Candidates:
     """Every model one step poorer than the current: a linear strip made constant, or a break removed (and
     the others moved to their best lines)."""
     fit = CurrentFit(index, breaks, options.degree, constant)
     n_breaks = sum(len(b) for b in breaks)
-    candidates = _Candidates(data, breaks, rho, options.degree)
+    candidates = Candidates(data, breaks, rho, options.degree)
     for s in range(len(data.strips)):
         if s in constant:
             continue
@@ -364,6 +405,142 @@ def _poorer(data: PatternData, index: BlockIndex, breaks, constant: set[int], rh
     return candidates
 
 
+def neighbours(data: PatternData, s: int) -> list[int]:
+    """The strips that share observation rows with strip ``s`` (tie points in common)."""
+    rows = np.unique(data.term_row[data.term_strip == s])
+    others = np.unique(data.term_strip[np.isin(data.term_row, rows)])
+    return [int(t) for t in others if t != s]
+
+
+def line_map(data: PatternData, s: int, t: int) -> tuple[float, float] | None:
+    """``(a, b)`` with ``line_t = a + b line_s`` where strips ``s`` and ``t`` see the same ground (least
+    squares over their common rows; ``b`` is about -1 for a strip flown the other way); None with fewer
+    than three common rows."""
+    line_s: dict[int, float] = {}
+    line_t: dict[int, float] = {}
+    for r, st, line in zip(data.term_row, data.term_strip, data.term_line):
+        if st == s:
+            line_s.setdefault(int(r), float(line))
+        elif st == t:
+            line_t.setdefault(int(r), float(line))
+    common = sorted(set(line_s) & set(line_t))
+    if len(common) < 3:
+        return None
+    x = np.array([line_s[r] for r in common])
+    y = np.array([line_t[r] for r in common])
+    (a, b), *_ = np.linalg.lstsq(np.column_stack([np.ones_like(x), x]), y, rcond=None)
+    return float(a), float(b)
+
+
+#: sweeps of :func:`refine` for an alternative's carried or searched breaks (they start within a grid step)
+SWEEPS_ALT = 2
+
+
+@dataclass
+class Alternative:
+    """Another attribution of a problem strip's functions: ``moved`` to strip ``other`` (``strip`` made
+    constant), ``shared`` with it (both strips split), ``merged``: ``other`` lies between ``strip``
+    and further strips that are not constant (``also``), and its functions alone replace theirs (a
+    drift of a middle strip shows in both its overlaps, and functions on both its neighbours can mimic
+    it). The breaks are
+    carried to the lines where ``other`` sees the same ground and moved to its best lines. Or ``dropped``:
+    ``strip`` held constant, nothing in its place (``other`` is ``strip``). ``fit`` under the serial
+    correlation given."""
+
+    kind: str
+    strip: int
+    other: int
+    fit: Fit
+    also: tuple[int, ...] = ()
+
+
+def _carried(data: PatternData, breaks, constant, s: int, t: int, keep: bool, rho, options: SelectionOptions,
+             index: BlockIndex, also=()) -> tuple[list[list[float]], set[int]] | None:
+    """Strip ``s``'s breaks carried to strip ``t`` (``keep``: ``s`` keeps its own; ``also``: further strips
+    made constant), at ``t``'s best lines: those where ``t`` sees the ground ``s`` broke at, or (one or
+    two breaks) the best of a search over ``t``'s lines, whichever fits better, then refined."""
+    m = line_map(data, s, t)
+    if m is None:
+        return None
+    n = data.n_lines[t]
+    gap = options.min_gap_fraction * n
+    own = [float(b) for b in breaks[t]]
+    lines = list(own)
+    for x in sorted(m[0] + m[1] * b for b in breaks[s]):
+        line = float(np.clip(x, gap, n - 1 - gap))
+        if len(lines) < options.max_breaks and index.feasible(t, tuple(lines), line, gap, options.min_rows):
+            lines.append(line)
+    trial = [list(x) for x in breaks]
+    const = set(constant) - {t}
+    for u in ((s,) if not keep else ()) + tuple(also):
+        trial[u] = []
+        const.add(u)
+    starts = [sorted(lines)]
+    k = len(breaks[s])
+    if 1 <= k <= 2 and len(own) + k <= options.max_breaks:
+        trial[t] = own
+        base = CurrentFit(index, trial, options.degree, const - {t} if own else const | {t})
+        probe = StripProbe(base, t)
+        grid = [float(b) for b in np.linspace(0, n - 1, (options.candidates if k == 1 else options.pair_candidates)
+                                              + 2)[1:-1] if index.feasible(t, tuple(own), float(b), gap,
+                                                                           options.min_rows)]
+        sets = [[a] for a in grid] if k == 1 else [[a, b] for i, a in enumerate(grid) for b in grid[i + 1:]
+                                                    if index.feasible(t, tuple(own) + (a,), b, gap, options.min_rows)]
+        n_breaks = sum(len(b) for u, b in enumerate(trial) if u != t) + len(own) + k
+        scored = [(r[0], x) for x in sets if (r := probe.bic(sorted(own + x), False, rho, n_breaks)) is not None]
+        if scored:
+            starts.append(sorted(own + min(scored)[1]))
+    best = None
+    for start in starts:
+        trial[t] = start
+        value = evaluate(data, trial, rho, options.degree, const).bic
+        if best is None or value < best[0]:
+            best = (value, [list(x) for x in trial])
+    assert best is not None
+    return refine(data, best[1], rho, options, const, sweeps=SWEEPS_ALT, index=index), const
+
+
+def alternatives(data: PatternData, fit: Fit, options: SelectionOptions | None = None,
+                 index: BlockIndex | None = None, kinds=("moved", "shared", "merged", "dropped")
+                 ) -> list[Alternative]:
+    """Every problem strip's functions moved to, or shared with, each neighbour, and the functions of two or
+    more problem strips merged into a strip between them (the :class:`Alternative` kinds; a neighbour
+    that is not constant keeps its own breaks and gets the carried ones), fitted under ``fit``'s serial
+    correlation (``fit.rho``)."""
+    options = options or SelectionOptions()
+    index = index or BlockIndex(data)
+    rho = fit.rho or None
+    out = []
+    for s in range(len(data.strips)):
+        if s in fit.constant or not fit.breaks[s]:
+            continue
+        if "dropped" in kinds:
+            trial = [list(b) for b in fit.breaks]
+            trial[s] = []
+            const = set(fit.constant) | {s}
+            out.append(Alternative("dropped", s, s, evaluate(data, trial, rho, options.degree, const)))
+        for t in neighbours(data, s):
+            flanks = [u for u in neighbours(data, t) if u != s and u not in fit.constant]
+            for kind in kinds:
+                if kind == "dropped" or kind == "merged" and not flanks:
+                    continue
+                also = flanks if kind == "merged" else ()
+                trial = _carried(data, fit.breaks, fit.constant, s, t, kind == "shared", rho, options, index, also)
+                if trial is not None:
+                    out.append(Alternative(kind, s, t, evaluate(data, trial[0], rho, options.degree, trial[1]),
+                                           tuple(also)))
+    return out
+
+
+def _better_alternative(data: PatternData, fit: Fit, options: SelectionOptions, index: BlockIndex,
+                        kinds=("moved", "merged")) -> tuple[Fit | None, list[Alternative]]:
+    """The alternative (:func:`alternatives`) with a lower criterion than ``fit``'s, the lowest (None if none),
+    and all of them."""
+    alts = alternatives(data, fit, options, index, kinds)
+    found = [a.fit for a in alts if a.fit.bic < fit.bic - 1e-6]
+    return (min(found, key=lambda f: f.bic) if found else None), alts
+
+
 def select_breaks(data: PatternData, options: SelectionOptions = SelectionOptions()) -> Fit:
     """Greedy model growth by BIC, then pruning under serial correlation (module docstring).
 
@@ -377,16 +554,37 @@ def select_breaks(data: PatternData, options: SelectionOptions = SelectionOption
     constant = set(range(ns))
     while True:
         fit = CurrentFit(index, breaks, degree, constant)
-        richer = _richer(data, fit, options)
-        if not richer.models:
-            break
-        i = richer.best()
         value = fit.bic(None, sum(len(b) for b in breaks))
         now = (value, False) if value is not None else (_refit_bic(data, breaks, None, degree, constant), True)
-        if not _below(richer.score(i), partial(richer.refit_bic, i), now,
+        step = None
+        richer = _richer(data, fit, options)
+        if richer.models:
+            i = richer.best()
+            if _below(richer.score(i), partial(richer.refit_bic, i), now,
                       partial(_refit_bic, data, breaks, None, degree, constant)):
+                step = richer.breaks(i), richer.models[i][3]
+        if step is None and options.pair_candidates >= 2:
+            # no single step pays: the best two breaks at once on one strip, which must pay under the serial
+            # correlation of what the current model leaves (the richer one's own would let correlated noise
+            # buy a pair, and then single breaks after it)
+            pairs = _richer_by_two(data, fit, options, None)
+            if pairs.models:
+                i = pairs.best()
+                rho_now = residual_correlation(data, evaluate(data, breaks, None, degree, constant)) \
+                    if options.serial_correlation else {}
+                richer_fit = evaluate(data, pairs.breaks(i), rho_now, degree, pairs.models[i][3])
+                if richer_fit.bic < evaluate(data, breaks, rho_now, degree, constant).bic:
+                    step = pairs.breaks(i), pairs.models[i][3]
+        if step is None and len(constant) < ns:
+            # nor a pair: a problem strip's functions moved to a neighbour, or two merged into the strip between
+            # them, where greed put them on the wrong one of strips that see the same tie points
+            better, _ = _better_alternative(data, evaluate(data, breaks, None, degree, constant), options, index,
+                                            ("moved", "merged"))
+            if better is not None:
+                step = [list(b) for b in better.breaks], set(better.constant)
+        if step is None:
             break
-        breaks, constant = richer.breaks(i), richer.models[i][3]
+        breaks, constant = step
         breaks = refine(data, breaks, None, options, constant, index=index)
     current = evaluate(data, breaks, None, degree, constant)
     if len(constant) == ns:
@@ -407,7 +605,16 @@ def select_breaks(data: PatternData, options: SelectionOptions = SelectionOption
         constant = set(current.constant)
     # the breaks' best lines under the final weights of the channels
     breaks = refine(data, breaks, rho, options, constant, index=index)
-    return evaluate(data, breaks, rho, degree, constant)
+    current = evaluate(data, breaks, rho, degree, constant)
+    # and no problem strip better moved to a neighbour (or two merged) under those weights; a richer model
+    # (shared) is the growth's and the pruning's to decide, not this polish's
+    for _ in range(ns):
+        better, _ = _better_alternative(data, current, options, index, ("moved", "merged"))
+        if better is None:
+            break
+        current = better
+    current.alternatives = alternatives(data, current, options, index)
+    return current
 
 
 def refine(data: PatternData, breaks, rho, options: SelectionOptions, constant=(), sweeps: int = 3,
@@ -496,5 +703,6 @@ def break_intervals(data: PatternData, fit: Fit, options: SelectionOptions = Sel
     return out
 
 
-__all__ = ["CHI2_95", "BreakEstimate", "Fit", "PatternData", "SelectionOptions", "break_intervals", "design",
-           "evaluate", "residual_correlation", "select_breaks"]
+__all__ = ["CHI2_95", "Alternative", "BreakEstimate", "Candidates", "Fit", "PatternData", "SelectionOptions",
+           "alternatives", "break_intervals", "design", "evaluate", "line_map", "neighbours", "residual_correlation",
+           "select_breaks"]

@@ -196,14 +196,18 @@ class BreakTest:
     p_value: float
 
 
-def break_tests(current: Mapping[str, Sequence[float]], cost: CostFunction) -> list[BreakTest]:
-    """Every break of ``current`` tested against the split model without it (module docstring)."""
+def break_tests(current: Mapping[str, Sequence[float]], cost: CostFunction,
+                strips: set[str] | None = None) -> list[BreakTest]:
+    """Every break of ``current`` (of ``strips`` only, when given) tested against the split model without it
+    (module docstring)."""
     v_full, sigma0, k_full = cost({s: tuple(v) for s, v in current.items()})
     if not (math.isfinite(v_full) and sigma0 > 0):
         return []
     redundancy = max(v_full / sigma0 ** 2, 1.0)
     out = []
     for s, lines in current.items():
+        if strips is not None and s not in strips:
+            continue
         for j, line in enumerate(lines):
             trial = {t: tuple(v) for t, v in current.items()}
             trial[s] = tuple(lines[:j]) + tuple(lines[j + 1:])
@@ -219,15 +223,20 @@ def break_tests(current: Mapping[str, Sequence[float]], cost: CostFunction) -> l
 
 def refine_breaks(breaks: Sequence[BreakEstimate], n_lines: dict[str, int], cost: CostFunction,
                   options: RefineOptions = RefineOptions(),
-                  progress: Callable[[int, int], None] | None = None) -> tuple[list[BreakEstimate], list[Profile]]:
+                  progress: Callable[[int, int], None] | None = None,
+                  fixed: Mapping[str, Sequence[float]] | None = None) -> tuple[list[BreakEstimate], list[Profile]]:
     """Every break moved to the line where the S model fits best, with its profile interval, then tested
     (module docstring).
 
     ``breaks`` are the BIC's; the result keeps their order, with ``line``, ``low``, ``high`` from the
     profile, ``bic_line`` the BIC's line, ``method`` "S model", ``f_statistic`` and ``p_value`` from the
     test; breaks the test drops are left out. A break whose probes all fail keeps the BIC's estimate.
+    ``fixed``: other strips' breaks, split in every probe but neither moved nor tested.
     """
-    current: dict[str, list[float]] = {}
+    current: dict[str, list[float]] = {s: list(v) for s, v in (fixed or {}).items()}
+    moving = {b.strip for b in breaks}
+    if moving & set(current):
+        raise ValueError(f"strips {sorted(moving & set(current))} are both fixed and refined")
     for b in breaks:
         current.setdefault(b.strip, []).append(b.line)
     out = list(breaks)
@@ -240,7 +249,7 @@ def refine_breaks(breaks: Sequence[BreakEstimate], n_lines: dict[str, int], cost
     if options.test_level is None:
         return out, profiles
     while True:
-        tests = break_tests(current, cost)
+        tests = break_tests(current, cost, moving)
         weak = [t for t in tests if len(current[t.strip]) > 1 and t.p_value > options.test_level]
         if not weak:
             break

@@ -1,0 +1,240 @@
+"""How sure the diagnosis is of which strip drifts: the runner-up attribution and its criterion difference.
+
+A tie point's DTM misclosure sees the error functions of every strip that measured it, so a drift
+in the overlap of two strips is explained by either, and the block's control and the other overlap
+of each strip decide between them. When the cleaning has set aside some of that control, the two
+explanations can come close. :func:`~.patterns.select_breaks` chooses the one with the least BIC;
+every alternative is scored under the same serial correlation (:func:`~.patterns.alternatives`):
+
+* **moved**: the problem strip's functions (its drift and breaks) given to a neighbour instead, the
+  breaks placed where the neighbour sees the same ground or where a search over its lines puts them,
+  whichever fits better, the problem strip held constant;
+* **merged**: the functions of the strips on both sides of a strip given to it alone;
+* **dropped**: the problem strip held constant (the others keep theirs; with one problem strip, no
+  problem strip at all);
+* **shared**: a neighbour gets breaks too (the drift split between the two strips); and without a
+  problem strip, **breaks**: the best model with one (:func:`no_problem_runner_up`).
+
+The **runner-up** of a problem strip is its closest alternative attribution, the **criterion
+difference** ``dBIC = BIC(alternative) - BIC(chosen)``: twice the log of the Bayes factor between the
+two (BIC's approximation, equal prior odds). Whether it casts doubt depends on what is compared:
+
+* a **competing** attribution (moved, merged, dropped: no more searched breaks than the chosen one)
+  makes the attribution **ambiguous** when ``dBIC < AMBIGUOUS_BIC`` (10). Below 10 the chosen
+  attribution is less than "very strong" evidence on Kass and Raftery's scale (a Bayes factor below
+  e^5, about 150:1), and this BIC overstates its certainty: it treats the DTM's correlated height
+  error as independent beyond the lag-1 correction, and the misclosures as exact functions of two
+  strips' errors. Measured on full-length vienna2000 with 20 blunders (docs/adjustment.md,
+  "Attribution"): right attributions' competing runner-ups lie far above 10.
+* a **richer** alternative (shared, breaks: more strips with searched breaks) only when it beats the
+  chosen model (``dBIC < RICHER_BIC``, 0): its criterion is the least over every placement of its
+  extra breaks, optimistic by the change-point effect (docs/adjustment.md: the best model with one
+  more problem strip came 0.1-27.7 above none, median 17, on 20 simulated blocks without a drift), so
+  a richer model within 10 is what noise gives; one that beats the chosen is a model the search
+  missed.
+
+Every plausible attribution (an alternative that casts doubt) gets its breaks placed by the split
+model as the chosen one's are (:func:`~.diagnose.place_breaks`), and the comparison builds its
+variants beside the chosen one's (:mod:`scangeo.strategy.default_variants`): the evidence of the
+cross-validation and the check points then decides (:mod:`scangeo.strategy.evidence`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from scangeo.adjustment.diagnosis.local_fit import BlockIndex, CurrentFit, StripProbe
+from scangeo.adjustment.diagnosis.patterns import (
+    Alternative,
+    Candidates,
+    Fit,
+    PatternData,
+    SelectionOptions,
+    evaluate,
+    refine,
+    residual_correlation,
+)
+
+#: the criterion difference below which a competing attribution makes the chosen one ambiguous (module docstring)
+AMBIGUOUS_BIC = 10.0
+#: the criterion difference below which a richer alternative does (it must beat the chosen model)
+RICHER_BIC = 0.0
+#: the alternatives with no more searched breaks than the chosen attribution
+COMPETING = ("moved", "merged", "dropped")
+
+
+@dataclass
+class Attribution:
+    """One way to explain the drift: which strips carry breaks (and at which lines), and its criterion.
+
+    ``kind``: ``moved`` (the problem strip's functions given to ``other``), ``merged`` (given to
+    ``other`` with those of the strips on its other side), ``dropped`` (the strip held constant),
+    ``shared`` (``other`` gets breaks too) or ``breaks`` (a problem strip where the diagnosis found none).
+    ``breaks``: per strip of the attribution, its break lines (the BIC's; after
+    :func:`place_breaks`, the split model's). ``delta_bic``: its BIC minus the chosen one's.
+    """
+
+    kind: str
+    strip: str
+    other: str | None
+    breaks: dict[str, tuple[float, ...]]
+    bic: float
+    delta_bic: float
+    placed: bool = False
+
+    @property
+    def strips(self) -> tuple[str, ...]:
+        return tuple(self.breaks)
+
+    @property
+    def competing(self) -> bool:
+        """Whether it has no more searched breaks than the chosen attribution (module docstring)."""
+        return self.kind in COMPETING
+
+    @property
+    def bar(self) -> float:
+        """The criterion difference below which it casts doubt on the chosen attribution."""
+        return AMBIGUOUS_BIC if self.competing else RICHER_BIC
+
+    @property
+    def label(self) -> str:
+        """The attribution's strips joined by ``-`` (a suffix of its variants' names, e.g. ``S4-03``)."""
+        return "-".join(self.breaks)
+
+    def describe(self) -> str:
+        lines = "; ".join(f"strip {s} breaks at {', '.join(f'{b:.0f}' for b in v) or 'none'}"
+                          for s, v in self.breaks.items())
+        what = {"moved": f"the drift on strip {self.other} instead of {self.strip}",
+                "merged": f"the drift of strip {self.strip} and its neighbours' on strip {self.other} alone",
+                "dropped": f"no drift on strip {self.strip}",
+                "shared": f"the drift shared by strips {self.strip} and {self.other}",
+                "breaks": f"a problem strip {self.strip}"}.get(self.kind, f"strip {self.strip}")
+        return f"{what} ({lines or 'no problem strip'}), BIC {self.delta_bic:+.1f}"
+
+    def as_dict(self) -> dict:
+        return {"kind": self.kind, "strip": self.strip, "other": self.other,
+                "breaks": {s: [round(b, 1) for b in v] for s, v in self.breaks.items()},
+                "bic": round(self.bic, 3), "delta_bic": round(self.delta_bic, 3), "placed": self.placed}
+
+
+@dataclass
+class AttributionCheck:
+    """The attribution of one problem strip (or of none) against its alternatives.
+
+    ``strip``: the problem strip (None: the diagnosis found none). ``runner_up``: the closest competing
+    alternative, ``richer``: the closest richer one (None: none). ``plausible``: every alternative that
+    casts doubt (module docstring). ``threshold``: the competing alternatives' bar.
+    """
+
+    strip: str | None
+    runner_up: Attribution | None
+    richer: Attribution | None = None
+    plausible: list[Attribution] = field(default_factory=list)
+    threshold: float = AMBIGUOUS_BIC
+
+    @property
+    def ambiguous(self) -> bool:
+        return bool(self.plausible)
+
+    def sentence(self) -> str:
+        """One line for the summary: the runner-up, the difference and the verdict."""
+        who = f"strip {self.strip}" if self.strip is not None else "no problem strip"
+        parts = []
+        if self.runner_up is not None:
+            parts.append(f"runner-up {self.runner_up.describe()}")
+        if self.richer is not None:
+            parts.append(f"{'richer alternative' if parts else 'runner-up'} {self.richer.describe()}")
+        if not parts:
+            return f"attribution of {who}: no alternative (no neighbour shares its tie points)"
+        verdict = (f"AMBIGUOUS (a competing attribution within {self.threshold:g}, or a richer model better): "
+                   "variants are built for each" if self.ambiguous
+                   else f"clear (competing attributions at least {self.threshold:g} worse, richer ones worse)")
+        return f"attribution of {who}: {'; '.join(parts)}: {verdict}"
+
+    def as_dict(self) -> dict:
+        return {"strip": self.strip, "ambiguous": self.ambiguous, "threshold": self.threshold,
+                "richer_threshold": RICHER_BIC,
+                "runner_up": None if self.runner_up is None else self.runner_up.as_dict(),
+                "richer": None if self.richer is None else self.richer.as_dict(),
+                "plausible": [a.as_dict() for a in self.plausible]}
+
+
+def _check(strip: str | None, found: list[Attribution], threshold: float) -> AttributionCheck:
+    found = sorted(found, key=lambda a: a.delta_bic)
+    competing = [a for a in found if a.competing]
+    richer = [a for a in found if not a.competing]
+    plausible = [a for a in found if a.delta_bic < (threshold if a.competing else RICHER_BIC)]
+    return AttributionCheck(strip, competing[0] if competing else None, richer[0] if richer else None, plausible,
+                            threshold)
+
+
+def _breaks_of(data: PatternData, fit: Fit, strips) -> dict[str, tuple[float, ...]]:
+    return {data.strips[s]: tuple(round(float(b), 1) for b in fit.breaks[s]) for s in strips}
+
+
+def _problem(fit: Fit) -> list[int]:
+    return [s for s, b in enumerate(fit.breaks) if b]
+
+
+def attribution_checks(data: PatternData, fit: Fit, options: SelectionOptions | None = None,
+                       threshold: float = AMBIGUOUS_BIC) -> list[AttributionCheck]:
+    """Per problem strip of ``fit`` (a strip with breaks), its runner-ups and the plausible alternatives;
+    without one, the best model with a problem strip (module docstring)."""
+    options = options or SelectionOptions()
+    problems = _problem(fit)
+    if not problems:
+        runner = no_problem_runner_up(data, fit, options)
+        return [_check(None, [runner] if runner is not None else [], threshold)]
+    alts: list[Alternative] = fit.alternatives
+    out = []
+    for s in problems:
+        mine = []
+        for a in alts:
+            if a.strip != s and s not in a.also:
+                continue
+            strips = sorted(set(_problem(a.fit)) | ({a.other} if a.kind != "dropped" else set()))
+            mine.append(Attribution(a.kind, data.strips[s],
+                                    None if a.kind == "dropped" else data.strips[a.other],
+                                    _breaks_of(data, a.fit, strips), float(a.fit.bic), float(a.fit.bic - fit.bic)))
+        out.append(_check(data.strips[s], mine, threshold))
+    return out
+
+
+def no_problem_runner_up(data: PatternData, fit: Fit, options: SelectionOptions | None = None
+                         ) -> Attribution | None:
+    """The best model with breaks on one strip (one or two, on ``options.pair_candidates`` lines, then moved
+    to their best lines) against ``fit`` (which has none), both under the serial correlation of what that
+    model leaves."""
+    options = options or SelectionOptions()
+    index = BlockIndex(data)
+    current = CurrentFit(index, fit.breaks, options.degree, fit.constant)
+    candidates = Candidates(data, [list(b) for b in fit.breaks], None, options.degree)
+    n_breaks = sum(len(b) for b in fit.breaks)
+    for s in range(len(data.strips)):
+        n = data.n_lines[s]
+        gap = options.min_gap_fraction * n
+        probe = StripProbe(current, s)
+        grid = [float(b) for b in np.linspace(0, n - 1, max(options.pair_candidates, 2) + 2)[1:-1]
+                if index.feasible(s, (), float(b), gap, options.min_rows)]
+        trials = [[b] for b in grid] + [[a, b] for i, a in enumerate(grid) for b in grid[i + 1:]
+                                        if index.feasible(s, (a,), b, gap, options.min_rows)]
+        for trial in trials:
+            r = probe.bic(trial, False, None, n_breaks + len(trial))
+            candidates.add(None if r is None else r[0], set(fit.constant) - {s}, s, trial)
+    if not candidates.models:
+        return None
+    i = candidates.best()
+    s = candidates.models[i][0]
+    constant = candidates.models[i][3]
+    breaks = refine(data, candidates.breaks(i), None, options, constant, index=index)
+    plain = evaluate(data, breaks, None, options.degree, constant)
+    rho = residual_correlation(data, plain) if options.serial_correlation else {}
+    richer = evaluate(data, breaks, rho, options.degree, constant)
+    mine = evaluate(data, fit.breaks, rho, options.degree, fit.constant)
+    return Attribution("breaks", data.strips[s], None, _breaks_of(data, richer, [s]), float(richer.bic),
+                       float(richer.bic - mine.bic))
+
+
+__all__ = ["AMBIGUOUS_BIC", "COMPETING", "RICHER_BIC", "Attribution", "AttributionCheck", "attribution_checks",
+           "no_problem_runner_up"]

@@ -1,0 +1,129 @@
+"""Which strip drifts, and how sure: the search's moves between strips, the runner-up attribution, ambiguity."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from scangeo.adjustment.diagnosis import patterns
+from scangeo.adjustment.diagnosis.attribution import AMBIGUOUS_BIC, RICHER_BIC, attribution_checks
+from scangeo.adjustment.diagnosis.local_fit import BlockIndex, CurrentFit
+from scangeo.adjustment.diagnosis.patterns import (
+    PatternData,
+    SelectionOptions,
+    evaluate,
+    line_map,
+    neighbours,
+    select_breaks,
+)
+
+from .test_patterns import N, _three_strips, kinked
+
+
+def excursion(amp: float, ends: float):
+    """Strip 02's height: from -ends up to +amp at line 340, down to -amp at 700, to +ends at the end."""
+    def error(s, line):
+        if s != 1:
+            return 0.0, 0.0
+        return float(np.interp(line, [0, 340, 700, N - 1], [-ends, amp, -amp, ends])), 0.0
+    return error
+
+
+def test_neighbours_and_the_line_where_a_neighbour_sees_the_same_ground():
+    data = _three_strips(kinked, seed=0)
+    assert neighbours(data, 0) == [1] and neighbours(data, 1) == [0, 2]
+    a, b = line_map(data, 0, 1)  # strip 02 is flown the other way: line N - 1 - l sees what line l of 01 sees
+    assert b == pytest.approx(-1.0) and a == pytest.approx(N - 1.0)
+    assert line_map(data, 0, 2) is None  # no tie point in common
+
+
+def test_the_runner_up_of_a_clear_attribution():
+    data = _three_strips(kinked, seed=0)
+    fit = select_breaks(data)
+    assert [len(b) for b in fit.breaks] == [0, 2, 0]
+    [check] = attribution_checks(data, fit)
+    r = check.runner_up
+    assert check.strip == "02" and r is not None and r.kind in ("moved", "merged", "dropped")
+    # its criterion is the alternative model's, under the same serial correlation
+    alt = min((a for a in fit.alternatives if a.strip == 1 and a.kind == r.kind and
+               (a.kind == "dropped" or data.strips[a.other] == r.other)), key=lambda a: a.fit.bic)
+    assert r.delta_bic == pytest.approx(alt.fit.bic - fit.bic)
+    assert r.delta_bic == pytest.approx(evaluate(data, alt.fit.breaks, fit.rho or None, 1, alt.fit.constant).bic
+                                        - fit.bic)
+    # the drift on a neighbour instead, or shared with one, is far worse here
+    assert r.delta_bic > AMBIGUOUS_BIC and check.richer.kind == "shared" and check.richer.delta_bic > 0
+    assert not check.ambiguous and check.plausible == [] and "clear" in check.sentence()
+
+
+def test_functions_on_both_neighbours_are_merged_into_the_middle_strip():
+    # growing break by break puts pairs of breaks on the edge strips first (each explains one overlap at half
+    # the rank of the middle strip's); the merge move gives the drift back to the middle strip
+    for seed in (0, 2):
+        fit = select_breaks(_three_strips(excursion(10.0, 6.0), seed=seed))
+        assert [len(b) for b in fit.breaks] == [0, 2, 0], (seed, fit.breaks)
+        assert np.allclose(fit.breaks[1], [340, 700], atol=60)
+
+
+def test_two_breaks_at_once_where_one_alone_does_not_pay():
+    # rising and falling back: a straight line takes the trend, and no single kink pays for itself
+    data = _three_strips(excursion(8.0, 0.0), seed=0, noise=2.0)
+    index = BlockIndex(data)
+    linear = CurrentFit(index, [[], [], []], 1, {0, 2})
+    now = evaluate(data, [[], [], []], None, 1, {0, 2}).bic
+    singles = patterns._richer(data, linear, SelectionOptions())
+    assert min(singles.fit(i).bic for i in range(len(singles.models))) >= now
+    pairs = patterns._richer_by_two(data, linear, SelectionOptions(), None)
+    best = pairs.best()
+    assert pairs.fit(best).bic < now - 10 and pairs.models[best][0] == 1
+    assert np.allclose(pairs.breaks(best)[1], [340, 700], atol=60)
+    fit = select_breaks(data)
+    assert fit.breaks[0] == () and fit.breaks[2] == () and np.allclose(fit.breaks[1], [340, 700], atol=60)
+
+
+def edge(s, line):
+    """Strip 03 (an edge strip, one overlap) drifts; strip 02 could take it over in that overlap."""
+    if s != 2:
+        return 0.0, 0.0
+    z = float(np.interp(line, [0, 300, 700, N - 1], [2.0, 9.0, -9.0, -2.0]))
+    return z, 0.2 * z
+
+
+def thinned(data: PatternData, every: int) -> PatternData:
+    """Only every ``every``-th tie row of the overlap 01-02 kept (as if the cleaning had removed the rest)."""
+    rows01 = np.unique(data.term_row[data.term_strip == 0])
+    keep = np.ones(data.n, bool)
+    keep[rows01] = False
+    keep[rows01[::every]] = True
+    new = np.full(data.n, -1)
+    new[keep] = np.arange(int(keep.sum()))
+    t = keep[data.term_row]
+    return PatternData(data.value[keep], data.channel[keep], new[data.term_row[t]], data.term_strip[t],
+                       data.term_component[t], data.term_line[t], data.term_weight[t], data.strips, data.n_lines,
+                       data.channels, data.components)
+
+
+def test_an_edge_strips_drift_is_clear_with_its_neighbours_other_overlap_and_ambiguous_without():
+    full = _three_strips(edge, seed=2, noise=1.5)
+    fit = select_breaks(full)
+    assert [bool(b) for b in fit.breaks] == [False, False, True]
+    [check] = attribution_checks(full, fit)
+    # the runner-up gives the drift to strip 02, whose other overlap (with 01) says no
+    assert check.runner_up.kind == "moved" and check.runner_up.other == "02" and not check.ambiguous
+    # with that overlap thinned to a fifteenth, strip 02 can take the drift over nearly as well
+    thin = thinned(full, 15)
+    fit = select_breaks(thin)
+    assert [bool(b) for b in fit.breaks] == [False, False, True]
+    [check] = attribution_checks(thin, fit)
+    assert check.ambiguous and check.runner_up.delta_bic < AMBIGUOUS_BIC and "AMBIGUOUS" in check.sentence()
+    [other] = check.plausible
+    assert other.kind == "moved" and list(other.breaks) == ["02"] and len(other.breaks["02"]) == 2
+
+
+def test_without_a_problem_strip_the_runner_up_is_the_best_model_with_one():
+    quiet = lambda s, line: (0.0, 0.0)  # noqa: E731
+    data = _three_strips(quiet, seed=1)
+    fit = select_breaks(data)
+    assert not any(fit.breaks)
+    [check] = attribution_checks(data, fit)
+    # a richer model casts doubt only when it fits better: in noise the best placed breaks come close
+    assert check.strip is None and check.runner_up is None and check.richer.kind == "breaks"
+    assert check.richer.delta_bic > RICHER_BIC and not check.ambiguous and "no problem strip" in check.sentence()

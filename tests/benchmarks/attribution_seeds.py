@@ -1,0 +1,131 @@
+"""The attribution and the recommendation over many seeds: vienna2000, full length, 20 blunders (docs/adjustment.md).
+
+Not collected by pytest. For every seed: simulate vienna2000 without images and with ``--blunders`` blunders
+(``points.blunders``), then ``scangeo run PROJECT --until compare`` (check, clean, diagnose, compare with the
+run's 4-fold cross-validation, as a user would), and print one row: the problem strips found (and the
+injected one), the runner-up attribution and its BIC difference, whether the attribution was called
+ambiguous, the variants built, the recommended variant and its pooled true error as a % of the best
+variant's, the cross-validation's and the check points' own choices, whether the two disagreed (and the
+run said so), and whether the recommended variant is significantly worse at the check points than another
+adjusted variant (F test of the pooled check-point mean squares as the table prints them, 5 %) without the
+run's summary saying so. The last lines sum up.
+
+    python tests/benchmarks/attribution_seeds.py OUT [--seeds 1 2 ... 40] [--blunders 20] [--jobs 1]
+
+Projects already simulated in OUT are reused; a seed whose run already reached compare is only scored (delete
+OUT/sN/results to run it again). Truth is read here only to score.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from scipy import stats
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "strategy"))
+from test_physics import pooled_true  # noqa: E402
+
+from scangeo.adjustment.summary import Comparison  # noqa: E402
+from scangeo.pipeline.manifest import Manifest  # noqa: E402
+from scangeo.pipeline.run import run  # noqa: E402
+from scangeo.simulate.block import simulate  # noqa: E402
+from scangeo.simulate.config import load_preset  # noqa: E402
+
+
+def project(root: Path, seed: int, blunders: int) -> None:
+    if not (root / "project.toml").exists():
+        simulate(root, load_preset("vienna2000", {"output": {"images": False, "truth_ortho": False}, "seed": seed,
+                                                  "points": {"blunders": blunders}}))
+
+
+def worse_unsaid(c: Comparison, rec: str, said: str) -> list[str]:
+    """The adjusted variants the recommended one is significantly worse than at the check points (one-sided F
+    test of the pooled check-point mean squares, 2n degrees of freedom each, 5 %) that the summary ``said``
+    does not name."""
+    v = c.variant(rec)
+    out = []
+    n_rec = sum(e.get("check", {}).get("n", 0) for e in v.strips.values())
+    for o in c.variants:
+        if o.name == rec or o.error is not None or o.strategy == "DG" or o.check_pooled_rms() is None:
+            continue
+        n_o = sum(e.get("check", {}).get("n", 0) for e in o.strips.values())
+        f = (v.check_pooled_rms() / o.check_pooled_rms()) ** 2
+        if stats.f.sf(f, 2 * n_rec, 2 * n_o) < 0.05 and o.name not in said:
+            out.append(o.name)
+    return out
+
+
+def seed_row(root: Path, seed: int, blunders: int, totals: dict) -> str:
+    project(root, seed, blunders)
+    manifest = Manifest.load(root)
+    done = (manifest.stages.get("compare") or {}).get("status") in ("ran", "up to date")
+    t0 = time.process_time()
+    if not done:
+        run(root, until="compare")
+        manifest = Manifest.load(root)
+    cpu = time.process_time() - t0
+    truth = json.loads((root / "truth" / "errors.json").read_text())
+    problem = str(truth["problem_strip"])
+    d = json.loads((root / "results" / "diagnosis.json").read_text())
+    c = Comparison.from_dict(json.loads((root / "results" / "comparison.json").read_text()))
+    compare = manifest.stages["compare"]["summary"]
+    found = d["problem_strips"]
+    right = found == [problem]
+    ambiguous = bool(d.get("ambiguous"))
+    runner = [a["runner_up"] for a in d.get("attribution", []) if a.get("runner_up")]
+    runner_text = "; ".join(f"{r['kind']} {'-'.join(r['breaks'])} {r['delta_bic']:+.1f}" for r in runner) or "–"
+    adjusted = [v for v in c.variants if v.strategy != "DG" and v.error is None]
+    best = min(adjusted, key=pooled_true)
+    rec = compare["recommended"]
+    ratio = pooled_true(c.variant(rec)) / pooled_true(best)
+    unsaid = worse_unsaid(c, rec, " ".join([str(compare.get("disagreement") or ""),
+                                            " ".join(compare.get("contradicts_checks") or {})]))
+    cv_choice, check_choice = compare.get("cv_choice"), compare.get("check_choice")
+    disagree = "yes" if compare.get("disagreement") else "no"
+    totals["seeds"] += 1
+    totals["right"] += right
+    totals["wrong_called"] += (not right) and ambiguous
+    totals["wrong"] += not right
+    totals["ambiguous"] += ambiguous
+    totals["within15"] += ratio <= 1.15
+    totals["unsaid"] += bool(unsaid)
+    totals["disagree"] += disagree == "yes"
+    totals["worst"] = max(totals["worst"], ratio)
+    totals["cpu"] += cpu
+    return (f"| {seed} | {', '.join(found) or '–'} ({problem}){'' if right else ' WRONG'} | {runner_text} | "
+            f"{'yes' if ambiguous else 'no'} | {len(adjusted)} | {rec} | {100 * ratio:.0f} % of {best.name} | "
+            f"{cv_choice} / {check_choice} | {disagree} | {', '.join(unsaid) or '–'} | {cpu:.0f} s |")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("out", type=Path)
+    ap.add_argument("--seeds", type=int, nargs="+", default=list(range(1, 41)))
+    ap.add_argument("--blunders", type=int, default=20)
+    a = ap.parse_args()
+    print(f"vienna2000 at full length, {a.blunders} blunders, `scangeo run PROJECT --until compare`:\n")
+    print("| seed | problem strips found (injected) | runner-up: kind, strips, BIC difference | ambiguous | "
+          "variants adjusted | recommended | its true error | choice of the cross-validation / the check points | "
+          "disagreement said | worse at check points, unsaid | CPU |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    totals = dict.fromkeys(("seeds", "right", "wrong", "wrong_called", "ambiguous", "within15", "unsaid",
+                            "disagree", "worst", "cpu"), 0)
+    for seed in a.seeds:
+        root = a.out / f"s{seed}"
+        try:
+            print(seed_row(root, seed, a.blunders, totals), flush=True)
+        except Exception as exc:  # noqa: BLE001 (a benchmark row, not a library: say so and go on)
+            print(f"| {seed} | failed: {type(exc).__name__}: {exc} |", flush=True)
+    t = totals
+    print(f"\nseeds {t['seeds']}: problem strip found alone on {t['right']}; wrong on {t['wrong']}, of which called "
+          f"ambiguous {t['wrong_called']}; ambiguous on {t['ambiguous']}; recommended within 15 % of the best "
+          f"variant's true error on {t['within15']} (worst {100 * t['worst']:.0f} %); the evidence disagreed (and "
+          f"said so) on {t['disagree']}; recommended significantly worse at the check points without saying so on "
+          f"{t['unsaid']}; CPU {t['cpu']:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
