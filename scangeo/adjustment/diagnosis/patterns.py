@@ -515,10 +515,9 @@ def alternatives(data: PatternData, fit: Fit, options: SelectionOptions | None =
         if s in fit.constant or not fit.breaks[s]:
             continue
         if "dropped" in kinds:
-            trial = [list(b) for b in fit.breaks]
-            trial[s] = []
-            const = set(fit.constant) | {s}
-            out.append(Alternative("dropped", s, s, evaluate(data, trial, rho, options.degree, const)))
+            kept = [list(b) for b in fit.breaks]
+            kept[s] = []
+            out.append(Alternative("dropped", s, s, evaluate(data, kept, rho, options.degree, set(fit.constant) | {s})))
         for t in neighbours(data, s):
             flanks = [u for u in neighbours(data, t) if u != s and u not in fit.constant]
             for kind in kinds:
