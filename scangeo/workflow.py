@@ -331,8 +331,8 @@ def compare(project: str | Path | Project, *, variants_file: str | Path | None =
     breaks_lines : sequence of float, optional
         For the default variants: the problem strip's break lines (image lines).
     folds : int
-        Folds of the cross-validation over the control points that recommends a variant without check
-        points; 0: none.
+        Folds of the cross-validation over the control points that, weighed with the check points,
+        recommends a variant; 0: none.
     report : bool
         Also write ``report.html`` and ``residuals.gpkg`` (:func:`report`).
     progress : callable

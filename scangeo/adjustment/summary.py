@@ -198,7 +198,8 @@ class Comparison:
 
     @property
     def recommended(self) -> str | None:
-        """The variant the cross-validation and the information criterion recommend (crossvalidation.py).
+        """The variant the cross-validation, the check points and the information criterion recommend
+        (crossvalidation.py, evidence.py).
 
         Returns
         -------

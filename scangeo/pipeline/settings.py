@@ -35,8 +35,8 @@ class CompareSettings:
     Parameters
     ----------
     folds : int
-        Folds of the cross-validation over the control points that recommends a variant without
-        check points; 0: none (the lowest check-point rms decides).
+        Folds of the cross-validation over the control points that, weighed with the check points,
+        recommends a variant; 0: none (the lowest check-point rms decides).
     """
 
     schema_error: ClassVar[type[Exception]] = OptionsError
