@@ -69,7 +69,7 @@ def _check_report(root: Path, recommended: str) -> None:
     breaks = json.loads((root / "results" / "diagnosis.json").read_text(encoding="utf-8"))["breaks"]
     assert ('id="breaks-table"' in text) == bool(breaks)
     assert text.count("data:image/png;base64,") >= len(names) + 2
-    assert f"Recommended without check points: {recommended} (" in text
+    assert f"Recommended: {recommended} (" in text
 
 
 def test_one_run_makes_the_orthoimages_and_the_report(ran):
