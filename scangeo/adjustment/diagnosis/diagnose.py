@@ -105,6 +105,10 @@ class Diagnosis:
         The break selection's options.
     channels : tuple of str
         The residual channels fitted.
+    attribution : list of AttributionCheck
+        Per problem strip (one entry with ``strip`` None when there is none) its runner-up attribution,
+        the criterion difference and whether the attribution is ambiguous
+        (:mod:`scangeo.adjustment.diagnosis.attribution`).
     """
 
     project: str
@@ -118,7 +122,6 @@ class Diagnosis:
     notes: list[str] = field(default_factory=list)
     options: SelectionOptions = field(default_factory=SelectionOptions)
     channels: tuple[str, ...] = ()
-    #: per problem strip (or one for none), the runner-up attribution (:mod:`~.attribution`)
     attribution: list[AttributionCheck] = field(default_factory=list)
 
     @property
@@ -134,12 +137,25 @@ class Diagnosis:
 
     @property
     def ambiguous(self) -> bool:
-        """Whether any attribution is ambiguous (its runner-up within the threshold)."""
+        """Whether the attribution is in doubt.
+
+        Returns
+        -------
+        bool
+            True when an alternative attribution casts doubt on the chosen one (a competing one within
+            the threshold, or a richer one that fits better; docs/adjustment.md, "Attribution").
+        """
         return any(c.ambiguous for c in self.attribution)
 
     def plausible(self) -> list[Attribution]:
-        """The other attributions within the threshold, each once (breaks placed by the split model unless
-        the diagnosis kept the BIC's lines)."""
+        """The other attributions that make the chosen one ambiguous.
+
+        Returns
+        -------
+        list of Attribution
+            Each once, with its strips and breaks (placed by the split model unless the diagnosis kept
+            the BIC's lines); the comparison builds variants for each.
+        """
         out: list[Attribution] = []
         for c in self.attribution:
             for a in c.plausible:
@@ -148,7 +164,13 @@ class Diagnosis:
         return out
 
     def chosen_breaks(self) -> dict[str, tuple[float, ...]]:
-        """The problem strips and their breaks, as the attribution's ``breaks``."""
+        """The chosen attribution's strips and breaks.
+
+        Returns
+        -------
+        dict
+            Problem strip id -> its break lines (as an :class:`Attribution`'s ``breaks``).
+        """
         return {s: self.breaks_of(s) for s in self.problem_strips}
 
     def breaks_of(self, strip: str) -> tuple[float, ...]:
@@ -172,7 +194,8 @@ class Diagnosis:
         Returns
         -------
         dict
-            JSON-able: problem strips, breaks with their intervals, the criterion, the series.
+            JSON-able: problem strips, breaks with their intervals, the criterion, the attribution, the
+            series.
         """
         return {"project": self.project, "strips": self.strips, "n_lines": self.n_lines,
                 "problem_strips": self.problem_strips,
