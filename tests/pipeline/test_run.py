@@ -144,7 +144,6 @@ def test_an_edited_control_point_reruns_from_clean_not_match(ran, tmp_path):
 KILLER = textwrap.dedent("""
     import os, signal, sys, time
     from scangeo.pipeline.run import run
-from scangeo.reports.tables import read_comparison
 
     seen = 0
 
