@@ -95,3 +95,25 @@ def test_every_plausible_attribution_gets_its_own_p_and_s_variants(tmp_path):
     assert v["S4-02"].role_of("B003", "check") == "control" and v["S2-02"].role_of("B003", "check") == "check"
     assert v["S4-02"].dtm_height_at("T001") and "another attribution: strip 02" in v["S4-02"].description
     assert "# Variants NAME-02: the plausible other attribution strip 02 breaks at lines 2400, 4900" in text
+
+
+def test_a_diagnosis_with_an_ambiguous_attribution_fills_in_both(tmp_path):
+    from scangeo.adjustment.diagnosis.attribution import Attribution, AttributionCheck
+    from scangeo.adjustment.diagnosis.diagnose import Diagnosis
+    from scangeo.adjustment.diagnosis.patterns import BreakEstimate, Fit
+    from scangeo.strategy.default_variants import attributions
+
+    fit = Fit((), 0.0, 0.0, 0, {}, {})
+    moved = Attribution("moved", "03", "02", {"02": (2400.0, 4900.0)}, 205.0, 7.0, placed=True)
+    shared = Attribution("shared", "03", "02", {"02": (2390.0,), "03": (2403.0, 4888.0)}, 240.0, 42.0)
+    d = Diagnosis("p", ["01", "02", "03"], {"01": 7000, "02": 7000, "03": 7000},
+                  [BreakEstimate("03", 2403.0, 2300.0, 2500.0), BreakEstimate("03", 4888.0, 4700.0, 5000.0)],
+                  fit, fit, 1.0, attribution=[AttributionCheck("03", moved, shared, [moved])])
+    assert d.ambiguous and d.plausible() == [moved] and d.chosen_breaks() == {"03": (2403, 4888)}
+    problems, alternatives = attributions(d, "test")
+    assert [(p.strip, p.breaks_lines) for p in problems] == [("03", (2403, 4888))]
+    assert [(label, [(p.strip, p.breaks_lines) for p in alt]) for label, alt in alternatives] == \
+        [("02", [("02", (2400.0, 4900.0))])]
+    # a clear attribution adds nothing
+    d.attribution = [AttributionCheck("03", moved, shared, [])]
+    assert attributions(d, "test")[1] == [] and not d.ambiguous
