@@ -40,6 +40,7 @@ cross-validation and the check points then decides (:mod:`scangeo.strategy.evide
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -82,6 +83,16 @@ class Attribution:
     bic: float
     delta_bic: float
     placed: bool = False
+    #: the split model's criterion difference (:func:`split_model_difference`; None: not computed)
+    delta_split: float | None = None
+
+    @property
+    def doubt(self) -> bool:
+        """Whether it casts doubt on the chosen attribution: its BIC difference below its bar, or (a
+        competing one) the split model's below :data:`AMBIGUOUS_BIC`."""
+        if self.delta_bic < self.bar:
+            return True
+        return self.competing and self.delta_split is not None and self.delta_split < AMBIGUOUS_BIC
 
     @property
     def strips(self) -> tuple[str, ...]:
@@ -110,12 +121,14 @@ class Attribution:
                 "dropped": f"no drift on strip {self.strip}",
                 "shared": f"the drift shared by strips {self.strip} and {self.other}",
                 "breaks": f"a problem strip {self.strip}"}.get(self.kind, f"strip {self.strip}")
-        return f"{what} ({lines or 'no problem strip'}), BIC {self.delta_bic:+.1f}"
+        split = f", split model {self.delta_split:+.1f}" if self.delta_split is not None else ""
+        return f"{what} ({lines or 'no problem strip'}), BIC {self.delta_bic:+.1f}{split}"
 
     def as_dict(self) -> dict:
         return {"kind": self.kind, "strip": self.strip, "other": self.other,
                 "breaks": {s: [round(b, 1) for b in v] for s, v in self.breaks.items()},
-                "bic": round(self.bic, 3), "delta_bic": round(self.delta_bic, 3), "placed": self.placed}
+                "bic": round(self.bic, 3), "delta_bic": round(self.delta_bic, 3), "placed": self.placed,
+                "delta_split": None if self.delta_split is None else round(self.delta_split, 3)}
 
 
 @dataclass
@@ -124,7 +137,8 @@ class AttributionCheck:
 
     ``strip``: the problem strip (None: the diagnosis found none). ``runner_up``: the closest competing
     alternative, ``richer``: the closest richer one (None: none). ``plausible``: every alternative that
-    casts doubt (module docstring). ``threshold``: the competing alternatives' bar.
+    casts doubt (module docstring; :attr:`Attribution.doubt`). ``threshold``: the competing
+    alternatives' bar.
     """
 
     strip: str | None
@@ -132,6 +146,12 @@ class AttributionCheck:
     richer: Attribution | None = None
     plausible: list[Attribution] = field(default_factory=list)
     threshold: float = AMBIGUOUS_BIC
+    #: every alternative, the closest first
+    alternatives: list[Attribution] = field(default_factory=list)
+
+    def update(self) -> None:
+        """``plausible`` again from the alternatives' criteria (after :func:`split_model_difference`)."""
+        self.plausible = [a for a in self.alternatives if a.doubt]
 
     @property
     def ambiguous(self) -> bool:
@@ -147,8 +167,8 @@ class AttributionCheck:
             parts.append(f"{'richer alternative' if parts else 'runner-up'} {self.richer.describe()}")
         if not parts:
             return f"attribution of {who}: no alternative (no neighbour shares its tie points)"
-        verdict = (f"AMBIGUOUS (a competing attribution within {self.threshold:g}, or a richer model better): "
-                   "variants are built for each" if self.ambiguous
+        verdict = (f"AMBIGUOUS (a competing attribution within {self.threshold:g}, by the BIC or the split model, "
+                   "or a richer model better): variants are built for each" if self.ambiguous
                    else f"clear (competing attributions at least {self.threshold:g} worse, richer ones worse)")
         return f"attribution of {who}: {'; '.join(parts)}: {verdict}"
 
@@ -164,9 +184,10 @@ def _check(strip: str | None, found: list[Attribution], threshold: float) -> Att
     found = sorted(found, key=lambda a: a.delta_bic)
     competing = [a for a in found if a.competing]
     richer = [a for a in found if not a.competing]
-    plausible = [a for a in found if a.delta_bic < (threshold if a.competing else RICHER_BIC)]
-    return AttributionCheck(strip, competing[0] if competing else None, richer[0] if richer else None, plausible,
-                            threshold)
+    check = AttributionCheck(strip, competing[0] if competing else None, richer[0] if richer else None, [],
+                             threshold, found)
+    check.update()
+    return check
 
 
 def _breaks_of(data: PatternData, fit: Fit, strips) -> dict[str, tuple[float, ...]]:
@@ -236,5 +257,28 @@ def no_problem_runner_up(data: PatternData, fit: Fit, options: SelectionOptions 
                        float(richer.bic - mine.bic))
 
 
-__all__ = ["AMBIGUOUS_BIC", "COMPETING", "RICHER_BIC", "Attribution", "AttributionCheck", "attribution_checks",
-           "no_problem_runner_up"]
+#: competing alternatives whose BIC difference exceeds this are not asked of the split model (far beyond doubt)
+SPLIT_PREFILTER = 100.0
+
+
+def split_model_difference(cost, chosen: dict[str, tuple[float, ...]], other: dict[str, tuple[float, ...]]
+                           ) -> float | None:
+    """The split model's criterion difference of another attribution against the chosen one.
+
+    ``cost`` is :func:`~.refine.s_model_cost`'s function (``vTPv``, ``sigma0``, unknowns per attribution);
+    both are adjusted at their BIC's lines, and ``C = vTPv / sigma0^2 + u ln n`` with the chosen model's
+    ``sigma0`` and observation count ``n``: for attributions with as many unknowns (moved) the
+    difference is the likelihood-ratio statistic ``-2 ln LR`` of the adjustment itself, on the DTM
+    heights and control the pattern fit only sees through SE's misclosures. None when either adjustment
+    fails.
+    """
+    v0, s0, u0 = cost(chosen)
+    v1, _, u1 = cost(other)
+    if not (math.isfinite(v0) and math.isfinite(v1) and s0 > 0):
+        return None
+    n = v0 / s0 ** 2 + u0
+    return float((v1 - v0) / s0 ** 2 + (u1 - u0) * math.log(max(n, 2.0)))
+
+
+__all__ = ["AMBIGUOUS_BIC", "COMPETING", "RICHER_BIC", "SPLIT_PREFILTER", "Attribution", "AttributionCheck",
+           "attribution_checks", "no_problem_runner_up", "split_model_difference"]

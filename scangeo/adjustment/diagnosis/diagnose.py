@@ -29,7 +29,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from scangeo.adjustment.block import strips_read_once
-from scangeo.adjustment.diagnosis.attribution import Attribution, AttributionCheck, attribution_checks
+from scangeo.adjustment.diagnosis.attribution import (
+    SPLIT_PREFILTER,
+    Attribution,
+    AttributionCheck,
+    attribution_checks,
+    split_model_difference,
+)
 from scangeo.adjustment.diagnosis.patterns import (
     BreakEstimate,
     Fit,
@@ -381,7 +387,7 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
     project = Project.from_user_input(project_root)
     root = project.root
     options = options or SelectionOptions()
-    steps = 5 if refine is not None else 3
+    steps = 6 if refine is not None else 3
     callback(0, steps, "diagnosis: adjusting SE")
     result = run_variant(project, se_variant())
     callback(1, steps, "diagnosis: choosing breaks")
@@ -406,10 +412,13 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
                 breaks, n_lines, s_model_cost(project, dtm_height_points, refine.position_degree), refine,
                 lambda i, n: callback(3 + i / n, steps, f"diagnosis: placing break {i} of {n} with the S model"))
             notes += dropped_notes(proposed, breaks, refine.test_level)
+        if refine is not None and any(c.strip is not None for c in checks):
+            callback(4, steps, "diagnosis: the split model's opinion of the other attributions")
+            split_model_opinion(root, checks, _bic_breaks(data, fit), dtm_height_points, refine.position_degree)
         if refine is not None:
             plausible = [a for c in checks for a in c.plausible]
             for i, a in enumerate(plausible):
-                callback(4 + i / len(plausible), steps, f"diagnosis: placing the breaks of attribution {a.label}")
+                callback(5 + i / len(plausible), steps, f"diagnosis: placing the breaks of attribution {a.label}")
                 place_breaks(root, a, breaks, dict(zip(data.strips, data.n_lines)), dtm_height_points, refine)
     callback(steps, steps, "diagnosis: done")
     warning = sigma0_warning(float(result.adjustment.statistics.sigma0), "the diagnosis's SE adjustment", root)
@@ -424,6 +433,23 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
     log.info("diagnosis of %s: problem strips %s, breaks %s", root, d.problem_strips or "none",
              ", ".join(f"{b.strip}@{b.line:.0f}" for b in breaks) or "none")
     return d
+
+
+def _bic_breaks(data: PatternData, fit: Fit) -> dict[str, tuple[float, ...]]:
+    return {data.strips[s]: tuple(round(float(b), 1) for b in br) for s, br in enumerate(fit.breaks) if br}
+
+
+def split_model_opinion(root, checks: list[AttributionCheck], chosen: dict[str, tuple[float, ...]],
+                        dtm_height_points=("*",), position_degree: int = 2) -> None:
+    """Every competing alternative within :data:`~.attribution.SPLIT_PREFILTER` of the chosen attribution asked
+    of the split model too (:func:`~.attribution.split_model_difference`, both at the BIC's lines): a
+    second opinion from the adjustment itself; the checks' ``plausible`` updated."""
+    for c in checks:
+        for a in c.alternatives:
+            if a.competing and a.delta_bic < SPLIT_PREFILTER and a.breaks != chosen:
+                cost = s_model_cost(root, dtm_height_points, position_degree)  # no warm start across models
+                a.delta_split = split_model_difference(cost, chosen, a.breaks)
+        c.update()
 
 
 def place_breaks(root, attribution: Attribution, chosen: list[BreakEstimate], n_lines: dict[str, int],
@@ -447,4 +473,4 @@ def place_breaks(root, attribution: Attribution, chosen: list[BreakEstimate], n_
 
 
 __all__ = ["COMPONENTS", "Diagnosis", "StripSeries", "diagnose", "dropped_notes", "pattern_data", "place_breaks",
-           "se_variant"]
+           "se_variant", "split_model_opinion"]

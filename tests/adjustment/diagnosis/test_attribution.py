@@ -5,7 +5,14 @@ import numpy as np
 import pytest
 
 from scangeo.adjustment.diagnosis import patterns
-from scangeo.adjustment.diagnosis.attribution import AMBIGUOUS_BIC, RICHER_BIC, attribution_checks
+from scangeo.adjustment.diagnosis.attribution import (
+    AMBIGUOUS_BIC,
+    RICHER_BIC,
+    Attribution,
+    AttributionCheck,
+    attribution_checks,
+    split_model_difference,
+)
 from scangeo.adjustment.diagnosis.local_fit import BlockIndex, CurrentFit
 from scangeo.adjustment.diagnosis.patterns import (
     PatternData,
@@ -127,3 +134,29 @@ def test_without_a_problem_strip_the_runner_up_is_the_best_model_with_one():
     # a richer model casts doubt only when it fits better: in noise the best placed breaks come close
     assert check.strip is None and check.runner_up is None and check.richer.kind == "breaks"
     assert check.richer.delta_bic > RICHER_BIC and not check.ambiguous and "no problem strip" in check.sentence()
+
+
+def test_the_split_models_opinion_can_make_an_attribution_ambiguous():
+    # the adjustment's own criterion at both attributions' lines: -2 ln LR for as many unknowns, + u ln n else
+    fits = {("02",): (330.0, 1.1, 60), ("03",): (338.0, 1.12, 60), (): (420.0, 1.3, 48)}
+
+    def cost(breaks):
+        return fits[tuple(breaks)]
+
+    chosen = {"02": (2400.0, 4900.0)}
+    moved = split_model_difference(cost, chosen, {"03": (2400.0, 4900.0)})
+    assert moved == pytest.approx(8.0 / 1.1 ** 2)
+    n = 330.0 / 1.1 ** 2 + 60
+    assert split_model_difference(cost, chosen, {}) == pytest.approx(90.0 / 1.1 ** 2 - 12 * np.log(n))
+    assert split_model_difference(lambda b: (np.inf, np.nan, 0), chosen, {}) is None
+    # a competing attribution the BIC puts 14 worse but the split model within 10: ambiguous
+    a = Attribution("moved", "02", "03", {"03": (2400.0, 4900.0)}, 214.0, 14.0)
+    check = AttributionCheck("02", a, None, [], AMBIGUOUS_BIC, [a])
+    check.update()
+    assert not check.ambiguous
+    a.delta_split = moved
+    check.update()
+    assert check.ambiguous and check.plausible == [a] and "split model +6.6" in check.sentence()
+    # a richer alternative is not judged by it
+    r = Attribution("shared", "02", "03", {"02": (2400.0,), "03": (2400.0,)}, 214.0, 14.0, delta_split=-5.0)
+    assert not r.doubt
