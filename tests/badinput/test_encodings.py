@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import codecs
 import dataclasses
+import logging
 
 import numpy as np
 import pytest
@@ -175,9 +176,13 @@ def test_a_command_runs_on_marked_files_and_a_marked_config(small_block, tmp_pat
     R_TOML(root)
     encoded("r.toml", "utf-8-sig")(root)
     assert (root / "r.toml").read_bytes()[:3] == codecs.BOM_UTF8
-    assert main(["info", str(root)]) == 0
-    assert main(["rectify", str(root), "--config", str(root / "r.toml"), "--variant", "DG", "--strips", "02",
-                 "--no-progress"]) == 0
+    logging.getLogger().handlers.clear()  # main() configures logging for the stderr capsys gives this test
+    try:
+        assert main(["info", str(root)]) == 0
+        assert main(["rectify", str(root), "--config", str(root / "r.toml"), "--variant", "DG", "--strips", "02",
+                     "--no-progress"]) == 0
+    finally:
+        logging.getLogger().handlers.clear()  # no handler left on this test's stream for the next test
     assert "Traceback" not in capsys.readouterr().err
     with rasterio.open(next((root / "results").rglob("02*.tif"))) as src:
         assert src.res == (20.0, 20.0)  # the marked config's resolution
