@@ -49,7 +49,8 @@ def _alternative(a: dict | None) -> str:
             "dropped": "none on this strip", "shared": f"shared with strip {a.get('other')}",
             "breaks": f"a problem strip {a.get('strip')}"}.get(a.get("kind", ""), a.get("kind", ""))
     lines = "; ".join(f"{s}: {', '.join(f'{b:.0f}' for b in v) or '-'}" for s, v in (a.get("breaks") or {}).items())
-    return f"{kind} ({lines or 'no breaks'}): BIC {a['delta_bic']:+.1f}"
+    split = f", split model {a['delta_split']:+.1f}" if a.get("delta_split") is not None else ""
+    return f"{kind} ({lines or 'no breaks'}): BIC {a['delta_bic']:+.1f}{split}"
 
 
 def diagnosis_section(project_root, comparison: Comparison) -> html.Section:
@@ -85,9 +86,10 @@ def diagnosis_section(project_root, comparison: Comparison) -> html.Section:
                                          "ambiguous"], rows, table_id="attribution-table", text_columns=(0, 1, 2),
                                         wide_columns=(1, 2)))
             sec.parts.append(html.paragraph(
-                "A competing attribution (the drift on another strip, merged from two, or none) within a BIC of "
-                f"{attribution[0].get('threshold', 10):g}, or a richer one (the drift shared with another strip) "
-                "that fits better, makes the attribution ambiguous (docs/adjustment.md, \"Attribution\")."))
+                "A competing attribution (the drift on another strip, merged from two, or none) within "
+                f"{attribution[0].get('threshold', 10):g} of the chosen one by the BIC or by the split model's own "
+                "criterion, or a richer one (the drift shared with another strip) that fits better, makes the "
+                "attribution ambiguous (docs/adjustment.md, \"Attribution\")."))
             if d.get("ambiguous"):
                 sec.parts.append(html.paragraph(
                     "The attribution is ambiguous: the data explain the drift nearly as well on another strip (or "

@@ -179,9 +179,14 @@ def test_html_is_self_contained(compared_small):
     assert "http://" not in text and "https://" not in text and "<script" not in text
     assert text.count("data:image/png;base64,") == files.figures
     assert 'id="true-error-table"' in text and 'id="accounting-table"' in text
-    # the diagnosis: the proposed breaks, the misclosure plot, the cross-validation and the correlated pairs
-    for part in ('id="breaks-table"', 'id="fig-diagnosis"', 'id="crossvalidation-table"', 'id="correlations-table"'):
+    # the diagnosis: the proposed breaks, the misclosure plot, the attribution, the cross-validation and the
+    # correlated pairs
+    for part in ('id="breaks-table"', 'id="fig-diagnosis"', 'id="attribution-table"', 'id="crossvalidation-table"',
+                 'id="correlations-table"'):
         assert part in text, part
+    # the recommendation with its margin in each evidence and the check points' independent measure
+    assert f"Recommended: {c.recommended} (" in text and "margin: " in text and "in cross-validation" in text
+    assert "measure" in text and "check-point rms px" in text
     for v in c.variants:
         assert f"<h3>{v.name}</h3>" in text
 
