@@ -69,7 +69,8 @@ class HelpFormatter(argparse.HelpFormatter):
         target = getattr(action, "option", None)
         if target is None or text == argparse.SUPPRESS:
             return text
-        extra = option_text(target, choices=not isinstance(action, argparse.BooleanOptionalAction)).replace("%", "%%")
+        extra = option_text(target, choices=not isinstance(action, argparse.BooleanOptionalAction),
+                            scale=getattr(action, "scale", 1.0)).replace("%", "%%")
         return f"{text} ({extra})" if text else extra
 
 
@@ -90,6 +91,10 @@ def _owner(target: str):
 def option_default(target: str):
     """The default of a settings field or a call's parameter (``module:Owner.name``).
 
+    ``Owner`` is a dataclass (its field's default), a dataclass instance (the field's value there: an
+    example the command starts from) or a function (its parameter's default; the allowed values of a
+    ``Literal[...]`` annotation).
+
     Returns
     -------
     tuple
@@ -97,14 +102,19 @@ def option_default(target: str):
     """
     import dataclasses
     import inspect
+    import typing
 
     owner, name = _owner(target)
-    if isinstance(owner, type) and dataclasses.is_dataclass(owner):
+    if dataclasses.is_dataclass(owner):
         from scangeo.io.schema import keys
 
-        key = next(k for k in keys(owner) if k.field == name)
-        return key.default, key.setting.default_doc or None, key.unit, tuple(key.setting.choices)
-    return inspect.signature(owner).parameters[name].default, None, "", ()
+        cls = owner if isinstance(owner, type) else type(owner)
+        key = next(k for k in keys(cls) if k.field == name)
+        value = key.default if isinstance(owner, type) else getattr(owner, name)
+        return value, key.setting.default_doc or None, key.unit, tuple(key.setting.choices)
+    hint = typing.get_type_hints(owner).get(name)
+    allowed = typing.get_args(hint) if typing.get_origin(hint) is typing.Literal else ()
+    return inspect.signature(owner).parameters[name].default, None, "", allowed
 
 
 def _words(value) -> str:
@@ -117,9 +127,13 @@ def _words(value) -> str:
     return "none" if value is None else str(value)
 
 
-def option_text(target: str, choices: bool = True) -> str:
-    """``default: 0.05 px`` (and ``one of: ...``) of a flag bound to ``target`` (:class:`HelpFormatter`)."""
+def option_text(target: str, choices: bool = True, scale: float = 1.0) -> str:
+    """``default: 0.05 px`` (and ``one of: ...``) of a flag bound to ``target`` (:class:`HelpFormatter`);
+    ``scale``: the library's value is the flag's times ``scale`` (an angle in degrees on the command line,
+    radians in the library: ``pi / 180``)."""
     value, words, unit, allowed = option_default(target)
+    if scale != 1.0:
+        value = _scaled(value, 1.0 / scale)
     unit = {"line": "lines", "cell": "cells"}.get(unit, unit)
     text = "default: " + (words or _words(value)) + (f" {unit}" if unit and not words and value is not None else "")
     if allowed and choices:
@@ -127,29 +141,40 @@ def option_text(target: str, choices: bool = True) -> str:
     return text
 
 
-def option_argument(parser: argparse.ArgumentParser, *flags: str, option: str, **kwargs) -> argparse.Action:
+def _scaled(value, factor: float):
+    """A number, or every number of a tuple, times ``factor`` (None stays None)."""
+    if isinstance(value, (tuple, list)):
+        return tuple(_scaled(v, factor) for v in value)
+    return None if value is None else value * factor
+
+
+def option_argument(parser: argparse.ArgumentParser, *flags: str, option: str, scale: float = 1.0,
+                    **kwargs) -> argparse.Action:
     """A flag that sets a settings field or a call's parameter ``option`` (``module:Owner.name``).
 
     Its default is None (not given: the settings file's value or the library's default applies), and
-    ``--help`` shows the library's default and choices (:class:`HelpFormatter`). Returns the action.
+    ``--help`` shows the library's default and choices (:class:`HelpFormatter`). ``scale``: the
+    library's value is the flag's times ``scale`` (degrees on the command line, radians in the library:
+    ``pi / 180``); :func:`given` converts. Returns the action.
     """
     action = parser.add_argument(*flags, default=None, **kwargs)
     action.option = option  # type: ignore[attr-defined]
+    action.scale = scale  # type: ignore[attr-defined]
     bound = dict(parser.get_default("option_flags") or {})
-    bound[action.dest] = (option, max(action.option_strings, key=len))
+    bound[action.dest] = (option, max(action.option_strings, key=len), scale)
     parser.set_defaults(option_flags=bound)
     return action
 
 
 def given(args: argparse.Namespace, owner: str) -> dict[str, tuple[str, object]]:
-    """The flags given on the command line that set a field of the class named ``owner``:
-    field -> (flag, value)."""
+    """The flags given on the command line that set a field of the class (or instance) named ``owner``:
+    field -> (flag, value in the library's unit)."""
     out = {}
-    for dest, (target, flag) in (getattr(args, "option_flags", None) or {}).items():
+    for dest, (target, flag, scale) in (getattr(args, "option_flags", None) or {}).items():
         cls, _, name = target.rpartition(".")
         value = getattr(args, dest, None)
         if cls.rpartition(":")[2] == owner and value is not None:
-            out[name] = (flag, value)
+            out[name] = (flag, value if scale == 1.0 else _scaled(value, scale))
     return out
 
 
@@ -159,19 +184,21 @@ def passed(args: argparse.Namespace, *names: str) -> dict[str, Any]:
     return {name: getattr(args, name) for name in names if getattr(args, name, None) is not None}
 
 
-def with_flags(options, args: argparse.Namespace):
+def with_flags(options, args: argparse.Namespace, owner: str | None = None):
     """``options`` (a settings dataclass) with the fields the command-line flags give; an error names
-    the flag (``--max-error 0: expected a number > 0 (px), found 0``)."""
+    the flag (``--max-error 0: expected a number > 0 (px), found 0``). ``owner``: the name the flags are
+    bound to (:func:`option_argument`), when not the class's (an example instance's)."""
     import dataclasses
 
-    flags = given(args, type(options).__name__)
+    flags = given(args, owner or type(options).__name__)
     try:
         return dataclasses.replace(options, **{name: value for name, (flag, value) in flags.items()})
     except ScangeoError as exc:
         name = getattr(exc, "field", None)
         if name not in flags:
             raise
-        flag, value = flags[name]
+        flag = flags[name][0]
+        value = next(getattr(args, dest) for dest, bound in args.option_flags.items() if bound[1] == flag)
         raise type(exc)(f"{flag} {_words(value)}: {str(exc).split(': ', 1)[1]}") from None
 
 

@@ -1,21 +1,29 @@
 """``scangeo lidar``: the laser scanner's analysis tools: error model, calibration flights, budget,
 network design, real data.
 
-A thin shell over :mod:`scangeo.lidar`: parse options (degrees, and centimetres for the budget's
-sigmas, at this edge), call the library, print a table or JSON. The strip adjustment of a laser
-project is ``scangeo run PROJECT`` (stages patches, clean, compare, apply, report; docs/run.md).
+A thin shell over :mod:`scangeo.lidar`: parse options (lengths and their sigmas in metres, angles in
+degrees at this edge), call the library, print a table or JSON. A flag that sets a library option is
+bound to it (:func:`scangeo.cli.option_argument`): ``--help`` states the library's default. The strip
+adjustment of a laser project is ``scangeo run PROJECT`` (stages patches, clean, compare, apply,
+report; docs/run.md).
 """
 from __future__ import annotations
 
 import argparse
 import json
 import math
+import statistics
 
-import numpy as np
-
-from scangeo.errors import LidarError
+from scangeo.cli import option_argument, passed, with_flags
 
 DEG = math.pi / 180.0
+
+_GEOMETRY = "scangeo.lidar.laser_equation:FlightGeometry"
+_ERRORS = "scangeo.lidar.laser_equation:SystematicErrors"
+_EXAMPLE_GEOMETRY = "scangeo.lidar.calibration_flights:EXAMPLE_GEOMETRY"
+_EXAMPLE_ERRORS = "scangeo.lidar.calibration_flights:EXAMPLE_ERRORS"
+_SIGMAS = "scangeo.lidar.budget:BudgetSigmas"
+_LAYOUT = "scangeo.lidar.network:BlockLayout"
 
 
 def _floats(count: int):
@@ -37,6 +45,23 @@ def _print_json(obj: object) -> None:
     print(json.dumps(obj, indent=2))
 
 
+def _error_flags(p: argparse.ArgumentParser, owner: str) -> None:
+    """The flags of the systematic errors both ``errors`` and ``forward-reverse`` take (fields of
+    ``owner``: SystematicErrors, or the example flights' errors)."""
+    option_argument(p, "--range-error", type=float, metavar="M", option=f"{owner}.range_offset",
+                    help="range offset, m")
+    option_argument(p, "--scan-angle-error", type=float, metavar="DEG", option=f"{owner}.scan_angle_error",
+                    scale=DEG, help="error of the total scan angle, deg")
+    option_argument(p, "--mounting", type=_floats(3), metavar="DEG,DEG,DEG", option=f"{owner}.mounting",
+                    scale=DEG, help="mounting (boresight) error roll, pitch, heading, deg")
+    option_argument(p, "--imu", type=_floats(3), metavar="DEG,DEG,DEG", option=f"{owner}.imu", scale=DEG,
+                    help="IMU attitude error roll, pitch, heading, deg")
+    option_argument(p, "--lever-arm", type=_floats(3), metavar="M,M,M", option=f"{owner}.lever_arm",
+                    help="lever-arm error in the body frame (forward, right, down), m")
+    option_argument(p, "--gps", type=_floats(3), metavar="M,M,M", option=f"{owner}.gps",
+                    help="GPS position offset north, east, down, m")
+
+
 # --------------------------------------------------------------------------------------- errors
 def _add_errors(sub, common) -> None:
     p = sub.add_parser(
@@ -47,25 +72,18 @@ def _add_errors(sub, common) -> None:
         "scan line over a plane, and the apparent across-track tilt of a horizontal plane. "
         "Each error is the part of the true value the processing ignores (true = used + error).",
     )
-    p.add_argument("--height", type=float, required=True, help="flying height above ground, m")
-    p.add_argument("--scan-angle", type=float, required=True, help="total scan angle, deg")
-    p.add_argument("--heading", type=float, default=0.0, help="flight heading, deg (default 0)")
+    p.add_argument("--height", type=float, required=True, metavar="M", help="flying height above ground, m")
+    p.add_argument("--scan-angle", type=float, required=True, metavar="DEG", help="total scan angle, deg")
+    option_argument(p, "--heading", type=float, metavar="DEG", option=f"{_GEOMETRY}.heading", scale=DEG,
+                    help="flight heading, deg")
     p.add_argument("--slope", type=_floats(2), default=(0.0, 0.0), metavar="DEG,DEG",
-                   help="terrain slope along, across the flight direction, deg (default 0,0)")
-    p.add_argument("--range-error", type=float, default=0.0, metavar="M", help="range offset, m")
-    p.add_argument("--index-error", type=float, default=0.0, metavar="DEG", help="scan-angle index error, deg")
-    p.add_argument("--scan-angle-error", type=float, default=0.0, metavar="DEG",
-                   help="error of the total scan angle, deg")
+                   help="terrain slope along, across the flight direction, deg (default: level, 0,0)")
+    option_argument(p, "--index-error", type=float, metavar="DEG", option=f"{_ERRORS}.index_error", scale=DEG,
+                    help="scan-angle index error, deg")
     p.add_argument("--plane-tilt", type=_floats(2), default=(0.0, 0.0), metavar="DEG,DEG",
-                   help="scan-plane tilts: lean (about the across axis), skew (about the vertical), deg")
-    p.add_argument("--mounting", type=_floats(3), default=(0.0, 0.0, 0.0), metavar="DEG,DEG,DEG",
-                   help="mounting (boresight) error roll, pitch, heading, deg")
-    p.add_argument("--imu", type=_floats(3), default=(0.0, 0.0, 0.0), metavar="DEG,DEG,DEG",
-                   help="IMU attitude error roll, pitch, heading, deg")
-    p.add_argument("--lever-arm", type=_floats(3), default=(0.0, 0.0, 0.0), metavar="M,M,M",
-                   help="lever-arm error in the body frame (forward, right, down), m")
-    p.add_argument("--gps", type=_floats(3), default=(0.0, 0.0, 0.0), metavar="M,M,M",
-                   help="GPS position offset north, east, down, m")
+                   help="scan-plane tilts: lean (about the across axis), skew (about the vertical), deg "
+                        "(default: none, 0,0)")
+    _error_flags(p, _ERRORS)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run_errors)
 
@@ -75,17 +93,11 @@ def run_errors(args: argparse.Namespace) -> int:
     from scangeo.lidar.error_sources import error_budget_by_source
     from scangeo.lidar.laser_equation import FlightGeometry, SystematicErrors
 
-    geometry = FlightGeometry(
-        height=args.height, fov=args.scan_angle * DEG, heading=args.heading * DEG,
-        slope_along=math.tan(args.slope[0] * DEG), slope_across=math.tan(args.slope[1] * DEG),
-    )
-    errors = SystematicErrors(
-        range_offset=args.range_error, index_error=args.index_error * DEG,
-        scan_angle_error=args.scan_angle_error * DEG,
-        plane_lean=args.plane_tilt[0] * DEG, plane_skew=args.plane_tilt[1] * DEG,
-        mounting=tuple(v * DEG for v in args.mounting), imu=tuple(v * DEG for v in args.imu),
-        lever_arm=tuple(args.lever_arm), gps=tuple(args.gps),
-    )
+    geometry = with_flags(FlightGeometry(height=args.height, fov=args.scan_angle * DEG,
+                                         slope_along=math.tan(args.slope[0] * DEG),
+                                         slope_across=math.tan(args.slope[1] * DEG)), args)
+    errors = with_flags(SystematicErrors(plane_lean=args.plane_tilt[0] * DEG, plane_skew=args.plane_tilt[1] * DEG),
+                        args)
     table = error_budget_by_source(geometry, errors)
     sources = {name: line.as_dict() for name, line in table.items() if name != "total"}
     if args.json:
@@ -110,44 +122,49 @@ def run_errors(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------------------- budget
 def _add_budget(sub, common) -> None:
-    # here, not at the top: start-up cost (see scangeo.cli)
-    from scangeo.lidar.budget import BudgetSigmas
-
-    d = BudgetSigmas()
     p = sub.add_parser(
         "budget", parents=[common], help="height precision of the mean terrain height of an area",
         description="Error budget of an area's mean height: seasonal and daily variation (not reduced), "
         "local variation and point noise (by the number of points), short-wave strip errors (by the "
         "number of ~100 m strip pieces), long-wave strip errors (by the number of strips), strip offset "
-        "(by the factor alpha only). Sigmas in cm; defaults documented in docs/lidar.md.",
+        "(by the factor alpha only). Sigmas in m (assumed typical values by default: docs/lidar.md); the "
+        "contributions are printed in cm.",
     )
-    p.add_argument("--points", type=int, required=True, help="number of points in the area")
-    p.add_argument("--pieces", type=int, required=True, help="number of ~100 m strip pieces in the area")
-    p.add_argument("--n-strips", type=int, required=True, help="number of strips covering the area")
+    p.add_argument("--points", type=int, required=True, metavar="N", help="number of points in the area")
+    p.add_argument("--pieces", type=int, required=True, metavar="N", help="number of ~100 m strip pieces in the area")
+    p.add_argument("--strip-count", dest="n_strips", type=int, required=True, metavar="N",
+                   help="number of strips covering the area")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--alpha", type=float, default=None, help="offset reduction factor (default 1)")
+    option_argument(g, "--alpha", type=float, metavar="FACTOR", option="scangeo.lidar.budget:area_mean_budget.alpha",
+                    help="offset reduction factor, 1 without a strip adjustment")
     g.add_argument("--offset-covariance", metavar="FILE",
-                   help="covariance (m^2) of the offsets of the covering strips (.npy or text matrix)")
+                   help="covariance (m^2) of the offsets of the covering strips (.npy or text matrix); gives alpha")
     for name in ("seasonal", "daily", "local", "noise", "short", "long", "offset"):
-        p.add_argument(f"--sigma-{name}", type=float, default=getattr(d, name), metavar="CM",
-                       help=f"sigma of the {name} component, cm (default {getattr(d, name):g})")
+        option_argument(p, f"--sigma-{name}", type=float, metavar="M", option=f"{_SIGMAS}.{name}",
+                        help=f"sigma of the {name} component")
     p.add_argument("--scenarios", action="store_true",
                    help="also print the cost-benefit table of flight scenarios")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run_budget)
 
 
+def _in_cm(budget: dict) -> dict:
+    """A budget of the library (m) as the command prints it: ``total_cm`` and ``components`` in cm."""
+    out = {k: v for k, v in budget.items() if k not in ("total_m", "components")}
+    return {**out, "total_cm": 100.0 * budget["total_m"],
+            "components": {name: 100.0 * m for name, m in budget["components"].items()}}
+
+
 def run_budget(args: argparse.Namespace) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.lidar.budget import BudgetSigmas, alpha_from_covariance, area_mean_budget
 
-    sigmas = BudgetSigmas(**{n: getattr(args, f"sigma_{n}") for n in BudgetSigmas.__dataclass_fields__})
+    sigmas = with_flags(BudgetSigmas(), args)
+    alpha = passed(args, "alpha")
     if args.offset_covariance:
-        alpha = alpha_from_covariance(args.offset_covariance, sigmas.offset)
-    else:
-        alpha = 1.0 if args.alpha is None else args.alpha
-    result = area_mean_budget(args.points, args.pieces, args.n_strips, alpha, sigmas)
-    table = _scenario_table(sigmas) if args.scenarios else None
+        alpha = {"alpha": alpha_from_covariance(args.offset_covariance, sigmas.offset)}
+    result = _in_cm(area_mean_budget(args.points, args.pieces, args.n_strips, sigmas=sigmas, **alpha))
+    table = [_in_cm(row) for row in _scenario_table(sigmas)] if args.scenarios else None
     if args.json:
         out = {"total_cm": result["total_cm"], "components": result["components"]}
         if table is not None:
@@ -155,7 +172,7 @@ def run_budget(args: argparse.Namespace) -> int:
         _print_json(out)
         return 0
     print(f"mean height of an area: {args.points} points, {args.pieces} strip pieces, {args.n_strips} strips, "
-          f"alpha {alpha:.3f}")
+          f"alpha {result['alpha']:.3f}")
     for name, cm in result["components"].items():
         print(f"  {name:<9} {cm:7.3f} cm")
     print(f"  {'total':<9} {result['total_cm']:7.3f} cm")
@@ -171,13 +188,18 @@ def run_budget(args: argparse.Namespace) -> int:
 
 
 def _scenario_table(sigmas) -> list[dict]:
+    """The budgets (m) of the default flight scenarios, their alphas from the default network design."""
     # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.lidar.budget import default_scenarios, scenario_row
     from scangeo.lidar.network import BlockLayout, offset_precision
 
     layout = BlockLayout()
-    few = float(offset_precision(layout, layout.corner_controls())[: layout.n_strips].mean()) * 100 / sigmas.offset
-    many = float(offset_precision(layout, layout.ends_controls(4))[: layout.n_strips].mean()) * 100 / sigmas.offset
+
+    def alpha(controls) -> float:  # the mean adjusted offset sigma over the offset sigma before
+        mean = float(offset_precision(layout, controls)[: layout.n_strips].mean())
+        return mean / sigmas.offset if sigmas.offset > 0 else 0.0
+
+    few, many = alpha(layout.corner_controls()), alpha(layout.ends_controls(4))
     return [scenario_row(s, sigmas=sigmas) for s in default_scenarios(few, many)]
 
 
@@ -191,14 +213,17 @@ def _add_network(sub, common) -> None:
         "without and with cross strips, with 4 corner control areas or control at both ends of every "
         "4th strip.",
     )
-    p.add_argument("--n-strips", type=int, default=21, help="number of parallel strips (default 21)")
-    p.add_argument("--cross", type=int, default=4, help="cross strips (default 4)")
-    p.add_argument("--length", type=float, default=20000.0, help="strip length, m (default 20000)")
-    p.add_argument("--swath", type=float, default=1000.0, help="swath width, m (default 1000)")
-    p.add_argument("--overlap", type=float, default=0.3, help="side overlap fraction (default 0.3)")
-    p.add_argument("--sigma-tie", type=float, default=0.03, metavar="M", help="tie-area sigma, m (default 0.03)")
-    p.add_argument("--sigma-control", type=float, default=0.03, metavar="M",
-                   help="control-area sigma, m (default 0.03)")
+    option_argument(p, "--strip-count", dest="n_strips", type=int, metavar="N", option=f"{_LAYOUT}.n_strips",
+                    help="number of parallel strips")
+    option_argument(p, "--cross", dest="n_cross", type=int, metavar="N", option=f"{_LAYOUT}.n_cross",
+                    help="number of cross strips")
+    option_argument(p, "--length", type=float, metavar="M", option=f"{_LAYOUT}.length", help="strip length")
+    option_argument(p, "--swath", type=float, metavar="M", option=f"{_LAYOUT}.swath", help="swath width")
+    option_argument(p, "--overlap", type=float, metavar="FRACTION", option=f"{_LAYOUT}.overlap",
+                    help="side overlap fraction")
+    option_argument(p, "--sigma-tie", type=float, metavar="M", option=f"{_LAYOUT}.sigma_tie", help="tie-area sigma")
+    option_argument(p, "--sigma-control", type=float, metavar="M", option=f"{_LAYOUT}.sigma_control",
+                    help="control-area sigma")
     p.add_argument("--plot", metavar="PNG", help="write the design plot")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run_network)
@@ -208,22 +233,14 @@ def run_network(args: argparse.Namespace) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.lidar.network import BlockLayout, design_scenarios, plot_design
 
-    layout = BlockLayout(
-        n_strips=args.n_strips,
-        n_cross=args.cross,
-        length=args.length,
-        swath=args.swath,
-        overlap=args.overlap,
-        sigma_tie=args.sigma_tie,
-        sigma_control=args.sigma_control,
-    )
+    layout = with_flags(BlockLayout(), args)
     scenarios = plot_design(layout, args.plot) if args.plot else design_scenarios(layout)
     table = {name: [round(100 * float(v), 3) for v in sig] for name, sig in scenarios.items()}
     if args.json:
         _print_json({"offset_sigma_cm": table})
         return 0
     for name, sig in table.items():
-        print(f"{name}: mean {np.mean(sig):.2f} cm, max {np.max(sig):.2f} cm")
+        print(f"{name}: mean {statistics.fmean(sig):.2f} cm, max {max(sig):.2f} cm")
         print("   " + " ".join(f"{v:.2f}" for v in sig))
     return 0
 
@@ -238,15 +255,13 @@ def _add_check(sub, common) -> None:
         "leeward config.toml, the return's scan angle and its range, and report the rms of recomputed minus "
         "given coordinates, before and after fitting small boresight rotations and a scan-angle scale.",
     )
-    p.add_argument("--sbet", required=True, help="Applanix SBET (.out)")
-    p.add_argument("--las", required=True, help="LAS/LAZ returns with GPS time and scan angle")
-    p.add_argument("--config", required=True, help="leeward config.toml (boresight rad, lever arm m, utm_zone)")
-    p.add_argument(
-        "--heading",
-        choices=("platform", "true"),
-        default="platform",
-        help="platform: SBET heading as is (default); true: heading minus wander angle",
-    )
+    p.add_argument("--sbet", required=True, metavar="FILE", help="Applanix SBET (.out)")
+    p.add_argument("--las", required=True, metavar="FILE", help="LAS/LAZ returns with GPS time and scan angle")
+    p.add_argument("--system", required=True, metavar="FILE",
+                   help="the scanner system: a leeward config.toml (boresight rad, lever arm m, utm_zone)")
+    option_argument(p, "--sbet-heading", dest="heading", metavar="HEADING",
+                    option="scangeo.lidar.real_data:consistency.heading",
+                    help="platform: the SBET's heading field as it is; true: that minus the wander angle")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run_check)
 
@@ -255,7 +270,7 @@ def run_check(args: argparse.Namespace) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
     from scangeo.lidar.real_data import consistency
 
-    r = consistency(args.sbet, args.las, args.config, args.heading)
+    r = consistency(args.sbet, args.las, args.system, **passed(args, "heading"))
     if args.json:
         _print_json(r)
         return 0
@@ -288,47 +303,24 @@ def _add_forward_reverse(sub, common) -> None:
         "flown north half a swath east (C) with the given errors, and recover roll and pitch from the A-B "
         "differences at nadir and heading from the A-C difference.",
     )
-    p.add_argument("--height", type=float, default=1500.0, help="flying height, m (default 1500)")
-    p.add_argument("--scan-angle", type=float, default=40.0, help="total scan angle, deg (default 40)")
-    p.add_argument(
-        "--imu",
-        type=_floats(3),
-        default=(0.03, -0.02, 0.05),
-        metavar="DEG,DEG,DEG",
-        help="IMU error roll, pitch, heading, deg (default 0.03,-0.02,0.05)",
-    )
-    p.add_argument("--mounting", type=_floats(3), default=(0.0, 0.0, 0.0), metavar="DEG,DEG,DEG")
-    p.add_argument("--range-error", type=float, default=0.2, metavar="M", help="default 0.2")
-    p.add_argument("--scan-angle-error", type=float, default=0.05, metavar="DEG", help="default 0.05")
-    p.add_argument(
-        "--gps",
-        type=_floats(3),
-        default=(0.3, -0.2, 0.4),
-        metavar="M,M,M",
-        help="north, east, down, m (default 0.3,-0.2,0.4)",
-    )
-    p.add_argument("--lever-arm", type=_floats(3), default=(0.0, 0.0, 0.1), metavar="M,M,M", help="default 0,0,0.1")
+    option_argument(p, "--height", type=float, metavar="M", option=f"{_EXAMPLE_GEOMETRY}.height",
+                    help="flying height above ground, m")
+    option_argument(p, "--scan-angle", type=float, metavar="DEG", option=f"{_EXAMPLE_GEOMETRY}.fov",
+                    scale=DEG, help="total scan angle, deg")
+    _error_flags(p, _EXAMPLE_ERRORS)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run_forward_reverse)
 
 
 def run_forward_reverse(args: argparse.Namespace) -> int:
     # here, not at the top: start-up cost (see scangeo.cli)
-    from scangeo.lidar.calibration_flights import recover_attitude
-    from scangeo.lidar.laser_equation import FlightGeometry, SystematicErrors
+    from scangeo.lidar.calibration_flights import EXAMPLE_ERRORS, EXAMPLE_GEOMETRY, recover_attitude
 
-    geometry = FlightGeometry(height=args.height, fov=args.scan_angle * DEG, pulses=2001)
-    errors = SystematicErrors(
-        imu=tuple(v * DEG for v in args.imu),
-        mounting=tuple(v * DEG for v in args.mounting),
-        range_offset=args.range_error,
-        scan_angle_error=args.scan_angle_error * DEG,
-        gps=tuple(args.gps),
-        lever_arm=tuple(args.lever_arm),
-    )
+    geometry = with_flags(EXAMPLE_GEOMETRY, args, "EXAMPLE_GEOMETRY")
+    errors = with_flags(EXAMPLE_ERRORS, args, "EXAMPLE_ERRORS")
     r = recover_attitude(geometry, errors)
     got = {"roll": r.roll / DEG, "pitch": r.pitch / DEG, "heading": r.heading / DEG}
-    injected = dict(zip(("roll", "pitch", "heading"), (a + b for a, b in zip(args.imu, args.mounting))))
+    injected = {k: math.degrees(a + b) for k, a, b in zip(("roll", "pitch", "heading"), errors.imu, errors.mounting)}
     if args.json:
         _print_json(
             {
@@ -358,4 +350,4 @@ def add_parser(subparsers, common) -> None:
     parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
 
 
-__all__ = ["add_parser", "LidarError"]
+__all__ = ["add_parser"]

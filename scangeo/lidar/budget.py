@@ -1,6 +1,6 @@
 """Height precision of the mean terrain height of an area, from an error budget.
 
-Each error component averages down differently (all in cm, 1 sigma):
+Each error component averages down differently (all in metres, 1 sigma):
 
 =============  ==========================  ==============================
 component      reduced by                  contribution
@@ -10,7 +10,7 @@ daily          nothing                     sigma_daily
 local          number of points N          sigma_local / sqrt(N)
 noise          number of points N          sigma_noise / sqrt(N)
 short          number of ~100 m pieces     sigma_short / sqrt(pieces)
-long           number of strips            sigma_long / sqrt(strips)
+long           number of strips            sigma_long / sqrt(n_strips)
 offset         only the factor alpha       alpha * sigma_offset
 =============  ==========================  ==============================
 
@@ -22,37 +22,77 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
-from scangeo.errors import InputFileError, LidarError
+from scangeo.errors import ArgumentError, InputFileError, OptionsError
+from scangeo.io.schema import check, setting
 from scangeo.textfile import read_text
 
 
 @dataclass(frozen=True)
 class BudgetSigmas:
-    """Standard deviations of the components, cm. Defaults: see docs/lidar.md (assumed values)."""
+    """Standard deviations of the budget's components (m, 1 sigma). The defaults are assumed typical
+    values, not measured ones (docs/lidar.md, "Height precision of an area's mean height").
 
-    seasonal: float = 2.0
-    daily: float = 1.0
-    local: float = 5.0
-    noise: float = 3.0
-    short: float = 3.0
-    long: float = 3.0
-    offset: float = 5.0
+    Parameters
+    ----------
+    seasonal, daily, local, noise, short, long, offset : float
+        One component's standard deviation, m (>= 0; 0 leaves the component out).
 
-
-def area_mean_budget(points: int, pieces: int, strips: int, alpha: float = 1.0,
-                     sigmas: BudgetSigmas = BudgetSigmas()) -> dict:
-    """Contributions (cm) of every component to the mean height of an area, and the total.
-
-    Returns ``{"total_cm": float, "components": {name: cm}, "alpha": alpha}``.
+    Raises
+    ------
+    OptionsError
+        ``BudgetSigmas.noise: expected a number >= 0 (m), found -0.01``.
     """
-    for name, value in (("points", points), ("pieces", pieces), ("strips", strips)):
+
+    schema_error: ClassVar[type[Exception]] = OptionsError
+
+    seasonal: float = setting(0.02, unit="m", ge=0, doc="vegetation/soil/snow state between seasons on open ground")
+    daily: float = setting(0.01, unit="m", ge=0, doc="day-to-day change (moisture, grass)")
+    local: float = setting(0.05, unit="m", ge=0, doc="micro-relief of open terrain within the area")
+    noise: float = setting(0.03, unit="m", ge=0, doc="ranging noise per return (current ALS systems: 0.02-0.05 m)")
+    short: float = setting(0.03, unit="m", ge=0, doc="short-wave (~100 m) strip errors: IMU noise, GPS high frequency")
+    long: float = setting(0.03, unit="m", ge=0, doc="long-wave strip errors: GPS drift within a strip")
+    offset: float = setting(0.05, unit="m", ge=0, doc="strip height offset before a strip adjustment")
+
+    def __post_init__(self) -> None:
+        check(self)
+
+
+def area_mean_budget(points: int, pieces: int, n_strips: int, alpha: float = 1.0,
+                     sigmas: BudgetSigmas = BudgetSigmas()) -> dict:
+    """Contributions of every component to the mean height of an area, and the total.
+
+    Parameters
+    ----------
+    points : int
+        Number of points in the area (>= 1).
+    pieces : int
+        Number of ~100 m strip pieces in the area (>= 1).
+    n_strips : int
+        Number of strips covering the area (>= 1).
+    alpha : float
+        Offset reduction factor (>= 0; 1: no strip adjustment).
+    sigmas : BudgetSigmas
+        The components' standard deviations, m.
+
+    Returns
+    -------
+    dict
+        ``{"total_m": float, "components": {name: m}, "alpha": alpha}`` (1 sigma, m).
+
+    Raises
+    ------
+    ArgumentError
+        An argument out of range (``n_strips=0: expected 1 or more``).
+    """
+    for name, value in (("points", points), ("pieces", pieces), ("n_strips", n_strips)):
         if value < 1:
-            raise LidarError(f"--{name} {value}: expected at least 1")
+            raise ArgumentError(f"{{{name}}}: expected 1 or more", **{name: value})
     if not alpha >= 0:
-        raise LidarError(f"--alpha {alpha}: expected >= 0")
+        raise ArgumentError("{alpha}: expected a number >= 0", alpha=alpha)
     s = sigmas
     components = {
         "seasonal": s.seasonal,
@@ -60,16 +100,37 @@ def area_mean_budget(points: int, pieces: int, strips: int, alpha: float = 1.0,
         "local": s.local / np.sqrt(points),
         "noise": s.noise / np.sqrt(points),
         "short": s.short / np.sqrt(pieces),
-        "long": s.long / np.sqrt(strips),
+        "long": s.long / np.sqrt(n_strips),
         "offset": alpha * s.offset,
     }
     total = float(np.sqrt(sum(v * v for v in components.values())))
-    return {"total_cm": total, "components": {k: float(v) for k, v in components.items()}, "alpha": float(alpha)}
+    return {"total_m": total, "components": {k: float(v) for k, v in components.items()}, "alpha": float(alpha)}
 
 
-def alpha_from_covariance(path: str | Path, sigma_offset_cm: float) -> float:
-    """alpha from an offset covariance matrix file (m^2; ``.npy`` or whitespace-separated text)."""
-    path = Path(path)
+def alpha_from_covariance(offset_covariance: str | Path, sigma_offset: float) -> float:
+    """alpha from an offset covariance matrix file.
+
+    Parameters
+    ----------
+    offset_covariance : str or Path
+        The covariance (m^2) of the offsets of the strips covering the area: ``.npy`` or a
+        whitespace-separated text matrix.
+    sigma_offset : float
+        The strip offset's standard deviation before the adjustment, m (> 0).
+
+    Returns
+    -------
+    float
+        ``sqrt(1^T C 1) / n / sigma_offset``: the mean offset's standard deviation over ``sigma_offset``.
+
+    Raises
+    ------
+    InputFileError
+        The file cannot be read or is not a symmetric square matrix.
+    ArgumentError
+        ``sigma_offset`` not > 0.
+    """
+    path = Path(offset_covariance)
     lines = None if path.suffix == ".npy" else read_text(path, "a covariance matrix (text)").splitlines()
     try:
         C = np.load(path) if lines is None else np.loadtxt(lines, ndmin=2)
@@ -80,11 +141,12 @@ def alpha_from_covariance(path: str | Path, sigma_offset_cm: float) -> float:
         raise InputFileError(
             f"{path}: a {C.shape[0]}x{C.shape[1]} matrix, expected a symmetric square covariance (m^2)"
         )
-    if sigma_offset_cm <= 0:
-        raise LidarError(f"--sigma-offset {sigma_offset_cm}: expected > 0 with --offset-covariance")
+    if not sigma_offset > 0:
+        raise ArgumentError("{sigma_offset}: expected a number > 0 (alpha is the mean offset's sigma over it)",
+                            sigma_offset=sigma_offset)
     n = C.shape[0]
-    sigma_mean_cm = 100.0 * np.sqrt(max(C.sum(), 0.0)) / n
-    return float(sigma_mean_cm / sigma_offset_cm)
+    sigma_mean = np.sqrt(max(C.sum(), 0.0)) / n
+    return float(sigma_mean / sigma_offset)
 
 
 @dataclass(frozen=True)
@@ -102,13 +164,20 @@ class FlightScenario:
 def scenario_row(
     scenario: FlightScenario, area_m2: float = 100.0 * 100.0, sigmas: BudgetSigmas = BudgetSigmas()
 ) -> dict:
-    """Budget of one scenario: area of ``area_m2`` (default a 100 m x 100 m block cell)."""
+    """Budget of one scenario over an area of ``area_m2`` (default a 100 m x 100 m block cell).
+
+    Returns
+    -------
+    dict
+        The scenario's fields, its ``points``, ``pieces`` and ``n_strips``, and
+        :func:`area_mean_budget`'s ``total_m``, ``components`` (m) and ``alpha``.
+    """
     side = np.sqrt(area_m2)
     points = max(int(scenario.density * area_m2), 1)
     pieces = scenario.flights * max(int(np.ceil(side / 100.0)), 1)
-    strips = scenario.flights
-    out = area_mean_budget(points, pieces, strips, scenario.alpha, sigmas)
-    return {**asdict(scenario), "points": points, "pieces": pieces, "strips": strips, **out}
+    n_strips = scenario.flights
+    out = area_mean_budget(points, pieces, n_strips, scenario.alpha, sigmas)
+    return {**asdict(scenario), "points": points, "pieces": pieces, "n_strips": n_strips, **out}
 
 
 def default_scenarios(alpha_few: float, alpha_many: float) -> list[FlightScenario]:

@@ -33,6 +33,18 @@ import numpy as np
 from scangeo.errors import LidarError
 from scangeo.lidar.laser_equation import FlightGeometry, SystematicErrors, error_vectors
 
+#: The example flights of ``scangeo lidar forward-reverse`` (docs/lidar.md, section 2): 1500 m above
+#: ground, 40 deg total scan angle, 2001 pulses per line.
+EXAMPLE_GEOMETRY = FlightGeometry(height=1500.0, fov=float(np.radians(40.0)), pulses=2001)
+
+#: The errors of the example flights: an IMU attitude error (0.03, -0.02, 0.05 deg) to recover, and
+#: errors that cancel in the forward/reverse pair: a 0.2 m range offset, a 0.05 deg scan-angle error,
+#: a GPS offset (0.3, -0.2, 0.4 m north, east, down) and a 0.1 m vertical lever-arm error.
+EXAMPLE_ERRORS = SystematicErrors(
+    imu=tuple(float(v) for v in np.radians((0.03, -0.02, 0.05))),  # type: ignore[arg-type]  # three values
+    range_offset=0.2, scan_angle_error=float(np.radians(0.05)), gps=(0.3, -0.2, 0.4), lever_arm=(0.0, 0.0, 0.1),
+)
+
 
 def world_errors(
     geometry: FlightGeometry, errors: SystematicErrors, line_east: float = 0.0

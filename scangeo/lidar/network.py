@@ -12,26 +12,54 @@ reliability that the image block's planning, :mod:`scangeo.adjustment.planning`,
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from scangeo.atomic import atomic_path
-from scangeo.errors import LidarError
+from scangeo.errors import OptionsError
+from scangeo.io.schema import check, setting
 from scangeo.lidar.strip_adjustment import ControlArea, Strip, TieArea, design_reliability, offset_covariance
 
 
 @dataclass(frozen=True)
 class BlockLayout:
-    """A regular block (metres). Control positions are ``(x, y)`` pairs."""
+    """A regular block (metres). Control positions are ``(x, y)`` pairs.
 
-    n_strips: int = 21
-    n_cross: int = 4
-    length: float = 20000.0
-    swath: float = 1000.0
-    overlap: float = 0.3
-    tie_spacing: float = 1000.0
-    sigma_tie: float = 0.03
-    sigma_control: float = 0.03
+    Parameters
+    ----------
+    n_strips : int
+        Number of parallel (north-south) strips, >= 1.
+    n_cross : int
+        Number of east-west cross strips, >= 0.
+    length, swath : float
+        Strip length and swath width, m.
+    overlap : float
+        Side overlap of neighbouring strips, a fraction in [0, 1).
+    tie_spacing : float
+        Spacing of the tie areas along an overlap, m.
+    sigma_tie, sigma_control : float
+        Standard deviation of a tie area's height difference and of a control area's height, m.
+
+    Raises
+    ------
+    OptionsError
+        A field out of range (``BlockLayout.sigma_tie: expected a number > 0 (m), found -0.03``).
+    """
+
+    schema_error: ClassVar[type[Exception]] = OptionsError
+
+    n_strips: int = setting(21, unit="1", ge=1, doc="parallel strips")
+    n_cross: int = setting(4, unit="1", ge=0, doc="cross strips")
+    length: float = setting(20000.0, unit="m", gt=0, doc="strip length")
+    swath: float = setting(1000.0, unit="m", gt=0, doc="swath width")
+    overlap: float = setting(0.3, unit="1", ge=0, lt=1, doc="side overlap fraction")
+    tie_spacing: float = setting(1000.0, unit="m", gt=0, doc="tie areas' spacing along an overlap")
+    sigma_tie: float = setting(0.03, unit="m", gt=0, doc="tie area sigma")
+    sigma_control: float = setting(0.03, unit="m", gt=0, doc="control area sigma")
+
+    def __post_init__(self) -> None:
+        check(self)
 
     @property
     def spacing(self) -> float:
@@ -54,11 +82,8 @@ class BlockLayout:
 def build_block(
     layout: BlockLayout, controls: list[tuple[float, float]]
 ) -> tuple[list[Strip], list[TieArea], list[ControlArea]]:
-    """Strips, tie areas and control areas (observations zero) of a regular block."""
-    if layout.n_strips < 1 or not 0.0 <= layout.overlap < 1.0:
-        raise LidarError(
-            f"block layout: {layout.n_strips} strips, overlap {layout.overlap} (expected >= 1 strip, 0 <= overlap < 1)"
-        )
+    """Strips, tie areas and control areas (observations zero) of a regular block (its layout checked
+    itself: :class:`BlockLayout`)."""
     strips = [Strip(f"L{i + 1}", i * layout.spacing, layout.length / 2, 0.0) for i in range(layout.n_strips)]
     cross_y = (np.arange(layout.n_cross) + 0.5) * layout.length / max(layout.n_cross, 1)
     strips += [Strip(f"Q{k + 1}", layout.width / 2, float(y), np.pi / 2) for k, y in enumerate(cross_y)]

@@ -19,12 +19,13 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal, get_args
 
 import numpy as np
 import pyproj
 from scipy.optimize import least_squares
 
-from scangeo.errors import InputFileError
+from scangeo.errors import ArgumentError, InputFileError
 from scangeo.frames import R_ecef_ned, geodetic_to_ecef
 from scangeo.io.toml_config import load_toml
 from scangeo.lidar.las_header import check_las_file
@@ -33,6 +34,15 @@ from scangeo.rotation import rph_to_matrix, unwrap_heading
 from scangeo.trajectory.readers import read_sbet_records
 
 log = logging.getLogger(__name__)
+
+#: Which heading the SBET's heading field gives: ``platform`` (the field as it is, as leeward and PDAL
+#: read it) or ``true`` (platform heading minus the wander angle).
+Heading = Literal["platform", "true"]
+
+
+def _check_heading(heading: str) -> None:
+    if heading not in get_args(Heading):
+        raise ArgumentError("{heading}: expected one of " + ", ".join(get_args(Heading)), heading=heading)
 
 @dataclass(frozen=True)
 class LeewardConfig:
@@ -70,12 +80,13 @@ class Returns:
     lon: np.ndarray
 
 
-def load_returns(sbet: str | Path, las: str | Path, utm_zone: int, heading: str = "platform") -> Returns:
+def load_returns(sbet: str | Path, las: str | Path, utm_zone: int, heading: Heading = "platform") -> Returns:
     """Read the SBET and the LAS and interpolate the trajectory at each return's GPS time.
 
     ``heading``: ``"platform"`` uses the SBET heading field as the true heading (leeward, PDAL);
     ``"true"`` uses platform heading minus wander angle.
     """
+    _check_heading(heading)
     import laspy  # start-up cost: laspy and its LAZ backend load when a LAS file is read
 
     nav = read_sbet_records(sbet)
@@ -128,14 +139,36 @@ def _rms(d: np.ndarray) -> list[float]:
     return [float(v) for v in np.sqrt(np.mean(d**2, axis=0))]
 
 
-def consistency(sbet: str | Path, las: str | Path, config_path: str | Path, heading: str = "platform") -> dict:
+def consistency(sbet: str | Path, las: str | Path, system: str | Path, heading: Heading = "platform") -> dict:
     """Recompute every return and report how consistent the sample is.
 
-    Returns a JSON-ready dict: number of returns, mean range (m), rms of recomputed minus given in
-    east/north/up (m) with the configured boresight, the rms to expect from the whole-degree scan
-    angles alone, and the fitted corrections (deg) with the rms after the fit.
+    Parameters
+    ----------
+    sbet : str or Path
+        The Applanix SBET trajectory (.out).
+    las : str or Path
+        LAS/LAZ returns with GPS time and scan angle.
+    system : str or Path
+        The scanner system's leeward config.toml (boresight in radians, lever arm in metres, UTM zone).
+    heading : {"platform", "true"}
+        ``platform``: the SBET's heading field as the heading; ``true``: that minus the wander angle.
+
+    Returns
+    -------
+    dict
+        JSON-ready: number of returns, mean range (m), rms of recomputed minus given in east/north/up
+        (m) with the configured boresight, the rms to expect from the whole-degree scan angles alone,
+        and the fitted corrections (deg) with the rms after the fit.
+
+    Raises
+    ------
+    InputFileError
+        A file that cannot be read.
+    ArgumentError
+        ``heading`` not one of the two.
     """
-    config = read_leeward_config(config_path)
+    _check_heading(heading)
+    config = read_leeward_config(system)
     r = load_returns(sbet, las, config.utm_zone, heading)
     x0 = np.zeros(5)
 

@@ -189,7 +189,7 @@ def _las_without_gps_time(root):
     las.write(str(root / "returns.las"))
 
 
-LIDAR_ARGS = ("--sbet", "{p}/nav.out", "--las", "{p}/returns.las", "--config", "{p}/config.toml")
+LIDAR_ARGS = ("--sbet", "{p}/nav.out", "--las", "{p}/returns.las", "--system", "{p}/config.toml")
 LIDAR = [
     case("las-no-gps-time", _las_without_gps_time, "returns.las", "GPS time"),
     case("las-truncated", truncate("returns.las", 0.6), "returns.las"),
@@ -210,6 +210,42 @@ LIDAR = [
 
 @pytest.mark.parametrize("bad", LIDAR)
 def test_lidar_check_returns(bad, small_block, tmp_path, capsys):
+    run_bad(["lidar", "check-returns", *LIDAR_ARGS], bad, small_block, tmp_path, capsys, setup=_lidar_files)
+
+
+# the laser analysis tools' options: sigmas and lengths in metres, an error names the flag
+BUDGET_ARGS = ("budget", "--points", "10", "--pieces", "1")
+LIDAR_OPTIONS = [
+    case("lidar-budget-negative-sigma", lambda r: None, "--sigma-noise -0.01: expected a number >= 0 (m)",
+         args=(*BUDGET_ARGS, "--strip-count", "1", "--sigma-noise", "-0.01")),
+    case("lidar-budget-no-strips", lambda r: None, "--strip-count 0: expected 1 or more",
+         args=(*BUDGET_ARGS, "--strip-count", "0")),
+    case("lidar-budget-negative-alpha", lambda r: None, "--alpha -0.5: expected a number >= 0",
+         args=(*BUDGET_ARGS, "--strip-count", "1", "--alpha", "-0.5")),
+    case("lidar-budget-covariance-not-square", write("cov.txt", "1 2 3\n4 5 6\n"), "cov.txt", "square",
+         args=(*BUDGET_ARGS, "--strip-count", "1", "--offset-covariance", "{p}/cov.txt")),
+    case("lidar-budget-covariance-no-offset-sigma", write("cov.txt", "1e-4 0\n0 1e-4\n"),
+         "--sigma-offset 0: expected a number > 0",
+         args=(*BUDGET_ARGS, "--strip-count", "1", "--offset-covariance", "{p}/cov.txt", "--sigma-offset", "0")),
+    case("lidar-network-negative-sigma", lambda r: None, "--sigma-tie -0.03: expected a number > 0 (m)",
+         args=("network", "--sigma-tie", "-0.03")),
+    case("lidar-network-overlap", lambda r: None, "--overlap 1: expected a number in [0, 1)",
+         args=("network", "--overlap", "1")),
+    case("lidar-network-no-strips", lambda r: None, "--strip-count 0: expected an integer >= 1",
+         args=("network", "--strip-count", "0")),
+    case("lidar-forward-reverse-scan-angle", lambda r: None, "total scan angle", "expected 0 < fov < 180",
+         args=("forward-reverse", "--scan-angle", "200")),
+]
+
+
+@pytest.mark.parametrize("bad", LIDAR_OPTIONS)
+def test_lidar_tools_options(bad, small_block, tmp_path, capsys):
+    run_bad(["lidar"], bad, small_block, tmp_path, capsys)
+
+
+def test_lidar_check_returns_heading(small_block, tmp_path, capsys):
+    bad = case("lidar-sbet-heading", lambda r: None, "--sbet-heading grid: expected one of platform, true",
+               args=("--sbet-heading", "grid")).values[0]
     run_bad(["lidar", "check-returns", *LIDAR_ARGS], bad, small_block, tmp_path, capsys, setup=_lidar_files)
 
 

@@ -18,9 +18,6 @@ from scangeo.rectify.options import LAYERS, RectifyOptions
 from scangeo.rectify.resample import RESAMPLING
 from tests.session_projects import copy_project
 
-#: Commands whose flags follow the conventions here; ``lidar``'s tools follow them as they are reworked.
-LASER = "lidar"
-
 
 def commands() -> dict[str, argparse.ArgumentParser]:
     """Every command's parser (sub-commands as ``lidar budget``)."""
@@ -37,16 +34,22 @@ def commands() -> dict[str, argparse.ArgumentParser]:
     return out
 
 
-def library_default(target: str) -> tuple[object, str]:
-    """The default of ``module:Owner.name`` read from the dataclass field or the call's signature, and how a
-    dataclass field's docs word a default its value does not say (``default_doc``)."""
+def library_default(target: str, scale: float = 1.0) -> tuple[object, str]:
+    """The default of ``module:Owner.name`` read from the dataclass field, the field of a dataclass instance (an
+    example a command starts from) or the call's signature, in the flag's unit (the library's value over
+    ``scale``), and how a dataclass field's docs word a default its value does not say (``default_doc``)."""
     module, _, rest = target.partition(":")
     owner_name, _, name = rest.rpartition(".")
     owner = getattr(importlib.import_module(module), owner_name)
     if dataclasses.is_dataclass(owner):
         field = {f.name: f for f in dataclasses.fields(owner)}[name]
-        return field.default, field.metadata["setting"].default_doc
-    return inspect.signature(owner).parameters[name].default, ""
+        value = field.default if isinstance(owner, type) else getattr(owner, name)
+        worded = field.metadata["setting"].default_doc if "setting" in field.metadata else ""
+    else:
+        value, worded = inspect.signature(owner).parameters[name].default, ""
+    if scale != 1.0:
+        value = tuple(v / scale for v in value) if isinstance(value, tuple) else value / scale
+    return value, worded
 
 
 def words(value: object) -> str:
@@ -68,12 +71,13 @@ def test_help_states_each_default_and_choice_as_the_library_defines_it():
     seen = set()
     for command, parser, action in bound_actions():
         help_text = " ".join(parser.format_help().split())
-        value, worded = library_default(action.option)
+        value, worded = library_default(action.option, getattr(action, "scale", 1.0))
         assert "default" not in (action.help or ""), f"{command} {action.option_strings}: a default written by hand"
         expected = worded or words(value)
         assert f"(default: {expected}" in help_text, (command, action.option_strings, expected)
         seen.add(command)
-    assert {"match", "rectify", "clean", "compare", "diagnose", "adjust", "plan", "report", "simulate"} <= seen
+    assert {"match", "rectify", "clean", "compare", "diagnose", "adjust", "plan", "report", "simulate", "lidar errors",
+            "lidar budget", "lidar network", "lidar forward-reverse", "lidar check-returns"} <= seen
     rectify = " ".join(commands()["rectify"].format_help().split())
     assert "one of: " + ", ".join(LAYERS) in rectify  # all six layers, from the options
     assert "one of: " + ", ".join(RESAMPLING) in rectify
@@ -100,8 +104,6 @@ def test_one_meaning_per_flag_name():
     """A flag used by several commands takes the same kind of value into the same argument everywhere."""
     meaning: dict[str, tuple] = {}
     for command, parser in commands().items():
-        if command.split()[0] == LASER:
-            continue
         for a in parser._actions:
             for flag in a.option_strings:
                 if flag in ("-h", "--help"):
@@ -110,7 +112,21 @@ def test_one_meaning_per_flag_name():
                 first = meaning.setdefault(flag, (command, kind))
                 assert first[1] == kind, f"{flag}: {first[0]} {first[1]} but {command} {kind}"
     assert meaning["--variants"][1][0] == "variants_file" and meaning["--reference"][1][2] is None
+    assert meaning["--strips"][1][1] == "+" and meaning["--strip-count"][1][0] == "n_strips"  # ids; a count
+    assert meaning["--config"][1][0] == "config" and meaning["--system"][0] == "lidar check-returns"
     assert "--out" not in meaning  # outputs go under PROJECT/results/
+
+
+def test_no_flag_takes_centimetres():
+    """Lengths and their sigmas in metres on every command line (docs/formats.md, "Units")."""
+    import re
+
+    cm = re.compile(r"\bcm\b", re.I)
+    found = [(command, a.option_strings) for command, parser in commands().items() for a in parser._actions
+             if cm.search(str(a.metavar or "")) or cm.search(a.help or "")]
+    assert found == []
+    budget = " ".join(commands()["lidar budget"].format_help().split())
+    assert "--sigma-noise M sigma of the noise component (default: 0.03 m)" in budget
 
 
 def test_run_and_the_stage_commands_read_the_same_settings(tmp_path):
@@ -181,7 +197,7 @@ def test_no_library_error_names_a_flag():
     found = []
     for path in package.rglob("*.py"):
         rel = path.relative_to(package).as_posix()
-        if rel.startswith(("cli/", f"{LASER}/")):  # lidar/: its tools are being reworked (docs/formats.md)
+        if rel.startswith("cli/"):
             continue
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, ast.Raise) and node.exc is not None:

@@ -24,7 +24,7 @@ def test_sbet_records_of_the_sample(leeward, tmp_path):
 
 def test_leeward_consistency(leeward, run_lidar_json):
     r = run_lidar_json(["lidar", "check-returns", "--sbet", str(leeward / "leeward_sbet.out"),
-                        "--las", str(leeward / "leeward_points.las"), "--config", str(leeward / "leeward_config.toml")])
+                        "--las", str(leeward / "leeward_points.las"), "--system", str(leeward / "leeward_config.toml")])
     assert r["returns"] == 1325
     assert r["mean_range_m"] == pytest.approx(4661.5, abs=1.0)
     # with the configured boresight the returns are off by hundreds of metres (mostly north) ...
