@@ -1,6 +1,7 @@
 """Shared test fixtures: the read-only real data in ../shared/data (skipped when absent), a tiny project."""
 from __future__ import annotations
 
+import logging
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,6 +33,17 @@ LONGEST_GROUPS = (
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own hook, which reads the groups
+@pytest.fixture(autouse=True)
+def _no_stale_log_handler():
+    """scangeo.cli.main() sets up logging once per process (``logging.basicConfig``): its handler writes to the
+    stderr of the test that ran it first, which pytest closes after that test. A later test whose command logs
+    a warning would read "--- Logging error ---" on its own stderr; so the handler goes with its test."""
+    yield
+    root = logging.getLogger()
+    for handler in [h for h in root.handlers if type(h) is logging.StreamHandler]:
+        root.removeHandler(handler)
+
+
 def pytest_collection_modifyitems(config, items):
     """One pytest-xdist group per test file (``--dist loadgroup`` in pyproject.toml), longest first.
 
