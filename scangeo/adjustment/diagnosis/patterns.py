@@ -30,6 +30,7 @@ freedom) with the other breaks fixed (a profile likelihood interval).
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
@@ -231,6 +232,9 @@ class SelectionOptions:
     pair_candidates : candidate lines per strip for two breaks added at once, when no single step
         lowers the criterion (an excursion that rises and falls back is not fitted better by one
         kink than by none); 0: no such step.
+    pair_strips : the strips searched for such a pair: the ones not held constant and this many more,
+        those whose best single step came closest to paying (a pair's drift shows in its single steps
+        too; searching every strip of a large block costs what the local update saves).
     """
 
     candidates: int = 120
@@ -240,6 +244,7 @@ class SelectionOptions:
     serial_correlation: bool = True
     degree: int = 1
     pair_candidates: int = 30
+    pair_strips: int = 3
 
 
 def _with(breaks, s: int, strip_breaks) -> list[list[float]]:
@@ -350,20 +355,33 @@ def _richer(data: PatternData, fit: CurrentFit, options: SelectionOptions) -> Ca
     return candidates
 
 
-def _richer_by_two(data: PatternData, fit: CurrentFit, options: SelectionOptions, rho) -> Candidates:
+def _pair_strips(richer: Candidates, constant, options: SelectionOptions) -> set[int]:
+    """The strips :func:`_richer_by_two` searches (``SelectionOptions.pair_strips``), from the single steps."""
+    best: dict[int, float] = {}
+    for i, (s, _, _, _) in enumerate(richer.models):
+        value = richer.score(i)[0] if richer.approx[i] is not None or i in richer.fits else -math.inf
+        best[s] = min(best.get(s, math.inf), value)
+    closest = sorted(best, key=best.__getitem__)[:options.pair_strips]
+    return set(closest) | {s for s in range(len(richer.base)) if s not in constant}
+
+
+def _richer_by_two(data: PatternData, fit: CurrentFit, options: SelectionOptions, rho,
+                   strips: set[int] | None = None) -> Candidates:
     """Every model with two breaks more on one strip than the current one (a constant strip made linear
     too), on a grid of ``options.pair_candidates`` lines per strip, scored with the serial correlation
     ``rho`` against it. Where the current model's design is well conditioned, a pair the local update
     does not trust is left out, not refitted: its columns are nearly dependent on the others' (two
     breaks around a few rows), no credible pair of kinks, and refitting the hundreds of them would cost
     what the local update saves. Where the current design is not (the strips' common constants are not
-    all determined), every pair is refitted, as every single step is."""
+    all determined), every pair is refitted, as every single step is. ``strips``: those searched (all)."""
     index, breaks, constant = fit.index, [list(b) for b in fit.breaks], set(fit.constant)
     n_breaks = sum(len(b) for b in breaks)
     candidates = Candidates(data, breaks, rho, options.degree)
     if options.pair_candidates < 2:
         return candidates
     for s in range(len(data.strips)):
+        if strips is not None and s not in strips:
+            continue
         n = data.n_lines[s]
         if len(breaks[s]) + 2 > options.max_breaks:
             continue
@@ -458,7 +476,8 @@ def _carried(data: PatternData, breaks, constant, s: int, t: int, keep: bool, rh
              index: BlockIndex, also=()) -> tuple[list[list[float]], set[int]] | None:
     """Strip ``s``'s breaks carried to strip ``t`` (``keep``: ``s`` keeps its own; ``also``: further strips
     made constant), at ``t``'s best lines: those where ``t`` sees the ground ``s`` broke at, or (one or
-    two breaks) the best of a search over ``t``'s lines, whichever fits better, then refined."""
+    two breaks) the best of a coarse search over ``t``'s lines, whichever fits better, then refined
+    (:data:`SWEEPS_ALT` sweeps of :func:`refine`)."""
     m = line_map(data, s, t)
     if m is None:
         return None
@@ -481,9 +500,10 @@ def _carried(data: PatternData, breaks, constant, s: int, t: int, keep: bool, rh
         trial[t] = own
         base = CurrentFit(index, trial, options.degree, const - {t} if own else const | {t})
         probe = StripProbe(base, t)
-        grid = [float(b) for b in np.linspace(0, n - 1, (options.candidates if k == 1 else options.pair_candidates)
-                                              + 2)[1:-1] if index.feasible(t, tuple(own), float(b), gap,
-                                                                           options.min_rows)]
+        # a coarse grid (half the pair search's lines), the refinement below does the rest
+        steps = max(options.pair_candidates // 2, 2) * (2 if k == 1 else 1)
+        grid = [float(b) for b in np.linspace(0, n - 1, steps + 2)[1:-1]
+                if index.feasible(t, tuple(own), float(b), gap, options.min_rows)]
         sets = [[a] for a in grid] if k == 1 else [[a, b] for i, a in enumerate(grid) for b in grid[i + 1:]
                                                     if index.feasible(t, tuple(own) + (a,), b, gap, options.min_rows)]
         n_breaks = sum(len(b) for u, b in enumerate(trial) if u != t) + len(own) + k
@@ -566,7 +586,7 @@ def select_breaks(data: PatternData, options: SelectionOptions = SelectionOption
             # no single step pays: the best two breaks at once on one strip, which must pay under the serial
             # correlation of what the current model leaves (the richer one's own would let correlated noise
             # buy a pair, and then single breaks after it)
-            pairs = _richer_by_two(data, fit, options, None)
+            pairs = _richer_by_two(data, fit, options, None, _pair_strips(richer, constant, options))
             if pairs.models:
                 i = pairs.best()
                 rho_now = residual_correlation(data, evaluate(data, breaks, None, degree, constant)) \
@@ -607,12 +627,13 @@ def select_breaks(data: PatternData, options: SelectionOptions = SelectionOption
     current = evaluate(data, breaks, rho, degree, constant)
     # and no problem strip better moved to a neighbour (or two merged) under those weights; a richer model
     # (shared) is the growth's and the pruning's to decide, not this polish's
+    alts: list[Alternative] = []
     for _ in range(ns):
-        better, _ = _better_alternative(data, current, options, index, ("moved", "merged"))
+        better, alts = _better_alternative(data, current, options, index, ("moved", "merged"))
         if better is None:
             break
-        current = better
-    current.alternatives = alternatives(data, current, options, index)
+        current, alts = better, []
+    current.alternatives = alts + alternatives(data, current, options, index, ("shared", "dropped"))
     return current
 
 
