@@ -37,7 +37,8 @@ variant is **significantly worse at the check points** than another when either 
 
 Without check points this is the cross-validation with its noise. Each evidence's own choice (the
 lowest cross-validated rms; the lowest check-point rms) is named, and where the two disagree beyond
-their noise the recommendation says so and why. Its margin is stated against the closest other
+their noise (they rank the two oppositely, on the check points both predicted, and at least one of
+them beyond its noise) the recommendation says so and why. Its margin is stated against the closest other
 candidate, in each evidence ("S4, 0.03 px better than S2 over held-out control and check points,
 within the noise of 0.05 px").
 
@@ -357,10 +358,16 @@ def weigh(candidates: Sequence[str], evidence: Mapping[str, Evidence], info: Tie
 
 
 def _disagreement(out: Decision, evidence: Mapping[str, Evidence], candidates: Sequence[str]) -> str | None:
-    """Where the cross-validation's choice and the check points' disagree beyond their noise, why (or None)."""
+    """Where the cross-validation's choice and the check points' disagree beyond their noise, why (or None):
+    the two rank them oppositely (the check points on the points both variants predicted, which the
+    lowest check-point rms over each one's own points need not say: a 4-band variant has fewer check
+    points) and at least one of them beyond its noise."""
     a, b = out.cv_choice, out.check_choice
     if a is None or b is None or a == b or a not in evidence or b not in evidence:
         return None
+    common = paired(evidence[a].check, evidence[b].check)
+    if common is not None and common.delta <= 0:
+        return None  # on the check points both predicted, the cross-validation's choice is no worse
     checks_say = worse_at_checks(evidence[a], evidence[b])
     d = paired(evidence[b].cv, evidence[a].cv)
     cv_says = d is not None and d.z > Z95

@@ -135,3 +135,16 @@ def test_independent_check_names_the_choices_when_they_depend_on_the_check_point
         assert out["rms_px"] == pytest.approx(evidence["S2"].check.rms()) and "independently" in out["text"]
     else:
         assert "took part in the choice" in out["text"]
+
+
+def test_no_disagreement_when_the_lower_check_rms_comes_from_other_check_points():
+    # S2's check points include the break bands (S4's control), where it happens to fit well: its rms over its
+    # own check points is the lowest, but on the check points both predicted S4 is better, as in cross-validation
+    rng = np.random.default_rng(7)
+    e = _case(rng, {"SE": 0.6, "S2": 0.25, "S4": 0.0}, {"SE": 1.0, "S2": 0.05, "S4": 0.0})
+    bands = _rows("B", 60, rng.normal(0, 0.05, 60), rng.normal(0, 0.05, 60))
+    e["S2"].check = Residuals.concat([e["S2"].check, bands])
+    d = weigh(["SE", "S2", "S4"], e, INFO)
+    assert d.cv_choice == "S4" and d.check_choice == "S2" and d.recommended == "S4"
+    assert paired(e["S4"].check, e["S2"].check).delta <= 0
+    assert d.disagreement is None
