@@ -157,16 +157,13 @@ def import_parge(status, out, *, sensor_model=None, dtm=None, geoid: float | str
             if not dtm_path.exists():
                 raise MissingFileError(f"{dtm}: no such DTM")
             dtm_text, dtm_name = f"{dtm_path} (given)", str(dtm_path)
-        elif len(st.gcps):
-            footprint = _footprint(st, across, along)
-            dtm_text = write_gcp_dtm(tmp / "dtm_from_gcps.tif", st.gcps.xyz, footprint, st.crs_wkt)
-            dtm_name = "dtm_from_gcps.tif"
         else:
-            footprint = _footprint(st, across, along)
-            dtm_text = write_gcp_dtm(tmp / "dtm_from_gcps.tif", None, footprint, st.crs_wkt,
-                                     flat_height=float(np.median(st.height)) - _nominal_agl(st))
             dtm_name = "dtm_from_gcps.tif"
-            notes.append("no GCPs: the DTM is a flat plane at a nominal terrain height; give a real DTM")
+            dtm_text = write_gcp_dtm(tmp / dtm_name, st.gcps.xyz if len(st.gcps) else None,
+                                     _footprint(st, across, along), st.crs_wkt,
+                                     flat_height=float(np.median(st.height)) - _nominal_agl(st))
+            if not len(st.gcps):
+                notes.append("no GCPs: the DTM is a flat plane at a nominal terrain height; give a real DTM")
         origin = _origin(st)
         progress(2, 5, "import: testing which offsets the attitude arrays hold")
         _write_project_toml(tmp, st, strip, rate, geoid_value, dtm_name, origin, (0.0, 0.0, 0.0), look_source)
