@@ -8,6 +8,7 @@ from scangeo.sensors import Pushbroom, StripGeometry, Whiskbroom
 from scangeo.sensors.kernels import MULTIPLE, OK
 from scangeo.timing import LineTiming
 from scangeo.trajectory import OrientationSpline, read_trajectory
+from scangeo.truth.true_error import Truth
 
 from ..conftest import shared_file
 
@@ -132,3 +133,18 @@ def test_over_scanning_returns_the_first_sighting(srtm, overscanning_spline):
     flagged = (status2 & MULTIPLE) != 0
     assert flagged[earlier].mean() > 0.95
     assert 0.05 < flagged.mean() < 0.5
+
+
+def test_the_true_error_takes_the_sighting_of_the_sample_where_scans_overlap(srtm, overscanning_spline):
+    """The truth against itself is exact, also at ground points the over-scanning mirror sees two or
+    three times: the error is the displacement of the sighting nearest the sample, not of the first."""
+    strip = StripGeometry(Whiskbroom(), overscanning_spline, LineTiming(2.0, 25.0), N_LINES)
+    truth = Truth(None, srtm, {"a": strip}, lines=N_LINES, pixels=61)
+    line, pixel, ground = truth.samples("a")
+    first, _, status = strip.ground_to_image(ground)
+    seen_again = (status & MULTIPLE) != 0
+    # the first sighting is scans away from the sample's own
+    assert seen_again.sum() > 10 and np.nanmax(np.abs(first - line)[seen_again]) > 1.0
+    e = truth.error("a", strip)
+    assert e.n == len(line)
+    assert e.rms_along_px < 1e-4 and e.rms_across_px < 1e-4 and e.max_ground_m < 1e-4
