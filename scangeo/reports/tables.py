@@ -83,11 +83,11 @@ def markdown_tables(c: Comparison) -> dict[str, tuple[list[str], list[list[str]]
         rms = evidence.get("rms_px") or {}
         rejected = evidence.get("rejected_by_checks") or {}
         cv_head = ["variant", "cross-validated rms px", "held-out measurements", "check-point rms px",
-                   "held-out and check rms px", "BIC", "observations (group)",
+                   "held-out and check rms px", "AIC", "observations (group)",
                    "significantly worse at check points than", "recommended"]
         cv_rows = [[v.name, _f(cv["rms_px"].get(v.name), 3), str(cv["n"].get(v.name, "")),
                     _f((rms.get(v.name) or {}).get("check"), 3), _f((rms.get(v.name) or {}).get("all"), 3),
-                    _f(cv["bic"].get(v.name), 1), cv["group"].get(v.name, ""),
+                    _f(cv.get("aic", {}).get(v.name), 1), cv["group"].get(v.name, ""),
                     ", ".join(rejected.get(v.name, {})) or "-",
                     "**yes**" if v.name == cv.get("recommended") else ""] for v in c.variants if v.error is None]
         tables["cross-validation"] = (cv_head, cv_rows)
@@ -150,7 +150,7 @@ def markdown(c: Comparison) -> str:
         out += ["", "## Recommendation", "",
                 f"{cv.get('folds')}-fold cross-validation over the {cv.get('points')} control points (each fold "
                 "held out as check points in turn; rms along and across together), weighed with the check points "
-                "(docs/reports.md), and BIC over identical observations. "
+                "(docs/reports.md), and AIC over identical observations. "
                 f"Recommended: **{rec}** ({cv.get('reason', '')}).", ""]
         notes = [f"margin: {evidence['margin']}" if evidence.get("margin") else "",
                  (f"the cross-validation alone would choose {evidence.get('cv_choice') or '-'}, the check points alone "

@@ -32,7 +32,7 @@ variant is **significantly worse at the check points** than another when either 
 3. of those, the ones within the noise of the lowest rms over all their out-of-sample measurements,
    held-out control and check points together (a cross-validation that also holds out the check
    points; the check points outnumber the control and spread along the strips, so they weigh most);
-4. among them, the tie-break of :mod:`~.crossvalidation`: the lowest BIC within a group of identical
+4. among them, the tie-break of :mod:`~.crossvalidation`: the lowest AIC within a group of identical
    observations, then the most control points, then the lowest rms.
 
 Without check points this is the cross-validation with its noise. Each evidence's own choice (the
@@ -249,7 +249,7 @@ class Decision:
 class TieBreak:
     """What the tie-break of :mod:`~.crossvalidation` knows of every variant."""
 
-    bic: Mapping[str, float]
+    aic: Mapping[str, float]
     group: Mapping[str, str]
     control: Mapping[str, int]
 
@@ -258,7 +258,7 @@ def _tie_break(near: list[str], rms: Mapping[str, float], info: TieBreak) -> str
     winners = []
     for g in sorted({info.group.get(n, n) for n in near}):
         members = [n for n in near if info.group.get(n, n) == g]
-        winners.append(min(members, key=lambda n: (info.bic.get(n, math.inf), rms[n])))
+        winners.append(min(members, key=lambda n: (info.aic.get(n, math.inf), rms[n])))
     return min(winners, key=lambda n: (-info.control.get(n, 0), rms[n]))
 
 
@@ -307,7 +307,7 @@ def weigh(candidates: Sequence[str], evidence: Mapping[str, Evidence], info: Tie
     candidates : the variants that may be recommended (cross-validated; never DG).
     evidence : per adjusted variant (candidates and the others adjusted, DG excluded), its held-out
         control residuals (``cv``, empty when not cross-validated) and check-point residuals.
-    info : BIC, observation group and control count per variant (the tie-break).
+    info : AIC, observation group and control count per variant (the tie-break).
     folds : folds of the check points for :func:`independent_check`.
     """
     candidates = [c for c in candidates if c in evidence]
@@ -343,7 +343,7 @@ def weigh(candidates: Sequence[str], evidence: Mapping[str, Evidence], info: Tie
         out.margin = f"{rec}, " + "; ".join(margins)
     others = [n for n in near if n != rec]
     if others:
-        parts.append(f"{', '.join(others)} within the noise: the lowest BIC among the variants with the same "
+        parts.append(f"{', '.join(others)} within the noise: the lowest AIC among the variants with the same "
                      "observations, then the most control points decided")
     dropped = [n for n in candidates if n in rejected and n != rec]
     if dropped:

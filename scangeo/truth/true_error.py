@@ -12,7 +12,10 @@ true ground point is the true ray on the true terrain; the error of an orientati
 * on the ground: the orientation's ray from the same image position on the true terrain minus
   the true ground point, horizontally, in metres.
 
-Both leave out the DTM error and the measurement noise: they are the orientation's own error.
+Both leave out the DTM error and the measurement noise: they are the orientation's own error. The
+image error leaves out the samples at the folds of an over-scanning mirror's scan lines, where the truth
+itself sees the ground point more than once (:meth:`Truth.one_to_one`); of a point the orientation sees
+more than once, the sighting nearest the sample counts (:func:`nearest_sighting`).
 """
 from __future__ import annotations
 
@@ -55,6 +58,7 @@ class Truth:
     lines: int = 60
     pixels: int = 13
     _samples: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=dict)
+    _one_to_one: dict[str, np.ndarray] = field(default_factory=dict)
 
     @classmethod
     def load(cls, project: Project, lines: int = 60, pixels: int = 13) -> Truth | None:
@@ -95,11 +99,25 @@ class Truth:
             self._samples[strip_id] = (line[ok], pixel[ok], p_P[ok])
         return self._samples[strip_id]
 
+    def one_to_one(self, strip_id: str) -> np.ndarray:
+        """Of the strip's samples, those whose true ground point the true orientation sees once, at the
+        sample (to 1e-3 lines and pixels). The others lie where the over-scanning mirror's scan lines fold
+        over one another at the swath's edges: there the image position of a ground point is not one, and
+        no orientation's error in the image is defined (their ground error still is)."""
+        if strip_id not in self._one_to_one:
+            line, pixel, p_true = self.samples(strip_id)
+            l_t, p_t, status = self.geometries[strip_id].ground_to_image(p_true)
+            self._one_to_one[strip_id] = ((status == 0) & (np.abs(l_t - line) < 1e-3)
+                                          & (np.abs(p_t - pixel) < 1e-3))
+        return self._one_to_one[strip_id]
+
     def error(self, strip_id: str, geometry: StripGeometry) -> TrueError:
-        """The true error of ``geometry`` (an adjusted or measured orientation of the strip)."""
+        """The true error of ``geometry`` (an adjusted or measured orientation of the strip): in the image
+        over the samples :meth:`one_to_one` keeps, on the ground over all."""
         line, pixel, p_true = self.samples(strip_id)
         l_m, p_m, status = nearest_sighting(geometry, p_true, line, pixel)
-        ok_img = ((status & ~MULTIPLE) == 0) & np.isfinite(l_m) & np.isfinite(p_m)
+        ok_img = (((status & ~MULTIPLE) == 0) & np.isfinite(l_m) & np.isfinite(p_m)
+                  & self.one_to_one(strip_id))
         dl, dp = (l_m - line)[ok_img], (p_m - pixel)[ok_img]
         p_adj, st = geometry.image_to_ground(line, pixel, self.terrain)
         ok_gnd = (st == 0) & np.isfinite(p_adj).all(axis=1)

@@ -135,9 +135,11 @@ def test_over_scanning_returns_the_first_sighting(srtm, overscanning_spline):
     assert 0.05 < flagged.mean() < 0.5
 
 
-def test_the_true_error_takes_the_sighting_of_the_sample_where_scans_overlap(srtm, overscanning_spline):
-    """The truth against itself is exact, also at ground points the over-scanning mirror sees two or
-    three times: the error is the displacement of the sighting nearest the sample, not of the first."""
+def test_the_true_error_where_scans_overlap(srtm, overscanning_spline):
+    """Where the over-scanning mirror sees ground points two or three times, the true error in the image
+    counts the sighting nearest the sample and leaves out the samples at the folds themselves (the truth
+    sees their ground point elsewhere first): the truth against itself is exact, and an orientation moved
+    4 m across track is off by about that across track and not at all along it, at every sample kept."""
     strip = StripGeometry(Whiskbroom(), overscanning_spline, LineTiming(2.0, 25.0), N_LINES)
     truth = Truth(None, srtm, {"a": strip}, lines=N_LINES, pixels=61)
     line, pixel, ground = truth.samples("a")
@@ -145,6 +147,16 @@ def test_the_true_error_takes_the_sighting_of_the_sample_where_scans_overlap(srt
     seen_again = (status & MULTIPLE) != 0
     # the first sighting is scans away from the sample's own
     assert seen_again.sum() > 10 and np.nanmax(np.abs(first - line)[seen_again]) > 1.0
+    kept = truth.one_to_one("a")
+    assert 0.5 * len(line) < kept.sum() < len(line)  # this dynamic folds 16 % of them
     e = truth.error("a", strip)
-    assert e.n == len(line)
+    assert e.n == kept.sum()
     assert e.rms_along_px < 1e-4 and e.rms_across_px < 1e-4 and e.max_ground_m < 1e-4
+    coef = strip.spline.coef.copy()
+    coef[:, 0] += 4.0  # east, across this north-bound line
+    moved = StripGeometry(Whiskbroom(), strip.spline.with_coef(coef), strip.timing, N_LINES)
+    e = truth.error("a", moved)
+    assert e.n > 0.95 * kept.sum()
+    assert e.rms_along_px < 0.05  # the folds' sightings tens of lines away would make this lines
+    # 4 m is 1-2.5 pixels here (the pixels grow toward the swath's edges)
+    assert 1.0 < e.rms_across_px < 2.5 and e.rms_ground_m == pytest.approx(4.0, abs=0.5)
