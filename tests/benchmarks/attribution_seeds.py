@@ -11,8 +11,10 @@ adjusted variant (F test of the pooled check-point mean squares as the table pri
 run's summary saying so. The last lines sum up.
 
     python tests/benchmarks/attribution_seeds.py OUT [--seeds 1 2 ... 40] [--blunders 20] [--ties N] [--control N]
+        [--rerun STAGE]
 
-``--ties`` and ``--control`` thin the tie and control points (harder attributions).
+``--ties`` and ``--control`` thin the tie and control points (harder attributions); ``--rerun diagnose|compare``
+runs the seeds already cleaned again from that stage.
 
 Projects already simulated in OUT are reused; a seed whose run already reached compare is only scored, one
 already cleaned runs from the diagnosis on (delete OUT/sN/results to run it all again). Truth is read here
@@ -87,14 +89,17 @@ def worse_unsaid(c: Comparison, rec: str, said: str) -> list[str]:
 
 
 def seed_row(root: Path, seed: int, blunders: int, totals: dict, ties: int | None = None,
-             control: int | None = None) -> str:
+             control: int | None = None, rerun: str | None = None) -> str:
     project(root, seed, blunders, ties, control)
     manifest = Manifest.load(root)
     status = {name: (manifest.stages.get(name) or {}).get("status") for name in ("clean", "compare")}
     t0 = time.process_time()
+    if rerun and status["clean"] in ("ran", "up to date"):
+        status["compare"] = None
     if status["compare"] not in ("ran", "up to date"):
         # a cleaning already done is kept (--rerun: from the diagnosis on; the cleaning is not what is measured)
-        run(root, until="compare", from_stage="diagnose" if status["clean"] in ("ran", "up to date") else None)
+        run(root, until="compare",
+            from_stage=(rerun or "diagnose") if status["clean"] in ("ran", "up to date") else None)
         manifest = Manifest.load(root)
     cpu = time.process_time() - t0
     truth = json.loads((root / "truth" / "errors.json").read_text())
@@ -144,6 +149,9 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, nargs="+", default=list(range(1, 41)))
     ap.add_argument("--blunders", type=int, default=20)
     ap.add_argument("--ties", type=int, default=None, help="tie points per overlap (default: the preset's, 60)")
+    ap.add_argument("--rerun", choices=("diagnose", "compare"), default=None,
+                    help="run again from this stage where the cleaning is done (a change of the diagnosis or the "
+                         "comparison)")
     ap.add_argument("--control", type=int, default=None,
                     help="control points per band and strip (default: the preset's, 8)")
     a = ap.parse_args()
@@ -160,7 +168,7 @@ def main() -> None:
     for seed in a.seeds:
         root = a.out / f"s{seed}"
         try:
-            print(seed_row(root, seed, a.blunders, totals, a.ties, a.control), flush=True)
+            print(seed_row(root, seed, a.blunders, totals, a.ties, a.control, a.rerun), flush=True)
         except Exception as exc:  # noqa: BLE001 (a benchmark row, not a library: say so and go on)
             print(f"| {seed} | failed: {type(exc).__name__}: {exc} |", flush=True)
     t = totals
