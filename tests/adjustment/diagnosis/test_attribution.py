@@ -11,6 +11,8 @@ from scangeo.adjustment.diagnosis.attribution import (
     Attribution,
     AttributionCheck,
     attribution_checks,
+    no_problem_alternatives,
+    no_problem_runner_up,
     split_model_difference,
 )
 from scangeo.adjustment.diagnosis.local_fit import BlockIndex, CurrentFit
@@ -134,6 +136,24 @@ def test_without_a_problem_strip_the_runner_up_is_the_best_model_with_one():
     # a richer model casts doubt only when it fits better: in noise the best placed breaks come close
     assert check.strip is None and check.runner_up is None and check.richer.kind == "breaks"
     assert check.richer.delta_bic > RICHER_BIC and not check.ambiguous and "no problem strip" in check.sentence()
+
+
+def test_without_a_problem_strip_every_strip_that_scores_best_is_an_alternative():
+    """A search that missed the drift: the block drifts on strip 02, the model has no breaks. The best model
+    with breaks is scored on each of the best three strips (not only the best one: on a thinned vienna2000
+    the best was the neighbour of the drifting strip), and every one that beats "none" is plausible."""
+    data = _three_strips(kinked, seed=0)
+    none = evaluate(data, [[], [], []], None, 1, (0, 1, 2))
+    found = no_problem_alternatives(data, none)
+    assert sorted(a.strip for a in found) == ["01", "02", "03"] and all(a.kind == "breaks" for a in found)
+    assert [a.delta_bic for a in found] == sorted(a.delta_bic for a in found)
+    best = found[0]
+    assert best.strip == "02" and best.delta_bic < -100 and list(best.breaks) == ["02"] and len(best.breaks["02"]) == 2
+    assert no_problem_runner_up(data, none) == best
+    [check] = attribution_checks(data, none)
+    assert check.ambiguous and "02" in [a.strip for a in check.plausible]
+    assert all(a.delta_bic < RICHER_BIC for a in check.plausible)
+    assert {a.strip for a in check.plausible} == {a.strip for a in found if a.delta_bic < RICHER_BIC}
 
 
 def test_the_split_models_opinion_can_make_an_attribution_ambiguous():
