@@ -111,9 +111,10 @@ def seed_row(root: Path, seed: int, blunders: int, totals: dict, ties: int | Non
     right = found == [problem]
     ambiguous = bool(d.get("ambiguous"))
     runner = [a[k] for a in d.get("attribution", []) for k in ("runner_up", "richer") if a.get(k)]
-    runner_text = "; ".join(f"{r['kind']} {'-'.join(r['breaks']) or 'none'} {r['delta_bic']:+.1f}"
-                            + (f" (split {r['delta_split']:+.1f})" if r.get("delta_split") is not None else "")
-                            for r in runner) or "–"
+    runner += [p for a in d.get("attribution", []) for p in a.get("plausible", []) if p not in runner]
+    runner_text = "; ".join(dict.fromkeys(  # an alternative two problem strips share is listed once
+        f"{r['kind']} {'-'.join(r['breaks']) or 'none'} {r['delta_bic']:+.1f}"
+        + (f" (split {r['delta_split']:+.1f})" if r.get("delta_split") is not None else "") for r in runner)) or "–"
     adjusted = [v for v in c.variants if v.strategy != "DG" and v.error is None]
     rec = compare["recommended"]
     true = true_errors(root, [v.name for v in adjusted])
@@ -158,7 +159,8 @@ def main() -> None:
     extra = "".join(f", {v} {k}" for k, v in (("tie points per overlap", a.ties),
                                               ("control points per band and strip", a.control)) if v is not None)
     print(f"vienna2000 at full length, {a.blunders} blunders{extra}, `scangeo run PROJECT --until compare`:\n")
-    print("| seed | problem strips found (injected) | runner-up, richer alternative: kind, strips, BIC difference "
+    print("| seed | problem strips found (injected) | runner-up, richer alternative, other plausible ones: kind, "
+          "strips, BIC difference "
           "| ambiguous | "
           "variants adjusted | recommended | its true error | choice of the cross-validation / the check points | "
           "disagreement said | worse at check points, unsaid | CPU |")
