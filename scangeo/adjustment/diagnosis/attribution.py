@@ -268,14 +268,6 @@ def no_problem_alternatives(data: PatternData, fit: Fit, options: SelectionOptio
     return sorted(out, key=lambda a: a.delta_bic)
 
 
-def no_problem_runner_up(data: PatternData, fit: Fit, options: SelectionOptions | None = None
-                         ) -> Attribution | None:
-    """The best model with breaks on one strip against ``fit`` (which has none): the first of
-    :func:`no_problem_alternatives`."""
-    found = no_problem_alternatives(data, fit, options)
-    return found[0] if found else None
-
-
 #: competing alternatives whose BIC difference exceeds this are not asked of the split model (far beyond doubt)
 SPLIT_PREFILTER = 100.0
 
@@ -300,4 +292,4 @@ def split_model_difference(cost, chosen: dict[str, tuple[float, ...]], other: di
 
 
 __all__ = ["AMBIGUOUS_BIC", "COMPETING", "RICHER_BIC", "SPLIT_PREFILTER", "Attribution", "AttributionCheck",
-           "attribution_checks", "no_problem_alternatives", "no_problem_runner_up", "split_model_difference"]
+           "attribution_checks", "no_problem_alternatives", "split_model_difference"]
