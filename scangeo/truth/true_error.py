@@ -193,8 +193,7 @@ def nearest_sighting(geometry: StripGeometry, p_P: np.ndarray, line: np.ndarray,
     as in an adjusted one. ``ground_to_image`` keeps the first sighting, which can be scans away from the
     sample's own line (vienna2000 seed 37: 20 lines at one edge sample of 780; the truth itself put
     that sample 17 lines from its own line). An orientation's error there is the displacement of the
-    sighting that stands for the sample's. For the points seen more than once (or first seen more than
-    a line from the sample: the kernel's search can miss a second sighting), every sighting within
+    sighting that stands for the sample's. For the points seen more than once, every sighting within
     :data:`SIGHTING_WINDOW` lines of the sample is found (the sign changes of the scan-plane condition
     over lines :data:`SIGHTING_STEP` apart, refined by bisection, and the tangent ones where the scan
     line turns back, local minima of ``|g|`` that reach zero) and the nearest kept. One just outside the
@@ -202,9 +201,7 @@ def nearest_sighting(geometry: StripGeometry, p_P: np.ndarray, line: np.ndarray,
     the swath).
     """
     l_m, p_m, status = geometry.ground_to_image(p_P)
-    # seen more than once, or not seen within a line of the sample (the search for the over-scanned
-    # intervals can miss a second sighting, and then flags none)
-    again = np.flatnonzero(((status & MULTIPLE) != 0) | ~(np.abs(l_m - line) <= 1.0))
+    again = np.flatnonzero((status & MULTIPLE) != 0)
     if not again.size:
         return l_m, p_m, status
     best = np.full(len(again), np.nan)
