@@ -27,3 +27,15 @@ def test_readme_keeps_its_two_set_up_commands_and_the_own_data_walk_through():
         assert name in walk
     for example in ("data/example/project.toml", "data/example/variants.toml"):
         assert example in walk and (ROOT / example).is_file()
+
+
+def test_history_stays_in_the_commit_messages():
+    """No code, test or page says which issue asked for it ("issue" and a number): each says what it does."""
+    import re
+
+    mention = re.compile(r"\bissues? #?\d", re.IGNORECASE)
+    files = [ROOT / "README.md", *(p for folder in ("scangeo", "docs", "tests") for p in (ROOT / folder).rglob("*")
+                                   if p.suffix in (".py", ".md", ".toml", ".txt"))]
+    hits = [f"{p.relative_to(ROOT)}:{i + 1}" for p in files
+            for i, line in enumerate(p.read_text(encoding="utf-8").splitlines()) if mention.search(line)]
+    assert hits == []

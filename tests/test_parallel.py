@@ -1,4 +1,4 @@
-"""scangeo.parallel.run_tasks, and the cluster route (issue 23): a small block rectified and matched
+"""scangeo.parallel.run_tasks, and the cluster route: a small block rectified and matched
 through a Dask LocalCluster of two worker processes gives the same outputs as the in-process route."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The external reliability over the rows near each strip (issue 23): per window of strips, the rows
+"""The external reliability over the rows near each strip: per window of strips, the rows
 within ``radius`` strips evaluated, with the exact effects (partial solves with the whole factor). On
 a 7-strip block it equals the figures over every row to rounding, and leaves the MDBs alone."""
 from __future__ import annotations

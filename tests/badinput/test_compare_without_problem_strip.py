@@ -1,4 +1,4 @@
-"""``scangeo compare`` on a project with no problem strip and no truth (issue 13): it runs without an
+"""``scangeo compare`` on a project with no problem strip and no truth: it runs without an
 invented --problem-strip, writing default variants without P and S variants."""
 from __future__ import annotations
 

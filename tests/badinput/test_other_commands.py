@@ -1,4 +1,4 @@
-"""The bad-input matrix of compare, report, locate, info, simulate and lidar (issue 13), one defect per case."""
+"""The bad-input matrix of compare, report, locate, info, simulate and lidar, one defect per case."""
 from __future__ import annotations
 
 import shutil
@@ -251,7 +251,7 @@ def test_lidar_check_returns_heading(small_block, tmp_path, capsys):
 
 # ---------------------------------------------------------------------------------------- match
 # The strip images are not among them: on this block match stops with "no strips overlap" before it reads
-# an image (reported to H14, issue 13).
+# an image.
 MATCH = TOML[:4] + DTM[:1] + [
     case("match-config-unknown-key", write("m.toml", "[match]\nper_overlapp = 3\n"), "m.toml", "per_overlapp",
          args=("--config", "{p}/m.toml")),
@@ -274,7 +274,7 @@ LAS1 = "strips/1.las"
 
 
 def known_gap(id, reason, defect, *expect):
-    """A case that fails today (reported in issue 13); strict: it turns into an error once fixed."""
+    """A case that fails today (a known gap); strict: it turns into an error once fixed."""
     return pytest.param(*case(id, defect, *expect).values, marks=pytest.mark.xfail(reason=reason, strict=True), id=id)
 
 

@@ -1,4 +1,4 @@
-"""The bad-input matrix of the commands that read a project (issue 13): one defect per case.
+"""The bad-input matrix of the commands that read a project: one defect per case.
 
 Every case copies the session's small simulated project, applies one defect and runs the command
 in-process. It must exit non-zero with a message naming the file and the line or key (no traceback:

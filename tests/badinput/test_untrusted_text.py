@@ -1,4 +1,4 @@
-"""Untrusted text in outputs (issue 13): point and strip ids with markup and quotes are escaped in the
+"""Untrusted text in outputs: point and strip ids with markup and quotes are escaped in the
 HTML report and stored as data, unchanged, in the GeoPackage."""
 from __future__ import annotations
 

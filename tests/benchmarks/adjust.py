@@ -8,7 +8,7 @@ Run:  python tests/benchmarks/adjust.py [--cache DIR] [--only vienna|block24|sca
 Baselines, run side by side: for the solver, the same adjustment with the scipy fallback
 (``backend = "superlu"``) on vienna2000 SE; for data snooping, a full solution and selected
 inversion after every removal (``snooping_method = "resolve"``) on vienna2000 SE and block24 SE.
-Targets (issue 4): any vienna2000 variant < 10 s; block24 SE < 60 s and < 4 GB.
+Targets: any vienna2000 variant < 10 s; block24 SE < 60 s and < 4 GB.
 """
 from __future__ import annotations
 

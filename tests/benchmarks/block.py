@@ -1,4 +1,4 @@
-"""Benchmark: a whole block end to end (issue 15): simulate, adjust (SE and an S variant), rectify
+"""Benchmark: a whole block end to end: simulate, adjust (SE and an S variant), rectify
 every strip and the mosaic; wall time per stage, peak memory, scaling with the number of strips.
 
 Run: python tests/benchmarks/block.py [--lines 7000] [--strips 1 6 12 24] [--keep DIR]
@@ -18,7 +18,7 @@ as a user would run it:
   with ``--scheduler`` the same rectifications again on a Dask LocalCluster of 2 worker processes
   (1 thread each; ``local``) or the given scheduler, through ``--scheduler ADDRESS``.
 
-``--sizes 24 48 96`` (issue 23) instead measures how every stage grows with the block: for each
+``--sizes 24 48 96`` instead measures how every stage grows with the block: for each
 number of strips a block24 project with that many strips (``--lines`` lines each; the preset's
 line-valued keys scaled, :func:`scaled_preset`) is simulated by ``scangeo simulate --preset FILE``
 (``--no-images`` unless ``--images``),

@@ -1,4 +1,4 @@
-"""Issue 25's acceptance figures per seed: cleaning, diagnosis and break intervals on vienna2000 with blunders.
+"""Acceptance figures per seed: cleaning, diagnosis and break intervals on vienna2000 with blunders.
 
 Not collected by pytest. For every seed: simulate vienna2000 (``--factor`` of its length, every line-based key
 scaled as in tests/strategy/test_physics.py) without images and with ``--blunders N`` blunders of 10-40 px among

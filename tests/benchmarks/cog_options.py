@@ -1,5 +1,5 @@
 """Benchmark: the orthoimage's last step (the working file into its final compressed COG with
-overviews) under the layout options every GeoTIFF reader decodes (issue 23).
+overviews) under the layout options every GeoTIFF reader decodes.
 
 Run: python tests/benchmarks/cog_options.py [--lines 10000] [--keep DIR] [--repeat 2]
 

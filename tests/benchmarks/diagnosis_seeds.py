@@ -1,4 +1,4 @@
-"""Issue 12's acceptance figures per seed: the diagnosis and the recommendation on vienna2000 (docs/adjustment.md).
+"""Acceptance figures per seed: the diagnosis and the recommendation on vienna2000 (docs/adjustment.md).
 
 Not collected by pytest. For every seed: simulate vienna2000 (``--factor`` of its length, every line-based
 key scaled as in tests/strategy/test_physics.py; 1 = the preset as it is) without images, run ``compare``
@@ -17,7 +17,7 @@ diagnosis alone (no compare, no recommendation) and prints every break found wit
 
 and the figures of the paper's Table 2 over the seeds (``--table``: only those, from the comparisons in OUT).
 
-With blunders among the measurements and the cleaning stage first (issue 25), and the 95 % intervals'
+With blunders among the measurements and the cleaning stage first, and the 95 % intervals'
 coverage summed over the seeds: tests/benchmarks/cleaning_seeds.py.
 
 Projects already simulated in OUT are reused (delete OUT to start again). Truth is read here only to

@@ -1,6 +1,6 @@
 """Benchmark: the diagnosis's break selection by BIC (``select_breaks`` and ``break_intervals``) with the
 local update of ``scangeo/adjustment/diagnosis/local_fit.py`` against its baseline, every candidate refitted
-with ``patterns.evaluate`` (the selection before issue 23's change), side by side in one process.
+with ``patterns.evaluate`` (the selection before the local update), side by side in one process.
 
 For each size, block24 with that many strips (``--lines`` lines each, the preset scaled as in
 ``tests/benchmarks/block.py``) is simulated without images, adjusted SE as the diagnosis does, and its

@@ -1,4 +1,4 @@
-"""Cost of the rectification fingerprint's content hash (issue 13): SHA-256 of a strip image of
+"""Cost of the rectification fingerprint's content hash: SHA-256 of a strip image of
 716 pixels x 10000 lines x 11 bands, uint16 (157.5 MB), against reading the file alone, and the
 cached second call of the same run.
 

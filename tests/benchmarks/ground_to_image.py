@@ -1,4 +1,4 @@
-"""Benchmark: ground -> image and image -> ground throughput (issues 2 and 15).
+"""Benchmark: ground -> image and image -> ground throughput.
 
 Run: python tests/benchmarks/ground_to_image.py [--points 10000000] [--lines 10000] [--repeat 2]
 [--no-image-to-ground]

@@ -1,4 +1,4 @@
-"""How far plain interpolation of exact ground -> image solutions is from the exact map (issue 6).
+"""How far plain interpolation of exact ground -> image solutions is from the exact map.
 
 Run: python tests/benchmarks/inverse_map_interpolation.py [--lines 10000] [--keep DIR]
 

@@ -1,9 +1,9 @@
-"""Benchmark: scangeo lidar adjust on a simulated block of laser strips (issue 16 targets).
+"""Benchmark: scangeo lidar adjust on a simulated block of laser strips, against its targets.
 
 Default: 9 parallel strips + 1 cross strip of ~2 million returns each (100 kHz, 1200 m at 60 m/s).
 First the patch search of one strip in this process, its returns read once into memory and fed in
 chunks of 1 M (LAS reading apart): the row buffer (pass 1) and the seeded pass 2, in returns per
-CPU second, beside the grid cells of issue 16 (the named baseline) on the same returns (issue 24:
+CPU second, beside the grid cells of the earlier search (the named baseline) on the same returns (target:
 >= 2 M returns/s/core). Then patch finding over all strips with ``--workers`` processes, and one
 strip alone in this process (the serial baseline: ratio = strips x one-strip time / parallel time), the adjustment
 (set-up of groups and priors, Gauss-Newton, data snooping, statistics), and the peak memory
@@ -132,7 +132,8 @@ def search_throughput(project, popt, prior, chunk: int = 1_000_000) -> None:
           f"in {found.lines} lines")
     print(f"seeded pass 2 (own candidates as seeds): {n / pass2 / 1e6:.2f} M returns/s/core, {fits.seed.size} fitted")
     print(f"both passes: {n / (pass1 + pass2) / 1e6:.2f} M returns/s/core (target >= 2)")
-    print(f"baseline, grid cells (issue 16): {n / grid / 1e6:.2f} M returns/s/core, {cells.cells.size} planar cells; "
+    print(f"baseline, grid cells (the earlier patch search): {n / grid / 1e6:.2f} M returns/s/core, "
+          f"{cells.cells.size} planar cells; "
           f"ratio rows (both passes) / grid {grid / (pass1 + pass2):.2f}")
 
 

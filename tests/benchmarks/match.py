@@ -1,4 +1,4 @@
-"""Speed and memory of ``scangeo match`` on the vienna2000 block (issue 14: under 60 s, under 2 GB).
+"""Speed and memory of ``scangeo match`` on the vienna2000 block (targets: under 60 s, under 2 GB).
 
 Simulates vienna2000 (3 strips x 7,000 lines x 716 pixels, with images and the truth orthoimage)
 into FOLDER unless it is there, then measures ties and control (the truth orthoimage as the

@@ -1,4 +1,4 @@
-"""The montafon preset at full size (issue 24 acceptance; docs/lidar.md section 6.5a): figures, not timings.
+"""The montafon preset at full size (its acceptance figures; docs/lidar.md section 6.5a): figures, not timings.
 
 Simulates the preset into DIR when DIR has no project yet (``--set``-like overrides with ``--laser
 KEY=VALUE``), finds the patches, adjusts (the preset's ``[adjustment]``: strip models under

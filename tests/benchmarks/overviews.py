@@ -1,4 +1,4 @@
-"""Benchmark: the cost and the benefit of internal overviews in the orthoimages (issue 11 item 7).
+"""Benchmark: the cost and the benefit of internal overviews in the orthoimages.
 
 Run: python tests/benchmarks/overviews.py [--rows 7000] [--cols 900] [--bands 11] [--repeat 2]
 
@@ -11,7 +11,7 @@ zoomed out: read the whole extent at 1/16 of the resolution, from the file witho
 overviews. Figures: seconds (best of ``--repeat``), file size, ratios against the run without
 overviews.
 
-Second table (issue 15): the overviews computed by scangeo (``scangeo.rectify.overviews``, the
+Second table: the overviews computed by scangeo (``scangeo.rectify.overviews``, the
 default) against the previous route, GDAL's COG driver generating them itself (``OVERVIEWS=AUTO``,
 ``OVERVIEW_RESAMPLING=AVERAGE``; the baseline), for deflate (the default) and zstd compression:
 wall and CPU seconds (CPU of every thread of this process: GDAL compresses with 2 threads), the

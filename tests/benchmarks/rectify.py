@@ -1,4 +1,4 @@
-"""Benchmark: rectify one Daedalus strip, scangeo against the GDAL geolocation route (issue 6).
+"""Benchmark: rectify one Daedalus strip, scangeo against the GDAL geolocation route.
 
 Run: python tests/benchmarks/rectify.py [--lines 10000] [--resampling bilinear] [--keep DIR] [--pipeline [N]]
 [--compress deflate|zstd] [--repeat R] [--gdal-writer]

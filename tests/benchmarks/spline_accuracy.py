@@ -1,4 +1,4 @@
-"""Interpolation error of the orientation spline against the real 200 Hz trajectory (issue 2).
+"""Interpolation error of the orientation spline against the real 200 Hz trajectory.
 
 Run: python tests/benchmarks/spline_accuracy.py
 

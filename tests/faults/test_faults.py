@@ -1,4 +1,4 @@
-"""Faults (issue 13): a command killed part-way (SIGKILL of a subprocess), then rerun, gives the same
+"""Faults: a command killed part-way (SIGKILL of a subprocess), then rerun, gives the same
 results as an uninterrupted run, with nothing partial under a final name; a second run on a project
 being written is refused (the lock); a full disk gives a clear error and leaves nothing behind.
 

@@ -1,4 +1,4 @@
-"""Every reader of a user's file, fed random corruptions of a valid file (issue 13).
+"""Every reader of a user's file, fed random corruptions of a valid file.
 
 A reader either returns or raises one of scangeo's own errors (ScangeoError): never a raw exception.
 The ``ci`` profile runs 200 examples per reader (tests/fuzz/profile.py).

@@ -1,4 +1,4 @@
-"""Round trips write -> read of the formats scangeo writes (issue 13): what comes back is what went in,
+"""Round trips write -> read of the formats scangeo writes: what comes back is what went in,
 to the precision the format states."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The LAS/LAZ header checks (scangeo.lidar.las_header, issue 13): valid files of every kind pass and read
+"""The LAS/LAZ header checks (scangeo.lidar.las_header): valid files of every kind pass and read
 exactly what laspy reads; each corrupted header field is an InputFileError naming the file and the field."""
 from __future__ import annotations
 

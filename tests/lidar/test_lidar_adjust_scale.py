@@ -35,7 +35,7 @@ def test_laser_preset_block(tmp_path):
     ev = evaluate(block, result, apply(block, values))
     noise = evaluate(block, result, apply(block, truth))
     assert ev.before.rms(True) > 0.05 and ev.after.rms(True) < 1.2 * noise.after.rms(True)
-    # check patches (seed 16, reduced; four anchors, measured again for issue 24): 1.45 cm with the grid
+    # check patches (seed 16, reduced; four anchors, measured again with the row buffer): 1.45 cm with the grid
     # cells, 2.15 cm with the row buffer, most of it on K11, a steep roof that shows the planimetric error
     # (row buffer: boresight heading -0.0081 deg off, 1.7 sigma; grid 0.2 sigma); so 2.5 cm, not 2.0
     assert np.sqrt(np.mean(np.square(list(ev.checks_after.values())))) < 0.025

@@ -1,6 +1,6 @@
 """Missions in a laser project.toml and the GPS/IMU model variants built by the shared builder
 (scangeo.orientation.models): per strip, per mission, for the block; control patches with a check
-point and height-only control planes (issue 24)."""
+point and height-only control planes."""
 
 from __future__ import annotations
 

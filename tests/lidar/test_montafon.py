@@ -1,4 +1,4 @@
-"""The ``montafon`` preset (issue 24): a block in the image of Kager's Montafon, two missions over an
+"""The ``montafon`` preset: a block in the image of Kager's Montafon, two missions over an
 alpine valley. CI runs it reduced (11 strips); ``SCANGEO_SCALE=full`` runs the preset's 76 strips
 (docs/lidar.md section 6.5a has the full run's figures)."""
 

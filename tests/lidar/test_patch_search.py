@@ -1,5 +1,5 @@
-"""The row-buffer patch search (issue 24): compiled planes, scan lines, windows, the seeded second pass,
-and side by side with the grid cells of issue 16 on the session's laser block."""
+"""The row-buffer patch search: compiled planes, scan lines, windows, the seeded second pass,
+and side by side with the grid cells (the earlier search) on the session's laser block."""
 
 from __future__ import annotations
 

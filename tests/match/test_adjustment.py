@@ -1,5 +1,5 @@
 """An adjustment with only matched ties and matched control against the same one with the simulator's
-points (issue 14): check-point rms within 15 %.
+points: check-point rms within 15 %.
 
 Both run on the same block and are judged on the same check points (the simulator's ``K*``); the
 matched project has the matched ties and the matched control (from the truth orthoimage and the

@@ -114,7 +114,7 @@ def test_a_rerun_reads_no_input_again_unless_it_changed(project, tmp_path, monke
 
 
 def test_a_copied_or_moved_project_is_complete_and_its_outputs_do_not_name_where_it_lies(project, tmp_path):
-    """The fingerprint hashes paths relative to the project and file content (issue 13): a copy of a
+    """The fingerprint hashes paths relative to the project and file content: a copy of a
     rectified project in another folder, its files touched, is complete (skipped) with its outputs
     unchanged; the same project rectified from scratch elsewhere gives byte-identical files (tags,
     fingerprint and the GLT's ENVI header included)."""

@@ -1,4 +1,4 @@
-"""A block end to end as a user runs it (issue 15): simulate with images, ``scangeo adjust``,
+"""A block end to end as a user runs it: simulate with images, ``scangeo adjust``,
 ``scangeo rectify --mosaic`` of every strip, each command in its own process.
 
 Asserted: every command succeeds; every strip's orthoimage and the mosaic are complete (nothing

@@ -1,5 +1,5 @@
-"""The ENVI headers of the GLT and the IGM name the final file, not the temporary one GDAL wrote
-(issue 13), and the files read back with their georeferencing and values."""
+"""The ENVI headers of the GLT and the IGM name the final file, not the temporary one GDAL wrote,
+and the files read back with their georeferencing and values."""
 import warnings
 from pathlib import Path
 

@@ -1,4 +1,4 @@
-"""The physics of the reference case (DESIGN section 7, issues 5 and 12) on the vienna2000 block, end to end.
+"""The physics of the reference case (DESIGN section 7) on the vienna2000 block, end to end.
 
 ``scangeo compare`` on a simulated vienna2000 block without a variants file: the diagnosis finds the
 problem strip and its breaks (the truth is not read to build the variants), the default variants of the

@@ -1,4 +1,4 @@
-"""Plausibility checks of trajectories (issue 13): coverage and gaps name lines and times; attitudes in
+"""Plausibility checks of trajectories: coverage and gaps name lines and times; attitudes in
 radians, or beyond plausible roll/pitch, are reported naming the file."""
 from __future__ import annotations
 
