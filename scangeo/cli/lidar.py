@@ -128,7 +128,7 @@ def _add_budget(sub, common) -> None:
         "local variation and point noise (by the number of points), short-wave strip errors (by the "
         "number of ~100 m strip pieces), long-wave strip errors (by the number of strips), strip offset "
         "(by the factor alpha only). Sigmas in m (assumed typical values by default: docs/lidar.md); the "
-        "contributions are printed in cm.",
+        "contributions are printed in cm (in m with --json).",
     )
     p.add_argument("--points", type=int, required=True, metavar="N", help="number of points in the area")
     p.add_argument("--pieces", type=int, required=True, metavar="N", help="number of ~100 m strip pieces in the area")
@@ -148,11 +148,10 @@ def _add_budget(sub, common) -> None:
     p.set_defaults(func=run_budget)
 
 
-def _in_cm(budget: dict) -> dict:
-    """A budget of the library (m) as the command prints it: ``total_cm`` and ``components`` in cm."""
-    out = {k: v for k, v in budget.items() if k not in ("total_m", "components")}
-    return {**out, "total_cm": 100.0 * budget["total_m"],
-            "components": {name: 100.0 * m for name, m in budget["components"].items()}}
+def _in_metres(budget: dict) -> dict:
+    """A budget of the library as ``--json`` prints it: ``total_m``, and ``components`` as ``components_m``."""
+    out = {k: v for k, v in budget.items() if k != "components"}
+    return {**out, "components_m": dict(budget["components"])}
 
 
 def run_budget(args: argparse.Namespace) -> int:
@@ -163,26 +162,26 @@ def run_budget(args: argparse.Namespace) -> int:
     alpha = passed(args, "alpha")
     if args.offset_covariance:
         alpha = {"alpha": alpha_from_covariance(args.offset_covariance, sigmas.offset)}
-    result = _in_cm(area_mean_budget(args.points, args.pieces, args.n_strips, sigmas=sigmas, **alpha))
-    table = [_in_cm(row) for row in _scenario_table(sigmas)] if args.scenarios else None
-    if args.json:
-        out = {"total_cm": result["total_cm"], "components": result["components"]}
+    result = area_mean_budget(args.points, args.pieces, args.n_strips, sigmas=sigmas, **alpha)
+    table = _scenario_table(sigmas) if args.scenarios else None
+    if args.json:  # metres, as every JSON of scangeo
+        out = {"total_m": result["total_m"], "components_m": dict(result["components"])}
         if table is not None:
-            out["scenarios"] = table
+            out["scenarios"] = [_in_metres(row) for row in table]
         _print_json(out)
         return 0
     print(f"mean height of an area: {args.points} points, {args.pieces} strip pieces, {args.n_strips} strips, "
           f"alpha {result['alpha']:.3f}")
-    for name, cm in result["components"].items():
-        print(f"  {name:<9} {cm:7.3f} cm")
-    print(f"  {'total':<9} {result['total_cm']:7.3f} cm")
+    for name, m in result["components"].items():
+        print(f"  {name:<9} {100.0 * m:7.3f} cm")
+    print(f"  {'total':<9} {100.0 * result['total_m']:7.3f} cm")
     if table is not None:
         print()
         print(f"{'scenario':<40} {'points':>7} {'alpha':>6} {'total cm':>9} {'cost':>6}")
         for row in table:
             print(
                 f"{row['name']:<40} {row['points']:7d} {row['alpha']:6.3f} "
-                f"{row['total_cm']:9.3f} {row['relative_cost']:6.2f}"
+                f"{100.0 * row['total_m']:9.3f} {row['relative_cost']:6.2f}"
             )
     return 0
 
@@ -235,13 +234,13 @@ def run_network(args: argparse.Namespace) -> int:
 
     layout = with_flags(BlockLayout(), args)
     scenarios = plot_design(layout, args.plot) if args.plot else design_scenarios(layout)
-    table = {name: [round(100 * float(v), 3) for v in sig] for name, sig in scenarios.items()}
-    if args.json:
-        _print_json({"offset_sigma_cm": table})
+    if args.json:  # metres, as every JSON of scangeo (to 10 micrometres)
+        _print_json({"offset_sigma_m": {name: [round(float(v), 5) for v in sig] for name, sig in scenarios.items()}})
         return 0
-    for name, sig in table.items():
-        print(f"{name}: mean {statistics.fmean(sig):.2f} cm, max {max(sig):.2f} cm")
-        print("   " + " ".join(f"{v:.2f}" for v in sig))
+    for name, sig in scenarios.items():
+        cm = [round(100 * float(v), 3) for v in sig]
+        print(f"{name}: mean {statistics.fmean(cm):.2f} cm, max {max(cm):.2f} cm")
+        print("   " + " ".join(f"{v:.2f}" for v in cm))
     return 0
 
 

@@ -35,6 +35,7 @@ from scangeo.reports.laser import DIFFERENCES, write_differences, write_laser_re
 from scangeo.reports.stac import write_pointcloud_items
 from scangeo.strategy.laser import (
     adjust_laser_variant,
+    after_m,
     clean_laser,
     compare_laser,
     ground_file,
@@ -108,9 +109,10 @@ def _compare(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], 
         raise InputFileError(f"{ctx.root}: no variant of {c.variants_file} could be adjusted: "
                              + "; ".join(f"{n}: {e}" for n, e in c.errors.items()))
     outputs = write_laser_comparison(ctx.root, c)
-    variants = {row["variant"]: {"sigma0": row["sigma0"], "strip_differences_flat_cm": row[
-        "strip differences, flat, after (cm)"], "check_patches_cm": row["check patches (cm)"],
-        "rejected": row["rejected"]} for row in c.table()}
+    # metres, as every JSON of scangeo (the comparison table's columns are in cm)
+    variants = {name: {"sigma0": r.sigma0, "strip_differences_flat_rms_m": after_m(r, "strip_differences_flat_rms_m"),
+                       "check_patches_rms_m": after_m(r, "check_patches_rms_m"), "rejected": len(r.rejections)}
+                for name, r in c.results.items()}
     variants.update({n: {"error": e} for n, e in c.errors.items()})
     return {"recommended": c.recommended, "why": c.why, "variants": variants}, outputs
 

@@ -53,9 +53,16 @@ COLUMNS = (
 )
 
 
-def _cm(result: LaserResult, key: str) -> float | None:
+def after_m(result: LaserResult, key: str) -> float | None:
+    """An evaluation figure of ``result`` after the adjustment (``key`` of its evaluation, e.g.
+    ``strip_differences_flat_rms_m``), metres; None where there is none."""
     ev = (result.evaluation or {}).get(key)
-    return None if ev is None or not math.isfinite(ev["after"]) else 100.0 * ev["after"]
+    return None if ev is None or not math.isfinite(ev["after"]) else float(ev["after"])
+
+
+def _cm(result: LaserResult, key: str) -> float | None:
+    m = after_m(result, key)
+    return None if m is None else 100.0 * m
 
 
 def laser_options(project: Project, **overrides) -> LaserOptions:
@@ -262,6 +269,6 @@ def write_laser_comparison(root: Path, comparison: LaserComparison) -> list[Path
     return out
 
 
-__all__ = ["AdjustedVariant", "COLUMNS", "LaserCleaning", "LaserComparison", "adjust_laser_variant", "clean_laser",
-           "cleaning_variant", "compare_laser", "ground_file", "laser_options", "read_cleaning", "write_cleaning",
-           "write_laser_comparison"]
+__all__ = ["AdjustedVariant", "COLUMNS", "LaserCleaning", "LaserComparison", "adjust_laser_variant", "after_m",
+           "clean_laser", "cleaning_variant", "compare_laser", "ground_file", "laser_options", "read_cleaning",
+           "write_cleaning", "write_laser_comparison"]

@@ -1,5 +1,5 @@
 """Height precision of area means: hand-computed budget, alpha from a covariance, the CLI (sigmas in metres,
-contributions printed in cm), bad input named as Python and as the command line names it."""
+contributions printed in cm, in m in the JSON), bad input named as Python and as the command line names it."""
 from __future__ import annotations
 
 import math
@@ -19,15 +19,15 @@ def test_budget_hand_computed_example(run_lidar_json):
     # 100 points, 4 pieces, 2 strips, alpha 0.4; sigmas (m): seasonal 0.03, daily 0.02, local 0.10, noise 0.05,
     # short 0.04, long 0.06, offset 0.05
     # contributions (cm): 3, 2, 10/10 = 1, 5/10 = 0.5, 4/2 = 2, 6/sqrt(2) = 4.2426, 0.4*5 = 2
-    # total = sqrt(9 + 4 + 1 + 0.25 + 4 + 18 + 4) = sqrt(40.25) = 6.3443 cm
+    # total = sqrt(9 + 4 + 1 + 0.25 + 4 + 18 + 4) = sqrt(40.25) = 6.3443 cm; the JSON in metres
     out = run_lidar_json(["lidar", "budget", "--points", "100", "--pieces", "4", "--strip-count", "2",
                           "--alpha", "0.4", "--sigma-seasonal", "0.03", "--sigma-daily", "0.02", "--sigma-local",
                           "0.10", "--sigma-noise", "0.05", "--sigma-short", "0.04", "--sigma-long", "0.06",
                           "--sigma-offset", "0.05"])
-    assert set(out) == {"total_cm", "components"}
-    assert out["total_cm"] == pytest.approx(math.sqrt(40.25), abs=1e-9)
+    assert set(out) == {"total_m", "components_m"}
+    assert out["total_m"] == pytest.approx(math.sqrt(40.25) / 100, abs=1e-11)
     expected = {"seasonal": 3, "daily": 2, "local": 1, "noise": 0.5, "short": 2, "long": 6 / math.sqrt(2), "offset": 2}
-    assert out["components"] == pytest.approx(expected, abs=1e-9)
+    assert out["components_m"] == pytest.approx({k: v / 100 for k, v in expected.items()}, abs=1e-11)
 
 
 def test_budget_defaults():
@@ -51,7 +51,7 @@ def test_alpha_from_offset_covariance(tmp_path, run_lidar_json):
     out = run_lidar_json(["lidar", "budget", "--points", "1", "--pieces", "1", "--strip-count", "1",
                           "--offset-covariance", str(path), "--sigma-seasonal", "0", "--sigma-daily", "0",
                           "--sigma-local", "0", "--sigma-noise", "0", "--sigma-short", "0", "--sigma-long", "0"])
-    assert out["components"]["offset"] == pytest.approx(math.sqrt(2), rel=1e-9)
+    assert out["components_m"]["offset"] == pytest.approx(math.sqrt(2) / 100, rel=1e-9)
 
 
 def test_budget_rejects_bad_input(tmp_path):
@@ -101,10 +101,10 @@ def test_the_count_of_strips_is_strip_count(capsys):
 
 
 def test_centimetres_given_as_before_are_metres_now(run_lidar_json):
-    """A sigma of "5" is 5 m: the offset contribution is 500 cm (a command line written for cm shows it)."""
+    """A sigma of "5" is 5 m: the offset contribution is 5 m, 500 cm (a command line written for cm shows it)."""
     out = run_lidar_json(["lidar", "budget", "--points", "1", "--pieces", "1", "--strip-count", "1",
                           "--sigma-offset", "5"])
-    assert out["components"]["offset"] == pytest.approx(500.0)
+    assert out["components_m"]["offset"] == pytest.approx(5.0)
 
 
 def test_scenario_table_flying_twice_beats_denser_points(run_lidar_json):
@@ -114,8 +114,8 @@ def test_scenario_table_flying_twice_beats_denser_points(run_lidar_json):
     twice = rows["flown twice, 2 pt/m2, 4 control areas"]
     more_control = rows["1 pt/m2, 12 control areas"]
     # point density hardly matters for an area mean: the per-point terms are already averaged away
-    assert dense["total_cm"] == pytest.approx(base["total_cm"], abs=0.01)
-    assert twice["total_cm"] < more_control["total_cm"] < base["total_cm"]
+    assert dense["total_m"] == pytest.approx(base["total_m"], abs=1e-4)
+    assert twice["total_m"] < more_control["total_m"] < base["total_m"]
     # docs/lidar.md's table: alpha from the 21-strip design, totals in cm
     assert [round(rows[n]["alpha"], 3) for n in rows] == [0.345, 0.345, 0.217, 0.244]
     assert twice["n_strips"] == 2 and base["n_strips"] == 1
@@ -128,3 +128,15 @@ def test_the_docs_defaults_table_is_generated_from_the_sigmas():
     lidar_md = DOCS / "lidar.md"
     assert "scangeo.lidar.budget.BudgetSigmas" in [m.group("name") for m in BLOCK.finditer(lidar_md.read_text())]
     assert schema_docs([str(lidar_md), "--check"]) == 0, "run: python -m scangeo.io.schema_docs docs/lidar.md"
+
+
+def test_network_json_is_in_metres_and_the_printed_table_in_cm(run_lidar_json, capsys):
+    """The same precisions, printed in cm (docs/lidar.md's figures) and in the JSON in metres."""
+    out = run_lidar_json(["lidar", "network"])
+    assert set(out) == {"offset_sigma_m"}
+    corners = out["offset_sigma_m"]["21 strips, no cross strips, 4 corner controls"]
+    assert len(corners) == 21 and 0.018 < min(corners) < max(corners) < 0.022  # 1.84 - 2.12 cm
+    assert main(["lidar", "network"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0] == "21 strips, no cross strips, 4 corner controls: mean 2.02 cm, max 2.12 cm"
+    assert [float(v) for v in printed[1].split()] == pytest.approx([100 * v for v in corners], abs=0.005)

@@ -53,9 +53,14 @@ def test_a_run_writes_every_output(ran):
 
 
 def test_the_overlap_height_differences_at_least_halve(ran):
-    applied = json.loads((ran / "results" / "run.json").read_text())["stages"]["apply"]["summary"]
+    stages = json.loads((ran / "results" / "run.json").read_text())["stages"]
+    applied = stages["apply"]["summary"]
     for key in ("strip_differences_rms_m", "strip_differences_flat_rms_m"):
         assert applied[key]["after"] < 0.5 * applied[key]["before"], key
+    # the compare stage's figures are metres too: the recommended variant's are those it applied
+    compared = stages["compare"]["summary"]["variants"][stages["apply"]["summary"]["variant"]]
+    assert not any(k.endswith("_cm") for k in compared)
+    assert compared["strip_differences_flat_rms_m"] == pytest.approx(applied["strip_differences_flat_rms_m"]["after"])
     results = json.loads((ran / "results" / "strip" / "results.json").read_text())
     ties = results["patches"]["tie"]
     assert sum(results["strips_per_patch"].values()) == ties and set(results["strips_per_patch"]) == {"2"}
