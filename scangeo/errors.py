@@ -115,5 +115,10 @@ def where(path: object, line: int | None = None, key: str | None = None) -> str:
     return text
 
 
-class ParGeFileError(InputFileError, ValueError):
+class ImportFileError(InputFileError, ValueError):
+    """A source of ``scangeo import`` cannot be imported: a navigation log, a line-time file, a cube or
+    its header, a camera model (names the file, the line, and what was expected)."""
+
+
+class ParGeFileError(ImportFileError):
     """A PARGE status file (``.gcs``) or a HySpex sensor-model file cannot be imported (names the file)."""

@@ -25,8 +25,11 @@ def add_parser(subparsers, common) -> None:
     q.add_argument("--sensor-model", default=None, metavar="FILE",
                    help="a HySpex sensor-model file (pixel vinkelx vinkely) instead of the status file's look "
                         "angles")
-    q.add_argument("--dtm", default=None, metavar="FILE",
-                   help="the DTM (orthometric heights; default: a surface through the GCPs' heights, labelled)")
+    q.add_argument("--image", default=None, metavar="CUBE",
+                   help="the line's cube (ENVI: PARGE's .img with its .hdr), of the status file's pixels and lines")
+    q.add_argument("--dtm", default=None, metavar="FILE|HEIGHT",
+                   help="the DTM (orthometric heights), or a height in metres: a plane; default: a surface through "
+                        "the GCPs' heights, labelled; without GCPs none (the project then needs one)")
     q.add_argument("--geoid", default=None, metavar="N|FILE",
                    help="geoid undulation in metres, or a raster of it (default: PARGE's height offset)")
     q.set_defaults(func=run)
@@ -38,7 +41,7 @@ def run(args) -> int:
     from scangeo.importers.parge import import_parge
 
     r = import_parge(args.status, args.out, sensor_model=args.sensor_model, dtm=args.dtm, geoid=args.geoid,
-                     progress=progress_of(args))
+                     image=args.image, progress=progress_of(args))
     print(f"strip {r.strip}: {r.control} control and {r.check} check GCPs; line rate {r.line_rate_hz:.4f} Hz "
           f"({r.line_rate_source})")
     print(f"PARGE's boresight in scangeo's convention: roll {r.boresight_deg[0]:.4f}, pitch {r.boresight_deg[1]:.4f}, "
@@ -51,5 +54,7 @@ def run(args) -> int:
     print(f"DTM: {r.dtm}")
     for note in r.notes:
         print(f"note: {note}")
+    for warning in r.warnings:
+        print(f"warning: {warning}")
     print(f"project written to {r.folder}", file=sys.stderr)
     return 0

@@ -27,26 +27,36 @@ The project is written into a new folder, complete or not at all (:func:`scangeo
 """
 from __future__ import annotations
 
-import json
 import logging
 import math
+import re
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 import pyproj
 
-from scangeo.atomic import atomic_directory, write_csv, write_text
-from scangeo.errors import MissingFileError, ParGeFileError, ProjectFileError
+from scangeo.errors import ImportFileError, MissingFileError, ParGeFileError
+from scangeo.importers.envi import EnviCube
 from scangeo.importers.hyspex import HySpexSensorModel
-from scangeo.importers.parge_dtm import write_gcp_dtm
 from scangeo.importers.parge_status import ParGeStatus
+from scangeo.importers.record import ImportRecord
+from scangeo.importers.writer import (
+    Control,
+    DtmChoice,
+    ImportedLine,
+    ImportedSensor,
+    ProjectPlan,
+    check_out,
+    given_dtm,
+    with_boresight,
+    write_project,
+)
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rotation import matrix_to_rph, rph_to_matrix
 from scangeo.sensors.strip import Mounting, StripGeometry
-from scangeo.trajectory.readers import write_trajectory_csv
 from scangeo.trajectory.stream import GpsImuStream
 
 log = logging.getLogger(__name__)
@@ -95,15 +105,11 @@ class ImportResult:
     check: int
     dtm: str
     notes: list[str] = field(default_factory=list)
-
-    def as_dict(self) -> dict:
-        d = asdict(self)
-        d["folder"] = str(self.folder)
-        return d
+    warnings: list[str] = field(default_factory=list)
 
 
 def import_parge(status, out, *, sensor_model=None, dtm=None, geoid: float | str | Path | None = None,
-                 progress: ProgressCallback = no_progress) -> ImportResult:
+                 image=None, progress: ProgressCallback = no_progress) -> ImportResult:
     """Write a scangeo project from a PARGE status file.
 
     Parameters
@@ -112,9 +118,12 @@ def import_parge(status, out, *, sensor_model=None, dtm=None, geoid: float | str
     out : the project folder to write; it must not exist or be empty.
     sensor_model : a HySpex sensor-model file (``pixel vinkelx vinkely``) to take the look angles
         from instead of the status file's ``sensarr``; its pixel count must be the image's.
-    dtm : a DTM raster (orthometric heights in any CRS GDAL knows); the project refers to it by its
-        absolute path. Default: a surface through the GCPs' heights, labelled as such.
+    dtm : a DTM raster (orthometric heights in any CRS GDAL knows; the project refers to it by its
+        absolute path), or a number: a plane at that height (m). Default: a surface through the GCPs'
+        heights, labelled as such; without GCPs no DTM (the project says it needs one).
     geoid : the geoid undulation N (m, a number) or a raster of N; default: PARGE's height offset.
+    image : the line's cube (ENVI, e.g. PARGE's ``.img`` with its ``.hdr``); its samples and lines
+        must be the status file's pixels and lines. The project refers to it by its absolute path.
     progress : ``callback(done, total, message)``.
 
     Returns
@@ -124,50 +133,42 @@ def import_parge(status, out, *, sensor_model=None, dtm=None, geoid: float | str
     Raises
     ------
     ParGeFileError : the status or sensor-model file cannot be imported (names the file and why).
+    ImportFileError : the cube does not fit the status file (names its header and both sizes).
     ProjectFileError : ``out`` exists and is not empty.
     """
-    out = Path(out)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise ProjectFileError(f"{out}: exists and is not an empty folder (the import writes a new project)")
+    out = check_out(out)
+    record = ImportRecord("parge")
     progress(0, 5, "import: reading the PARGE status")
     st = ParGeStatus.read(status)
+    record.source("status", st.path)
     across, along, look_source = _look_angles(st, sensor_model)
     strip = _strip_id(st)
-    notes: list[str] = []
-    rate, rate_source = _line_rate(st, notes)
-    geoid_value, geoid_text = _geoid(st, geoid, notes)
+    cube = _cube(st, image, record)
+    rate, rate_source = _line_rate(st, record)
+    geoid_value, geoid_text = _geoid(st, geoid, record.notes)
+    _check_names(st, sensor_model, record)
+    _check_start_time(st, record)
+    if st.placeholder_gcps:
+        record.note(f"gcparr holds {st.placeholder_gcps} row{'s' if st.placeholder_gcps > 1 else ''} of zeros: "
+                    "PARGE's empty list, not GCPs (left out)")
     times = st.start_seconds + np.arange(st.lines) / rate
     convergence = _convergence(st)
     roll = -st.roll
     heading = st.heading + convergence
     stream = GpsImuStream(times, np.radians(st.lat), np.radians(st.lon), st.altitude, roll, st.pitch, heading,
                           source=str(st.path))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_directory(out) as tmp:
-        progress(1, 5, "import: writing the project")
-        (tmp / "nav").mkdir()
-        (tmp / "sensor").mkdir()
-        write_trajectory_csv(tmp / "nav" / f"{strip}.csv", stream)
-        write_csv(tmp / "sensor" / "look_angles.csv", ["pixel", "along_deg", "across_deg"],
-                  ([j, f"{np.degrees(a):.10f}", f"{np.degrees(c):.10f}"]
-                   for j, (a, c) in enumerate(zip(along, across))))
-        ids = _write_points(tmp, st, strip)
-        if dtm is not None:
-            dtm_path = Path(dtm).resolve()
-            if not dtm_path.exists():
-                raise MissingFileError(f"{dtm}: no such DTM")
-            dtm_text, dtm_name = f"{dtm_path} (given)", str(dtm_path)
-        else:
-            dtm_name = "dtm_from_gcps.tif"
-            dtm_text = write_gcp_dtm(tmp / dtm_name, st.gcps.xyz if len(st.gcps) else None,
-                                     _footprint(st, across, along), st.crs_wkt,
-                                     flat_height=float(np.median(st.height)) - _nominal_agl(st))
-            if not len(st.gcps):
-                notes.append("no GCPs: the DTM is a flat plane at a nominal terrain height; give a real DTM")
-        origin = _origin(st)
+    dtm_choice = _dtm(st, dtm, record)
+    sensor = ImportedSensor(st.camera, along, across, rate, measurement_time="line", source=f"from {look_source}")
+    line = ImportedLine(strip, stream, st.lines, sensor, first_line_time=st.start_seconds,
+                        image=cube.data.resolve() if cube is not None else None, control=_control(st, strip))
+    hypotheses = _hypotheses(st, roll, st.pitch, heading)
+    plan = ProjectPlan(crs=_crs_text(st.crs_wkt), crs_wkt=st.crs_wkt, geoid=geoid_value, origin=_origin(st),
+                       knot_spacing_s=1.0 / rate, dtm=dtm_choice, box=_footprint(st, across, along), tool="parge",
+                       comment=f"{st.path.name} ({st.camera})")
+    chosen_box: list[OffsetHypothesis] = []
+
+    def refine(tmp: Path, lines: list[ImportedLine], plan: ProjectPlan) -> tuple[list[ImportedLine], ProjectPlan]:
         progress(2, 5, "import: testing which offsets the attitude arrays hold")
-        _write_project_toml(tmp, st, strip, rate, geoid_value, dtm_name, origin, (0.0, 0.0, 0.0), look_source)
-        hypotheses = _hypotheses(st, roll, st.pitch, heading)
         if st.gcps.used.any():
             project = Project.load(tmp)
             nominal = project.geometry(strip, check=False)  # the spline fitted once; each hypothesis its mounting
@@ -176,25 +177,39 @@ def import_parge(status, out, *, sensor_model=None, dtm=None, geoid: float | str
             chosen = min(hypotheses, key=lambda h: math.hypot(*h.fit_px) if h.fit_px else math.inf)
         else:
             chosen = _default_hypothesis(hypotheses)
-            notes.append(f"no used GCPs: which offsets the arrays hold could not be tested; assumed "
-                         f"'{chosen.description}'")
-        _write_project_toml(tmp, st, strip, rate, geoid_value, dtm_name, origin, chosen.boresight_deg, look_source)
+            record.note(f"no used GCPs: which offsets the arrays hold could not be tested; assumed "
+                        f"'{chosen.description}'")
+        chosen_box.append(chosen)
         progress(3, 5, "import: variants")
-        write_text(tmp / "variants.toml", _variants_toml(st, chosen))
-        result = ImportResult(tmp, strip, rate, rate_source, geoid_text, chosen.boresight_deg, chosen, hypotheses,
-                              int(st.gcps.used.sum()), int((~st.gcps.used).sum()), dtm_text, notes)
-        record = result.as_dict()
-        record.update(source=str(st.path), camera=st.camera, pixels=st.pixels, lines=st.lines, bands=st.bands,
-                      look_angles=look_source, points=ids, parge_offsets=st.offsets,
-                      parge_sensor_boresight_rad=list(st.sensor_boresight),
-                      history=[asdict(e) for e in st.events], image=st.image_name, dem=st.dem_name,
-                      mean_convergence_deg=float(np.degrees(np.mean(convergence))),
-                      conventions=CONVENTIONS)
-        record["folder"] = str(out)
-        write_text(tmp / "import.json", json.dumps(record, indent=1, default=_json_default) + "\n")
-    result.folder = out
+        return with_boresight(lines, chosen.boresight_deg), replace(plan, variants=_variants_toml(st, chosen))
+
+    progress(1, 5, "import: writing the project")
+    ids = _point_ids(st)
+    record.extra.update(source=str(st.path), camera=st.camera, pixels=st.pixels, lines=st.lines, bands=st.bands,
+                        look_angles=look_source, points=ids, parge_offsets=st.offsets,
+                        parge_sensor_boresight_rad=list(st.sensor_boresight),
+                        history=[asdict(e) for e in st.events], image=st.image_name, dem=st.dem_name,
+                        mean_convergence_deg=float(np.degrees(np.mean(convergence))), conventions=CONVENTIONS,
+                        strip=strip, line_rate_hz=rate, line_rate_source=rate_source, geoid=geoid_text,
+                        dtm=dtm_choice.why, control=int(st.gcps.used.sum()), check=int((~st.gcps.used).sum()),
+                        hypotheses=hypotheses)
+
+    def record_offsets(tmp: Path, lines: list[ImportedLine], plan: ProjectPlan):
+        lines, plan = refine(tmp, lines, plan)
+        chosen = chosen_box[-1]
+        record.extra.update(offsets=chosen, boresight_deg=chosen.boresight_deg, hypotheses=hypotheses)
+        record.decide("offsets", chosen.description, "the split of PARGE's history whose fixed boresight fits the "
+                      "used GCPs best" if chosen.fit_px else "not testable without used GCPs",
+                      {"fit_lines_px": chosen.fit_px, "boresight_deg": chosen.boresight_deg},
+                      {h.description: {"fit_lines_px": h.fit_px} for h in hypotheses if h is not chosen})
+        return lines, plan
+
+    write_project(out, [line], plan, record, refine=record_offsets)
+    chosen = chosen_box[-1]
     progress(5, 5, "import: done")
-    return result
+    return ImportResult(out, strip, rate, rate_source, geoid_text, chosen.boresight_deg, chosen, hypotheses,
+                        int(st.gcps.used.sum()), int((~st.gcps.used).sum()), dtm_choice.why, list(record.notes),
+                        list(record.warnings))
 
 
 #: The conventions applied, as written into import.json (module docstring).
@@ -207,16 +222,6 @@ CONVENTIONS = {
     "heights": "trajectory h = gpsarr altitude; GCP and DTM heights as PARGE's DEM; N = PARGE's height "
                "offset unless a geoid is given",
 }
-
-
-def _json_default(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(type(value).__name__)
 
 
 def _strip_id(st: ParGeStatus) -> str:
@@ -238,14 +243,124 @@ def _look_angles(st: ParGeStatus, sensor_model) -> tuple[np.ndarray, np.ndarray,
     return across, np.asarray(vy, float), source
 
 
-def _line_rate(st: ParGeStatus, notes: list[str]) -> tuple[float, str]:
+def _line_rate(st: ParGeStatus, record: ImportRecord) -> tuple[float, str]:
+    """The line rate: the camera's frame period where its header gives one, else PARGE's SCANFREQ.
+
+    PARGE's navigation has one record a line, spaced 1 / SCANFREQ: a frame period that says another
+    rate is a line rate that disagrees with the navigation's spacing (a warning)."""
     if st.frame_period_us:
         rate = 1e6 / st.frame_period_us
+        figures = {"frame_period_us": st.frame_period_us, "scanfreq_hz": st.scan_frequency_hz,
+                   "duration_s_at_frame_period": round(st.lines / rate, 3),
+                   "duration_s_at_scanfreq": round(st.lines / st.scan_frequency_hz, 3)}
         if abs(rate - st.scan_frequency_hz) > 1e-6 * rate:
-            notes.append(f"line rate {rate:.4f} Hz from the camera's frame period ({st.frame_period_us:g} us); "
-                         f"PARGE's SCANFREQ says {st.scan_frequency_hz:g} Hz")
+            record.warn(f"{st.path.name}: the camera's frame period ({st.frame_period_us:g} us) says {rate:.4f} "
+                        f"lines/s, PARGE's SCANFREQ (the spacing of its navigation records) {st.scan_frequency_hz:g} "
+                        f"Hz: the frame period is taken ({st.lines / rate:.1f} s instead of "
+                        f"{st.lines / st.scan_frequency_hz:.1f} s for the line)")
+        record.decide("line_rate", f"{rate:.4f} Hz (the camera's frame period)",
+                      "the camera's header is the camera's own; PARGE's SCANFREQ a processing setting", figures)
         return rate, f"frame period {st.frame_period_us:g} us (camera header)"
+    record.decide("line_rate", f"{st.scan_frequency_hz:g} Hz (PARGE's SCANFREQ)", "the camera's header gives no "
+                  "frame period", {"scanfreq_hz": st.scan_frequency_hz})
     return st.scan_frequency_hz, "PARGE's SCANFREQ"
+
+
+#: camera families that HySpex (and other makers) name in file names
+_FAMILIES = ("VNIR", "SWIR", "MWIR", "LWIR")
+
+
+def _names(text: str) -> tuple[set[str], set[str]]:
+    """(camera families, serial numbers) named in a file name or description."""
+    upper = text.upper()
+    families = {f for f in _FAMILIES if re.search(rf"(?<![A-Z]){f}(?![A-Z])", upper)}
+    serials = set(re.findall(r"SN[_-]?0*(\d+)", upper))
+    return families, serials
+
+
+def _check_names(st: ParGeStatus, sensor_model, record: ImportRecord) -> None:
+    """A warning when the image's name and the sensor (its model file, its description) name other cameras."""
+    image_f, image_s = _names(st.image_name)
+    sources = [("the sensor's model file", st.sensor_file), ("the sensor's description", st.sensor_description),
+               ("the camera's header ID", st.camera)]
+    if sensor_model is not None:
+        sources.append(("the sensor model given", Path(sensor_model).name))
+    for what, text in sources:
+        fam, ser = _names(text)
+        if (image_f and fam and not image_f & fam) or (image_s and ser and not image_s & ser):
+            record.warn(f"{st.path.name}: image.NAME names a {_camera_words(image_f, image_s)} "
+                        f"({_file_name(st.image_name)}), but {what} names a {_camera_words(fam, ser)} "
+                        f"({_file_name(text)}): check that the status file, its image and its sensor model are "
+                        "of one camera")
+            return
+
+
+def _camera_words(families: set[str], serials: set[str]) -> str:
+    words = "/".join(sorted(families)) or "camera"
+    return words + (f" SN{'/'.join(sorted(serials))}" if serials else "")
+
+
+def _file_name(text: str) -> str:
+    """The last part of a Windows or POSIX path (PARGE writes Windows paths)."""
+    return Path(text.replace("\\", "/")).name
+
+
+def _check_start_time(st: ParGeStatus, record: ImportRecord) -> None:
+    """A warning when the line's first navigation time is not a time of the line's day."""
+    start, end = st.start_seconds, st.start_seconds + st.lines / st.line_rate_hz
+    if not (0.0 <= start < 86400.0):
+        record.warn(f"{st.path.name}: the line's first navigation time is {start:.1f} s (image.STARTTIME "
+                    f"{st.start_hours:g} h), not a time of its day {st.date or '(no date)'}: its times are not the "
+                    "GNSS's (a time offset to other navigation would be meaningless)")
+    record.decide("start_time", f"{start:.3f} s of the day (image.STARTTIME x 3600)",
+                  "PARGE's STARTTIME is the first line's time in hours of the day",
+                  {"start_s": start, "end_s": round(end, 3), "date": st.date})
+
+
+def _cube(st: ParGeStatus, image, record: ImportRecord) -> EnviCube | None:
+    """The line's cube, checked against the status file; None without one."""
+    if image is None:
+        record.note(f"no image: image.NAME names {_file_name(st.image_name)}; give the cube "
+                    "to rectify the line")
+        return None
+    cube = EnviCube.read(image)
+    if (cube.samples, cube.lines) != (st.pixels, st.lines):
+        raise ImportFileError(f"{cube.header}: {cube.samples} samples x {cube.lines} lines, but the status file "
+                              f"{st.path.name} has {st.pixels} pixels x {st.lines} lines (another line's cube?)")
+    if cube.bands != st.bands:
+        record.warn(f"{cube.header.name}: {cube.bands} bands, the status file says {st.bands} (a subset of the "
+                    "bands? the geometry does not depend on them)")
+    record.source("cube", cube.data)
+    return cube
+
+
+def _dtm(st: ParGeStatus, dtm, record: ImportRecord) -> DtmChoice:
+    if dtm is not None:
+        return given_dtm(dtm)
+    if len(st.gcps):
+        return DtmChoice("gcps", why=f"a surface through the {len(st.gcps)} GCPs' heights (not a DEM)")
+    record.warn(f"{st.path.name}: no GCPs and no DTM given: the project has no DTM, and scangeo run stops at its "
+                "check; give the DTM (--dtm)")
+    return DtmChoice("none", why="none: the line needs a DTM")
+
+
+def _point_ids(st: ParGeStatus) -> list[str]:
+    n = len(st.gcps) + st.placeholder_gcps
+    width = max(2, len(str(n)))
+    return [f"GCP{k + 1:0{width}d}" for k in st.gcps.row]
+
+
+def _control(st: ParGeStatus, strip: str) -> Control | None:
+    n = len(st.gcps)
+    if not n:
+        return None
+    ids = np.array(_point_ids(st), dtype=object)
+    roles = np.where(st.gcps.used, "control", "check")
+    ground = GroundPoints(ids, st.gcps.xyz, np.full(n, GCP_SIGMA_XY_M), np.full(n, GCP_SIGMA_Z_M),
+                          np.array(roles, dtype=object), np.arange(n))
+    points = ImagePoints(ids, np.array([strip] * n, dtype=object), st.gcps.line, st.gcps.pixel,
+                         np.full(n, GCP_SIGMA_PX), np.arange(n))
+    return Control(ground, points)
 
 
 def _geoid(st: ParGeStatus, geoid, notes: list[str]) -> tuple[float | str, str]:
@@ -301,48 +416,6 @@ def _origin(st: ParGeStatus) -> tuple[float, float, float]:
     k = st.lines // 2
     ground = float(np.median(st.gcps.xyz[:, 2])) if len(st.gcps) else float(st.height[k]) - _nominal_agl(st)
     return float(st.lat[k]), float(st.lon[k]), ground
-
-
-def _write_points(tmp: Path, st: ParGeStatus, strip: str) -> list[str]:
-    n = len(st.gcps)
-    width = max(2, len(str(n)))
-    ids = [f"GCP{k + 1:0{width}d}" for k in range(n)]
-    roles = np.where(st.gcps.used, "control", "check")
-    GroundPoints(np.array(ids, dtype=object), st.gcps.xyz, np.full(n, GCP_SIGMA_XY_M), np.full(n, GCP_SIGMA_Z_M),
-                 np.array(roles, dtype=object), np.arange(n)).write(tmp / "ground.csv")
-    ImagePoints(np.array(ids, dtype=object), np.array([strip] * n, dtype=object), st.gcps.line, st.gcps.pixel,
-                np.full(n, GCP_SIGMA_PX), np.arange(n)).write(tmp / "points.csv")
-    return ids
-
-
-def _write_project_toml(tmp: Path, st: ParGeStatus, strip: str, rate: float, geoid, dtm_name: str,
-                        origin: tuple[float, float, float], boresight_deg, look_source: str) -> None:
-    geoid_line = (f"geoid_undulation_m = {geoid:.4f}" if isinstance(geoid, float)
-                  else f"geoid = {json.dumps(str(geoid))}")
-    text = f"""# Imported by scangeo import parge from {st.path.name} ({st.camera}); decisions in import.json
-[project]
-crs = {json.dumps(_crs_text(st.crs_wkt))}
-dtm = {json.dumps(dtm_name)}
-{geoid_line}
-origin = [{origin[0]:.9f}, {origin[1]:.9f}, {origin[2]:.3f}]
-knot_spacing_s = {1.0 / rate!r}   # one knot per navigation record (one per line)
-
-[sensor]
-kind = "pushbroom"
-pixels = {st.pixels}
-line_rate_hz = {rate!r}
-look_angles = "sensor/look_angles.csv"   # from {look_source}
-measurement_time = "line"   # one navigation record per line, with attitude jitter: the line's own pose
-# PARGE's boresight in scangeo's convention
-boresight_deg = [{boresight_deg[0]:.6f}, {boresight_deg[1]:.6f}, {boresight_deg[2]:.6f}]
-
-[[strips]]
-id = {json.dumps(strip)}
-trajectory = "nav/{strip}.csv"
-first_line_time = {st.start_seconds!r}
-lines = {st.lines}
-"""
-    write_text(tmp / "project.toml", text)
 
 
 def _crs_text(wkt: str) -> str:
@@ -438,6 +511,18 @@ def _default_hypothesis(hypotheses: list[OffsetHypothesis]) -> OffsetHypothesis:
 
 def _variants_toml(st: ParGeStatus, chosen: OffsetHypothesis) -> str:
     bs = ", ".join(f"{v:.4f}" for v in chosen.boresight_deg)
+    if not st.gcps.used.any():
+        return f"""# Written by scangeo import parge ({st.path.name}); edit freely: scangeo run keeps it.
+# PARGE's boresight in scangeo's convention is [sensor] boresight_deg = [{bs}] (project.toml).
+# The line has no used GCPs: nothing can be calibrated, and the orthoimage is a direct georeferencing.
+
+[defaults]
+strategy = "DG"
+
+[variants.PARGE]
+description = "PARGE's boresight held fixed (direct georeferencing: no control)"
+snooping = false
+"""
     return f"""# Written by scangeo import parge ({st.path.name}); edit freely: scangeo run keeps it.
 # PARGE's boresight in scangeo's convention is [sensor] boresight_deg = [{bs}] (project.toml).
 

@@ -17,6 +17,8 @@ arrays. The parts scangeo reads (names as PARGE 3.4 writes them):
     column.
 ``gcparr``
     per ground control point: pixel, line, easting, northing, height, used flag (1 used, 0 not).
+    A row of six zeros is PARGE's empty list, not a GCP: such rows are dropped (``placeholder_gcps``
+    counts them).
 ``aux[k].OFFSET``
     PARGE's offsets of the navigation channels: 0 roll, 1 pitch, 2 yaw, 3 heading (rad),
     4 easting, 5 northing, 6 height (m).
@@ -66,12 +68,14 @@ class OffsetEvent:
 
 @dataclass(frozen=True)
 class GroundControl:
-    """PARGE's ground control points: image pixel and line, map E, N, Z, and PARGE's used flag."""
+    """PARGE's ground control points: image pixel and line, map E, N, Z, PARGE's used flag, and each
+    one's row in ``gcparr`` (0-based; placeholder rows of zeros are not among them)."""
 
     pixel: np.ndarray
     line: np.ndarray
     xyz: np.ndarray
     used: np.ndarray
+    row: np.ndarray
 
     def __len__(self) -> int:
         return len(self.pixel)
@@ -113,6 +117,9 @@ class ParGeStatus:
     history: tuple[str, ...] = ()
     events: tuple[OffsetEvent, ...] = field(default=())
     sensor_file: str = ""
+    sensor_description: str = ""
+    date: str = ""
+    placeholder_gcps: int = 0
 
     @classmethod
     def read(cls, path) -> ParGeStatus:
@@ -144,7 +151,7 @@ class ParGeStatus:
                                  "(pixel, across-track angle, along-track angle)")
         if not np.array_equal(sens[:, 0], np.arange(pixels)):
             raise ParGeFileError(f"{path}: sensarr's first column is not the pixel index 0..{pixels - 1}")
-        gcps = _ground_control(data, pixels, lines, path)
+        gcps, placeholders = _ground_control(data, pixels, lines, path)
         history = tuple(_text(h) for h in np.atleast_1d(pr["HSRY"]) if _text(h).strip())
         result = data.get("result")
         descr = _text(result[0]["DESCR"]) if result is not None and "DESCR" in result.dtype.names else ""
@@ -171,6 +178,9 @@ class ParGeStatus:
             history=history,
             events=tuple(parse_events(history)),
             sensor_file=_text(sensor["FILE"]) if "FILE" in sensor.dtype.names else "",
+            sensor_description=_text(sensor["DESCR"]) if "DESCR" in sensor.dtype.names else "",
+            date=_text(image["DATE"]) if "DATE" in image.dtype.names else "",
+            placeholder_gcps=placeholders,
         )
 
     @property
@@ -248,20 +258,27 @@ def _array(data: dict, name: str, shape: tuple[int, int | None], path: Path, exp
     return a
 
 
-def _ground_control(data: dict, pixels: int, lines: int, path: Path) -> GroundControl:
+def _ground_control(data: dict, pixels: int, lines: int, path: Path) -> tuple[GroundControl, int]:
+    """The GCPs, and the number of all-zero rows (PARGE's empty list) dropped."""
+    empty = GroundControl(np.zeros(0), np.zeros(0), np.zeros((0, 3)), np.zeros(0, bool), np.zeros(0, int))
     if "gcparr" not in data or data["gcparr"] is None or np.size(data["gcparr"]) == 0:
-        empty = np.zeros(0)
-        return GroundControl(empty, empty, np.zeros((0, 3)), np.zeros(0, bool))
+        return empty, 0
     g = np.atleast_2d(np.asarray(data["gcparr"], float))
     if g.shape[1] < 6:
         raise ParGeFileError(f"{path}: gcparr has {g.shape[1]} columns, expected 6 (pixel, line, E, N, Z, used)")
-    for i, row in enumerate(g):
+    placeholder = np.all(g[:, :6] == 0, axis=1)
+    rows = np.flatnonzero(~placeholder)
+    g = g[~placeholder]
+    if not len(g):
+        return empty, int(placeholder.sum())
+    for i, row in zip(rows, g):
         if not np.isfinite(row[:6]).all():
             raise ParGeFileError(f"{path}: gcparr GCP {i + 1} has a value that is not finite")
         if not (-0.5 <= row[0] <= pixels - 0.5 and -0.5 <= row[1] <= lines - 0.5):
             raise ParGeFileError(f"{path}: gcparr GCP {i + 1} at pixel {row[0]:g}, line {row[1]:g} is outside the "
                                  f"line's image (pixels 0..{pixels - 1}, lines 0..{lines - 1})")
-    return GroundControl(g[:, 0].copy(), g[:, 1].copy(), g[:, 2:5].copy(), g[:, 5] > 0.5)
+    return (GroundControl(g[:, 0].copy(), g[:, 1].copy(), g[:, 2:5].copy(), g[:, 5] > 0.5, rows),
+            int(placeholder.sum()))
 
 
 def _offsets(aux, path: Path) -> dict[str, float]:

@@ -135,6 +135,11 @@ def no_images(ctx: Context) -> str | None:
 def _check(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
     """Every input file read as ``scangeo info`` reads it; any that cannot be read stops the run."""
     progress(0, 1, "check: reading the inputs")
+    dtm = ctx.project.dtm_file
+    if dtm is not None and not dtm.exists() and ctx.project.sensor.kind != "laser":
+        raise InputFileError(f"{ctx.root}: the project has no DTM: project.toml [project] dtm names "
+                             f"{relative_name(dtm, ctx.root)}, which does not exist. The line's rays need a DTM "
+                             "(over water a plane at the sea surface): put one there, or import again with --dtm")
     summary = summarise_project(ctx.root)
     problems = [f"DTM: {summary['dtm']['error']}"] if "error" in summary.get("dtm", {}) else []
     problems += [f"strip {s['id']}: {s['error']}" for s in summary["strips"] if "error" in s]

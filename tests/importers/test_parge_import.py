@@ -16,7 +16,6 @@ import pytest
 import scipy.io
 
 from scangeo.cli import main
-from scangeo.errors import AdjustmentError
 from scangeo.importers.parge import import_parge
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
@@ -102,7 +101,7 @@ def test_boresight_matches_an_independent_three_angle_fit_and_calibrated_is_no_w
         assert np.hypot(*calibrated) <= np.hypot(*boresight), (calibrated, boresight)
 
 
-def test_a_line_without_gcps_imports_and_its_boresight_cannot_be_calibrated(tmp_path, capsys):
+def test_a_line_without_gcps_imports_without_a_dtm_and_run_stops_at_its_check(tmp_path, capsys):
     data = bytearray(shared_file(LINES["SWIR"]).read_bytes())
     at = data.find(b"GCPARR")
     data[at:at + 6] = b"GCPXRR"  # the line's GCP array gone
@@ -110,11 +109,16 @@ def test_a_line_without_gcps_imports_and_its_boresight_cannot_be_calibrated(tmp_
     status.write_bytes(bytes(data))
     out = tmp_path / "project"
     assert main(["import", "parge", str(status), str(out)]) == 0
-    assert "could not be tested" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "could not be tested" in printed
+    assert "warning: nogcp.gcs: no GCPs and no DTM given: the project has no DTM" in printed
     project = Project.load(out)
-    assert project.sensor.kind == "pushbroom" and len(GroundPoints.read(out / "ground.csv")) == 0
-    with pytest.raises(AdjustmentError, match="control"):
-        adjust(out, "BORESIGHT")
+    assert project.sensor.kind == "pushbroom" and not (out / "ground.csv").exists()
+    assert not project.dtm_path.exists() and "needs a DTM" in (out / "project.toml").read_text()
+    assert "the line needs a DTM" in json.loads((out / "import.json").read_text())["dtm"]
+    assert main(["run", str(out), "--no-progress"]) == 1
+    err = capsys.readouterr().err
+    assert "stage check failed" in err and "the project has no DTM" in err and "Traceback" not in err
 
 
 def test_scangeo_run_on_an_imported_line_compares_the_variants_and_says_why_it_cannot_rectify(tmp_path, capsys):
