@@ -91,9 +91,11 @@ def summary_lines(result) -> list[str]:
     diagnose = result.summary_of("diagnose")
     if diagnose:
         problems = diagnose.get("problem_strips", {})
+        search = diagnose.get("search_problem_strips")
         lines.append("problem strips: " + ("; ".join(
             f"{s} (breaks at lines {', '.join(f'{b:g}' for b in breaks) or 'none'})" for s, breaks in problems.items())
-            or "none"))
+            or "none") + ("" if search is None else
+                          f" (the attribution's: the search's own model had {', '.join(search) or 'none'})"))
         lines += [f"  {a['text']}" for a in diagnose.get("attribution", [])]
     compare = result.summary_of("compare") if not laser else {}
     if compare:

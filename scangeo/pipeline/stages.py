@@ -216,6 +216,8 @@ def _diagnose(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any],
         variants = "kept (not written by scangeo run, or edited since)"
         log.info("%s: kept as it is (yours); the diagnosis is in results/diagnosis.md", target)
     summary = {"problem_strips": problems, "se_sigma0": d.sigma0,
+               # the search's own problem strips when an attribution's model replaced its model (else absent)
+               **({"search_problem_strips": d.search_problem_strips} if d.search is not None else {}),
                "attribution": [{"strip": c.strip, "ambiguous": c.ambiguous, "text": c.sentence(),
                                 "runner_up": None if c.runner_up is None else c.runner_up.as_dict()}
                                for c in d.attribution],

@@ -60,15 +60,21 @@ def true_errors(root: Path, names: list[str]) -> dict[str, tuple[float, float]]:
     return out
 
 
-def project(root: Path, seed: int, blunders: int, ties: int | None = None, control: int | None = None) -> None:
+#: the keys that take the problem strip's GPS/IMU excursions (and the control bands at its breaks) away
+DRIFT_FREE = {"gpsimu_errors": {"problem_strip": 0, "breaks_lines": [], "strip": []}}
+
+
+def project(root: Path, seed: int, blunders: int, ties: int | None = None, control: int | None = None,
+            preset: str = "vienna2000", drift_free: bool = False) -> None:
     if not (root / "project.toml").exists():
         points: dict = {"blunders": blunders}
         if ties is not None:
             points["tie_per_overlap"] = ties
         if control is not None:
             points["control_per_band_per_strip"] = control
-        simulate(root, load_preset("vienna2000", {"output": {"images": False, "truth_ortho": False}, "seed": seed,
-                                                  "points": points}))
+        overrides = {"output": {"images": False, "truth_ortho": False}, "seed": seed, "points": points,
+                     **(DRIFT_FREE if drift_free else {})}
+        simulate(root, load_preset(preset, overrides))
 
 
 def worse_unsaid(c: Comparison, rec: str, said: str) -> list[str]:
@@ -88,35 +94,85 @@ def worse_unsaid(c: Comparison, rec: str, said: str) -> list[str]:
     return out
 
 
-def seed_row(root: Path, seed: int, blunders: int, totals: dict, ties: int | None = None,
-             control: int | None = None, rerun: str | None = None) -> str:
-    project(root, seed, blunders, ties, control)
+def run_seed(root: Path, until: str, rerun: str | None) -> float:
+    """``scangeo run ROOT --until UNTIL`` unless it got there already (a cleaning done is kept; ``rerun``: from
+    that stage again); the CPU seconds it took."""
     manifest = Manifest.load(root)
-    status = {name: (manifest.stages.get(name) or {}).get("status") for name in ("clean", "compare")}
+    status = {name: (manifest.stages.get(name) or {}).get("status") for name in ("clean", until)}
+    cleaned = status["clean"] in ("ran", "up to date")
     t0 = time.process_time()
-    if rerun and status["clean"] in ("ran", "up to date"):
-        status["compare"] = None
-    if status["compare"] not in ("ran", "up to date"):
-        # a cleaning already done is kept (--rerun: from the diagnosis on; the cleaning is not what is measured)
-        run(root, until="compare",
-            from_stage=(rerun or "diagnose") if status["clean"] in ("ran", "up to date") else None)
-        manifest = Manifest.load(root)
-    cpu = time.process_time() - t0
+    if status[until] not in ("ran", "up to date") or (rerun and cleaned):
+        # a cleaning already done is kept (--rerun: from that stage on; the cleaning is not what is measured)
+        run(root, until=until, from_stage=(rerun or "diagnose") if cleaned else None)
+    return time.process_time() - t0
+
+
+def alternatives_text(d: dict) -> str:
+    """The runner-up, the richer alternative and the other plausible ones of a diagnosis.json, each once."""
+    runner = [a[k] for a in d.get("attribution", []) for k in ("runner_up", "richer") if a.get(k)]
+    runner += [p for a in d.get("attribution", []) for p in a.get("plausible", []) if p not in runner]
+    return "; ".join(dict.fromkeys(  # an alternative two problem strips share is listed once
+        f"{r['kind']} {'-'.join(r['breaks']) or 'none'} {r['delta_bic']:+.1f}"
+        + (f" (split {r['delta_split']:+.1f})" if r.get("delta_split") is not None else "") for r in runner)) or "–"
+
+
+def search_verdict(d: dict) -> tuple[list[str], float | None]:
+    """The problem strips of the search's own model (before an adopted alternative replaced it), and how much
+    the best model with breaks beat it when it had none (-dBIC; None: it had problem strips)."""
+    adopted = d.get("adopted")
+    if adopted:
+        return list(adopted["search_problem_strips"]), (-adopted["delta_bic"] if not adopted["search_problem_strips"]
+                                                        else None)
+    if d["problem_strips"]:
+        return list(d["problem_strips"]), None
+    richer = [a["richer"] for a in d.get("attribution", []) if a.get("richer")]
+    return [], (-min(r["delta_bic"] for r in richer) if richer else None)
+
+
+def recommended_strips(name: str, found: list[str]) -> list[str]:
+    """The problem strips a recommended variant corrects: its suffix's (``S4-02-03``), the diagnosis's (``S4``),
+    or none (DG, BE, SE, SE_DTM)."""
+    base, _, suffix = name.partition("-")
+    if base[:1] not in ("P", "S") or base.startswith("SE"):
+        return []
+    return suffix.split("-") if suffix else list(found)
+
+
+def diagnosis_row(root: Path, seed: int, totals: dict, cpu: float) -> str:
+    """A row of the diagnosis alone (``--until diagnose``, e.g. drift-free blocks)."""
     truth = json.loads((root / "truth" / "errors.json").read_text())
-    problem = str(truth["problem_strip"])
+    problem = truth["problem_strip"]
+    d = json.loads((root / "results" / "diagnosis.json").read_text())
+    found = d["problem_strips"]
+    search, gain = search_verdict(d)
+    right = found == ([str(problem)] if problem else [])
+    totals["seeds"] += 1
+    totals["right"] += right
+    totals["wrong"] += not right
+    totals["ambiguous"] += bool(d.get("ambiguous"))
+    totals["cpu"] += cpu
+    if gain is not None:
+        totals["gains"].append(gain)
+    return (f"| {seed} | {', '.join(found) or '–'} ({problem or 'none'}){'' if right else ' WRONG'} | "
+            f"{', '.join(search) or '–'} | {'–' if gain is None else f'{gain:.1f}'} | {alternatives_text(d)} | "
+            f"{'yes' if d.get('ambiguous') else 'no'} | {cpu:.0f} s |")
+
+
+def seed_row(root: Path, seed: int, totals: dict, cpu: float) -> str:
+    truth = json.loads((root / "truth" / "errors.json").read_text())
+    problem = truth["problem_strip"]
+    injected = [str(problem)] if problem else []
+    manifest = Manifest.load(root)
     d = json.loads((root / "results" / "diagnosis.json").read_text())
     c = Comparison.from_dict(json.loads((root / "results" / "comparison.json").read_text()))
     compare = manifest.stages["compare"]["summary"]
     found = d["problem_strips"]
-    right = found == [problem]
+    search, _ = search_verdict(d)
+    right = found == injected
     ambiguous = bool(d.get("ambiguous"))
-    runner = [a[k] for a in d.get("attribution", []) for k in ("runner_up", "richer") if a.get(k)]
-    runner += [p for a in d.get("attribution", []) for p in a.get("plausible", []) if p not in runner]
-    runner_text = "; ".join(dict.fromkeys(  # an alternative two problem strips share is listed once
-        f"{r['kind']} {'-'.join(r['breaks']) or 'none'} {r['delta_bic']:+.1f}"
-        + (f" (split {r['delta_split']:+.1f})" if r.get("delta_split") is not None else "") for r in runner)) or "–"
     adjusted = [v for v in c.variants if v.strategy != "DG" and v.error is None]
     rec = compare["recommended"]
+    attribution_right = recommended_strips(rec, found) == injected
     true = true_errors(root, [v.name for v in adjusted])
     best = min(adjusted, key=lambda v: true[v.name][0])
     ratio = true[rec][0] / true[best.name][0]
@@ -131,6 +187,9 @@ def seed_row(root: Path, seed: int, blunders: int, totals: dict, ties: int | Non
     totals["wrong_called"] += (not right) and ambiguous
     totals["wrong"] += not right
     totals["ambiguous"] += ambiguous
+    totals["attribution_right"] += attribution_right
+    totals["summary_wrong"] += attribution_right and not right
+    totals["adopted"] += bool(d.get("adopted"))
     totals["within15"] += ratio <= 1.15
     totals["unsaid"] += bool(unsaid)
     totals["disagree"] += disagree == "yes"
@@ -138,10 +197,19 @@ def seed_row(root: Path, seed: int, blunders: int, totals: dict, ties: int | Non
     totals["within15_ground"] += ratio_ground <= 1.15
     totals["worst_ground"] = max(totals["worst_ground"], ratio_ground)
     totals["cpu"] += cpu
-    return (f"| {seed} | {', '.join(found) or '–'} ({problem}){'' if right else ' WRONG'} | {runner_text} | "
-            f"{'yes' if ambiguous else 'no'} | {len(adjusted)} | {rec} | "
+    return (f"| {seed} | {', '.join(found) or '–'} ({', '.join(injected) or 'none'}){'' if right else ' WRONG'} | "
+            f"{', '.join(search) or '–'}{'' if search == found else ' (adopted)'} | {alternatives_text(d)} | "
+            f"{'yes' if ambiguous else 'no'} | {len(adjusted)} | {rec} ({'right' if attribution_right else 'WRONG'}) | "
             f"{100 * ratio:.0f} % of {best.name} ({100 * ratio_ground:.0f} % on the ground) | "
             f"{cv_choice} / {check_choice} | {disagree} | {', '.join(unsaid) or '–'} | {cpu:.0f} s |")
+
+
+def quantile(values: list[float], q: float) -> float:
+    """The q-quantile of ``values`` (linear between order statistics)."""
+    v = sorted(values)
+    x = q * (len(v) - 1)
+    i = int(x)
+    return v[i] if i + 1 >= len(v) else v[i] + (x - i) * (v[i + 1] - v[i])
 
 
 def main() -> None:
@@ -155,27 +223,52 @@ def main() -> None:
                          "comparison)")
     ap.add_argument("--control", type=int, default=None,
                     help="control points per band and strip (default: the preset's, 8)")
+    ap.add_argument("--preset", default="vienna2000", help="the simulation preset (default vienna2000)")
+    ap.add_argument("--drift-free", action="store_true",
+                    help="without the problem strip's GPS/IMU excursions (and the control bands at its breaks)")
+    ap.add_argument("--until", choices=("diagnose", "compare"), default="compare",
+                    help="diagnose: score the diagnosis alone (no comparison, no recommendation)")
     a = ap.parse_args()
     extra = "".join(f", {v} {k}" for k, v in (("tie points per overlap", a.ties),
                                               ("control points per band and strip", a.control)) if v is not None)
-    print(f"vienna2000 at full length, {a.blunders} blunders{extra}, `scangeo run PROJECT --until compare`:\n")
-    print("| seed | problem strips found (injected) | runner-up, richer alternative, other plausible ones: kind, "
-          "strips, BIC difference "
-          "| ambiguous | "
-          "variants adjusted | recommended | its true error | choice of the cross-validation / the check points | "
-          "disagreement said | worse at check points, unsaid | CPU |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
-    totals = dict.fromkeys(("seeds", "right", "wrong", "wrong_called", "ambiguous", "within15", "unsaid",
-                            "disagree", "worst", "within15_ground", "worst_ground", "cpu"), 0)
+    print(f"{a.preset} at full length{', drift-free' if a.drift_free else ''}, {a.blunders} blunders{extra}, "
+          f"`scangeo run PROJECT --until {a.until}`:\n")
+    if a.until == "diagnose":
+        print("| seed | problem strips found (injected) | the search's own | best model with breaks: BIC below the "
+              "search's | runner-up, richer alternative, other plausible ones | ambiguous | CPU |")
+        print("|---|---|---|---|---|---|---|")
+    else:
+        print("| seed | problem strips found (injected) | the search's own | runner-up, richer alternative, other "
+              "plausible ones: kind, strips, BIC difference | ambiguous | variants adjusted | "
+              "recommended (its strips) | its true error | choice of the cross-validation / the check points | "
+              "disagreement said | worse at check points, unsaid | CPU |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    totals: dict = dict.fromkeys(("seeds", "right", "wrong", "wrong_called", "ambiguous", "within15", "unsaid",
+                                  "disagree", "worst", "within15_ground", "worst_ground", "cpu", "attribution_right",
+                                  "summary_wrong", "adopted"), 0)
+    totals["gains"] = []
     for seed in a.seeds:
         root = a.out / f"s{seed}"
         try:
-            print(seed_row(root, seed, a.blunders, totals, a.ties, a.control, a.rerun), flush=True)
+            project(root, seed, a.blunders, a.ties, a.control, a.preset, a.drift_free)
+            cpu = run_seed(root, a.until, a.rerun)
+            row = diagnosis_row if a.until == "diagnose" else seed_row
+            print(row(root, seed, totals, cpu), flush=True)
         except Exception as exc:  # noqa: BLE001 (a benchmark row, not a library: say so and go on)
             print(f"| {seed} | failed: {type(exc).__name__}: {exc} |", flush=True)
     t = totals
+    if a.until == "diagnose":
+        g = t["gains"]
+        spread = (f"over the {len(g)} where the search found none, the best model with breaks beat it by "
+                  f"{min(g):.1f} to {max(g):.1f} (median {quantile(g, 0.5):.1f}, 90 % quantile "
+                  f"{quantile(g, 0.9):.1f}; below 0 on {sum(x <= 0 for x in g)})") if g else "none without one"
+        print(f"\nseeds {t['seeds']}: the problem strips right on {t['right']}, wrong on {t['wrong']}; ambiguous on "
+              f"{t['ambiguous']}; {spread}; CPU {t['cpu']:.0f} s")
+        return
     print(f"\nseeds {t['seeds']}: problem strip found alone on {t['right']}; wrong on {t['wrong']}, of which called "
-          f"ambiguous {t['wrong_called']}; ambiguous on {t['ambiguous']}; recommended within 15 % of the best "
+          f"ambiguous {t['wrong_called']}; ambiguous on {t['ambiguous']}; an alternative adopted on {t['adopted']}; "
+          f"the recommendation's strips right on {t['attribution_right']}, of which the summary's problem strips "
+          f"wrong on {t['summary_wrong']}; recommended within 15 % of the best "
           f"variant's true error on {t['within15']} (worst {100 * t['worst']:.0f} %; on the ground on "
           f"{t['within15_ground']}, worst {100 * t['worst_ground']:.0f} %); the evidence disagreed (and "
           f"said so) on {t['disagree']}; recommended significantly worse at the check points without saying so on "

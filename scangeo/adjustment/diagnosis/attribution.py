@@ -54,6 +54,7 @@ from scangeo.adjustment.diagnosis.patterns import (
     PatternData,
     SelectionOptions,
     evaluate,
+    polish,
     refine,
     residual_correlation,
 )
@@ -64,6 +65,9 @@ AMBIGUOUS_BIC = 10.0
 RICHER_BIC = 0.0
 #: the alternatives with no more searched breaks than the chosen attribution
 COMPETING = ("moved", "merged", "dropped")
+#: the BIC difference below ``-ADOPT_BIC`` by which an alternative replaces the search's model (:func:`adopt`):
+#: calibrated on drift-free blocks (module docstring)
+ADOPT_BIC = 30.0
 
 
 @dataclass
@@ -86,6 +90,8 @@ class Attribution:
     placed: bool = False
     #: the split model's criterion difference (:func:`split_model_difference`; None: not computed)
     delta_split: float | None = None
+    #: its pattern fit (what :func:`adopt` adopts; None: not kept)
+    fit: Fit | None = field(default=None, repr=False, compare=False)
 
     @property
     def doubt(self) -> bool:
@@ -217,7 +223,8 @@ def attribution_checks(data: PatternData, fit: Fit, options: SelectionOptions | 
             strips = sorted(set(_problem(a.fit)) | ({a.other} if a.kind != "dropped" else set()))
             mine.append(Attribution(a.kind, data.strips[s],
                                     None if a.kind == "dropped" else data.strips[a.other],
-                                    _breaks_of(data, a.fit, strips), float(a.fit.bic), float(a.fit.bic - fit.bic)))
+                                    _breaks_of(data, a.fit, strips), float(a.fit.bic), float(a.fit.bic - fit.bic),
+                                    fit=a.fit))
         out.append(_check(data.strips[s], mine, threshold))
     return out
 
@@ -264,8 +271,42 @@ def no_problem_alternatives(data: PatternData, fit: Fit, options: SelectionOptio
         richer = evaluate(data, breaks, rho, options.degree, constant)
         mine = evaluate(data, fit.breaks, rho, options.degree, fit.constant)
         out.append(Attribution("breaks", data.strips[s], None, _breaks_of(data, richer, [s]), float(richer.bic),
-                               float(richer.bic - mine.bic)))
+                               float(richer.bic - mine.bic), fit=richer))
     return sorted(out, key=lambda a: a.delta_bic)
+
+
+def adopt(data: PatternData, fit: Fit, checks: list[AttributionCheck], options: SelectionOptions | None = None,
+          threshold: float = ADOPT_BIC) -> tuple[Fit, list[AttributionCheck], list[Attribution]]:
+    """The search's model replaced by an alternative that beats it beyond the adoption threshold (module docstring).
+
+    While an alternative of ``checks`` has a BIC more than ``threshold`` below the current model's, the one
+    with the least is adopted: the search's last steps go on from it (:func:`~.patterns.polish`: its breaks
+    moved to their best lines, its strips' functions moved to a neighbour where that fits better, under its
+    own serial correlation) and its attributions are checked again. Returns the model, its checks and the
+    alternatives adopted in turn (empty: the search's model stands), each with its BIC difference to the
+    model it replaced. A model of a shape seen before (the same strips constant, as many breaks on each) is
+    not adopted again; at most one adoption per strip.
+    """
+    options = options or SelectionOptions()
+    adopted: list[Attribution] = []
+    seen = {_signature(fit)}
+    for _ in range(len(data.strips)):
+        better = [a for c in checks for a in c.alternatives
+                  if a.fit is not None and a.delta_bic < -threshold and _signature(a.fit) not in seen]
+        if not better:
+            break
+        best = min(better, key=lambda a: a.delta_bic)
+        assert best.fit is not None
+        fit = polish(data, best.fit.breaks, best.fit.rho, options, best.fit.constant)
+        seen |= {_signature(best.fit), _signature(fit)}
+        checks = attribution_checks(data, fit, options, checks[0].threshold if checks else AMBIGUOUS_BIC)
+        adopted.append(best)
+    return fit, checks, adopted
+
+
+def _signature(fit: Fit) -> tuple:
+    """The model's shape: which strips are constant, and how many breaks each strip has."""
+    return tuple(fit.constant), tuple(len(b) for b in fit.breaks)
 
 
 #: competing alternatives whose BIC difference exceeds this are not asked of the split model (far beyond doubt)
@@ -291,5 +332,5 @@ def split_model_difference(cost, chosen: dict[str, tuple[float, ...]], other: di
     return float((v1 - v0) / s0 ** 2 + (u1 - u0) * math.log(max(n, 2.0)))
 
 
-__all__ = ["AMBIGUOUS_BIC", "COMPETING", "RICHER_BIC", "SPLIT_PREFILTER", "Attribution", "AttributionCheck",
-           "attribution_checks", "no_problem_alternatives", "split_model_difference"]
+__all__ = ["ADOPT_BIC", "AMBIGUOUS_BIC", "COMPETING", "RICHER_BIC", "SPLIT_PREFILTER", "Attribution",
+           "AttributionCheck", "adopt", "attribution_checks", "no_problem_alternatives", "split_model_difference"]

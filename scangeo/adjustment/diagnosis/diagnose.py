@@ -30,9 +30,11 @@ import numpy as np
 
 from scangeo.adjustment.block import strips_read_once
 from scangeo.adjustment.diagnosis.attribution import (
+    ADOPT_BIC,
     SPLIT_PREFILTER,
     Attribution,
     AttributionCheck,
+    adopt,
     attribution_checks,
     split_model_difference,
 )
@@ -115,6 +117,11 @@ class Diagnosis:
         Per problem strip (one entry with ``strip`` None when there is none) its runner-up attribution,
         the criterion difference and whether the attribution is ambiguous
         (:mod:`scangeo.adjustment.diagnosis.attribution`).
+    adopted : list of Attribution
+        The alternatives that replaced the search's model, in turn, each with its BIC difference to the
+        model it replaced (empty: the search's model stands; :func:`~.attribution.adopt`).
+    search : Fit or None
+        The search's own model when an alternative replaced it.
     """
 
     project: str
@@ -129,6 +136,8 @@ class Diagnosis:
     options: SelectionOptions = field(default_factory=SelectionOptions)
     channels: tuple[str, ...] = ()
     attribution: list[AttributionCheck] = field(default_factory=list)
+    adopted: list[Attribution] = field(default_factory=list)
+    search: Fit | None = None
 
     @property
     def problem_strips(self) -> list[str]:
@@ -140,6 +149,17 @@ class Diagnosis:
             Strip ids, in the project's order.
         """
         return [s for s in self.strips if any(b.strip == s for b in self.breaks)]
+
+    @property
+    def search_problem_strips(self) -> list[str] | None:
+        """The problem strips of the search's own model, when an alternative replaced it.
+
+        Returns
+        -------
+        list of str or None
+            Strip ids (empty: the search found none); None when the search's model stands.
+        """
+        return None if self.search is None else _with_breaks(self.strips, self.search)
 
     @property
     def ambiguous(self) -> bool:
@@ -214,8 +234,29 @@ class Diagnosis:
                               "parameters": self.fit.k, "parameters_without_breaks": self.null.k,
                               "serial_correlation": self.fit.rho, "rss": self.fit.rss, "channels": list(self.channels)},
                 "attribution": [c.as_dict() for c in self.attribution], "ambiguous": self.ambiguous,
+                "adopted": self._adopted_dict(),
                 "se_sigma0": self.sigma0, "notes": list(self.notes),
                 "series": [s.as_dict() for s in self.series]}
+
+    def _adopted_dict(self) -> dict | None:
+        if self.search is None:
+            return None
+        return {"search_problem_strips": self.search_problem_strips, "search_bic": self.search.bic,
+                "threshold": ADOPT_BIC, "delta_bic": round(self.adopted[0].delta_bic, 3),
+                "steps": [a.as_dict() for a in self.adopted]}
+
+
+def _with_breaks(strips, fit: Fit) -> list[str]:
+    return [s for s, b in zip(strips, fit.breaks) if b]
+
+
+def adopted_note(search: Fit, adopted: list[Attribution], strips) -> str:
+    """The note of a diagnosis whose search's model an alternative replaced (:func:`~.attribution.adopt`)."""
+    own = _with_breaks(strips, search)
+    steps = "; then ".join(a.describe() for a in adopted)
+    return (f"the search's own model ({'problem strips ' + ', '.join(own) if own else 'no problem strip'}) is "
+            f"replaced by {steps}: more than {ADOPT_BIC:g} below it by the BIC, beyond what the best-placed "
+            "breaks gain on drift-free blocks (docs/adjustment.md, \"Attribution\")")
 
 
 def _across_axes(result: VariantResult) -> dict[str, np.ndarray]:
@@ -394,17 +435,21 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
     data, series = pattern_data(result, dtm_height_points, image_channels)
     notes = []
     checks: list[AttributionCheck] = []
+    adopted: list[Attribution] = []
+    search: Fit | None = None
     n_ties = int((data.channel == 0).sum())
     if n_ties < 10:
         notes.append(f"only {n_ties} tie points with a DTM misclosure: too few to look for breaks")
         null = evaluate(data, [[] for _ in data.strips], None, options.degree, range(len(data.strips)))
         fit, breaks = null, []
     else:
-        fit = select_breaks(data, options)
+        search = select_breaks(data, options)
+        fit, checks, adopted = adopt(data, search, attribution_checks(data, search, options), options)
+        if adopted:
+            notes.append(adopted_note(search, adopted, data.strips))
         null = evaluate(data, [[] for _ in data.strips], fit.rho, options.degree, range(len(data.strips)))
         callback(2, steps, "diagnosis: break intervals")
         breaks = break_intervals(data, fit, options)
-        checks = attribution_checks(data, fit, options)
         if refine is not None and breaks:
             n_lines = dict(zip(data.strips, data.n_lines))
             proposed = breaks
@@ -426,7 +471,8 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
         log.warning("%s", warning)
         notes.insert(0, warning)
     d = Diagnosis(str(root), list(data.strips), dict(zip(data.strips, data.n_lines)), breaks, fit, null,
-                  float(result.adjustment.statistics.sigma0), series, notes, options, data.channels, checks)
+                  float(result.adjustment.statistics.sigma0), series, notes, options, data.channels, checks,
+                  adopted, search if adopted else None)
     for c in checks:
         if c.ambiguous:
             log.warning("%s", c.sentence())

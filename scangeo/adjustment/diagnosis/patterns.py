@@ -622,13 +622,20 @@ def select_breaks(data: PatternData, options: SelectionOptions = SelectionOption
         current = poorer.fit(i)
         breaks = [list(x) for x in current.breaks]
         constant = set(current.constant)
-    # the breaks' best lines under the final weights of the channels
+    return polish(data, breaks, rho, options, constant, index)
+
+
+def polish(data: PatternData, breaks, rho: dict[str, float], options: SelectionOptions, constant=(),
+           index: BlockIndex | None = None) -> Fit:
+    """The last steps of :func:`select_breaks` from a model (``breaks``, ``constant``) under the serial
+    correlation ``rho``: its breaks moved to their best lines, then no problem strip better moved to a
+    neighbour (or two merged; a richer model, shared, is the growth's and the pruning's to decide, not
+    this polish's); the fit with its :func:`alternatives`."""
+    index = index or BlockIndex(data)
     breaks = refine(data, breaks, rho, options, constant, index=index)
-    current = evaluate(data, breaks, rho, degree, constant)
-    # and no problem strip better moved to a neighbour (or two merged) under those weights; a richer model
-    # (shared) is the growth's and the pruning's to decide, not this polish's
+    current = evaluate(data, breaks, rho, options.degree, constant)
     alts: list[Alternative] = []
-    for _ in range(ns):
+    for _ in range(len(data.strips)):
         better, alts = _better_alternative(data, current, options, index, ("moved", "merged"))
         if better is None:
             break
@@ -724,5 +731,5 @@ def break_intervals(data: PatternData, fit: Fit, options: SelectionOptions = Sel
 
 
 __all__ = ["CHI2_95", "Alternative", "BreakEstimate", "Candidates", "Fit", "PatternData", "SelectionOptions",
-           "alternatives", "break_intervals", "design", "evaluate", "line_map", "neighbours", "residual_correlation",
-           "select_breaks"]
+           "alternatives", "break_intervals", "design", "evaluate", "line_map", "neighbours", "polish",
+           "residual_correlation", "select_breaks"]

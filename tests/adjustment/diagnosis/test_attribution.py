@@ -6,10 +6,12 @@ import pytest
 
 from scangeo.adjustment.diagnosis import patterns
 from scangeo.adjustment.diagnosis.attribution import (
+    ADOPT_BIC,
     AMBIGUOUS_BIC,
     RICHER_BIC,
     Attribution,
     AttributionCheck,
+    adopt,
     attribution_checks,
     no_problem_alternatives,
     split_model_difference,
@@ -152,6 +154,48 @@ def test_without_a_problem_strip_every_strip_that_scores_best_is_an_alternative(
     assert check.ambiguous and "02" in [a.strip for a in check.plausible]
     assert all(a.delta_bic < RICHER_BIC for a in check.plausible)
     assert {a.strip for a in check.plausible} == {a.strip for a in found if a.delta_bic < RICHER_BIC}
+
+
+def test_a_model_far_better_than_the_searchs_replaces_it():
+    """A search that missed the drift of strip 02 (kinks at lines 300 and 700): its best model with breaks beats
+    "none" far beyond the adoption threshold, so it becomes the diagnosis's model, polished as the search's own
+    are (its breaks at their best lines), and its attribution is checked again: "none" is now its dropped
+    alternative, as far above."""
+    data = _three_strips(kinked, seed=0)
+    none = evaluate(data, [[], [], []], None, 1, (0, 1, 2))
+    checks = attribution_checks(data, none)
+    fit, after, adopted = adopt(data, none, checks)
+    [a] = adopted
+    assert a.kind == "breaks" and a.strip == "02" and a.delta_bic < -ADOPT_BIC
+    assert fit.breaks[0] == () and fit.breaks[2] == () and set(fit.constant) == {0, 2}
+    assert np.allclose(fit.breaks[1], [300, 700], atol=25), fit.breaks
+    # what the search itself finds on this block
+    assert np.allclose(fit.breaks[1], select_breaks(data).breaks[1], atol=5)
+    [check] = after
+    assert check.strip == "02" and not check.ambiguous
+    dropped = [x for x in check.alternatives if x.kind == "dropped"]
+    assert len(dropped) == 1 and dropped[0].breaks == {} and dropped[0].delta_bic > ADOPT_BIC
+
+
+def test_the_adoption_threshold_is_a_strict_bound():
+    # the same block: adopted when the best model with breaks beats the search's by more than the threshold
+    data = _three_strips(kinked, seed=1)
+    none = evaluate(data, [[], [], []], None, 1, (0, 1, 2))
+    checks = attribution_checks(data, none)
+    gain = -min(a.delta_bic for a in checks[0].alternatives)
+    assert adopt(data, none, checks, threshold=gain + 0.01)[2] == []
+    kept, same, _ = adopt(data, none, checks, threshold=gain + 0.01)
+    assert kept is none and same is checks
+    assert [a.strip for a in adopt(data, none, checks, threshold=gain - 0.01)[2]] == ["02"]
+
+
+def test_no_model_is_adopted_on_blocks_without_a_drift():
+    quiet = lambda s, line: (0.0, 0.0)  # noqa: E731
+    for seed in range(3):
+        data = _three_strips(quiet, noise=1.5, seed=seed)
+        fit = select_breaks(data)
+        checks = attribution_checks(data, fit)
+        assert not any(fit.breaks) and adopt(data, fit, checks)[2] == []
 
 
 def test_the_split_models_opinion_can_make_an_attribution_ambiguous():
