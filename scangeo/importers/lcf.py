@@ -151,8 +151,9 @@ def import_lcf(cube, out, *, lcf=None, times=None, fov_deg: float | None = None,
                           nav.heading, source=str(lcf_path))
     sensor = ImportedSensor(camera, along, across, timing.line_rate_hz, source=record.decision("camera").choice,
                             bands=c.band_names, wavelengths_nm=_wavelengths(c))
-    line = ImportedLine(strip_id, stream, timing.lines, sensor, line_times=timing.line_time, image=c.data.resolve(),
-                        control=control)
+    line = ImportedLine(strip_id, stream, timing.lines, sensor, line_times=timing.line_time[:timing.lines],
+                        image=c.data.resolve(), control=control,
+                        image_shape=(c.lines, c.samples, c.bands, c.dtype.str))
     agl = _height_above_ground(record, nav, n, ground_h, along_gsd, ifov)
     if choice.kind == "none":
         record.warn("no DTM and no GCPs: the project has no DTM and scangeo run stops at its check; give the DTM "

@@ -81,7 +81,8 @@ class ImportedLine:
 
     ``stream``: the navigation (time base of the project, ellipsoidal heights, NED attitudes);
     ``first_line_time`` or ``line_times`` (s, the same time base); ``image``: the cube (absolute path)
-    or None.
+    or None; ``image_shape``: its lines, samples, bands and numpy data type, when the line keeps
+    fewer lines than the cube has (the project then reads the first ``lines`` through a VRT).
     """
 
     strip: str
@@ -92,6 +93,7 @@ class ImportedLine:
     line_times: np.ndarray | None = None
     image: Path | None = None
     control: Control | None = None
+    image_shape: tuple[int, int, int, str] | None = None
 
 
 @dataclass(frozen=True)
@@ -208,6 +210,9 @@ def _write_files(tmp: Path, lines: list[ImportedLine], plan: ProjectPlan, dtm: b
               ([j, f"{np.degrees(a):.10f}", f"{np.degrees(c):.10f}"]
                for j, (a, c) in enumerate(zip(sensor.along, sensor.across))))
     for line in lines:
+        if _cut(line):
+            (tmp / "images").mkdir(exist_ok=True)
+            write_text(tmp / "images" / f"{line.strip}.vrt", first_lines_vrt(line))
         write_trajectory_csv(tmp / "nav" / f"{line.strip}.csv", line.stream)
         if line.line_times is not None:
             write_csv(tmp / "nav" / f"{line.strip}_lines.csv", ["line", "time"],
@@ -285,10 +290,43 @@ def project_toml(lines: list[ImportedLine], plan: ProjectPlan) -> str:
             text.append(f'line_times = "nav/{line.strip}_lines.csv"')
         else:
             text.append(f"first_line_time = {line.first_line_time!r}")
-        if line.image is not None:
+        if line.image is not None and _cut(line):
+            text.append(f'image = "images/{line.strip}.vrt"   # the first {line.lines} lines of {line.image}')
+        elif line.image is not None:
             text.append(f"image = {json.dumps(str(line.image))}")
         text.append(f"lines = {line.lines}")
     return "\n".join(text) + "\n"
+
+
+def _cut(line: ImportedLine) -> bool:
+    return line.image is not None and line.image_shape is not None and line.image_shape[0] > line.lines
+
+
+#: numpy data types -> GDAL's names
+_GDAL_TYPES = {"u1": "Byte", "i2": "Int16", "u2": "UInt16", "i4": "Int32", "u4": "UInt32", "i8": "Int64",
+               "u8": "UInt64", "f4": "Float32", "f8": "Float64"}
+
+
+def first_lines_vrt(line: ImportedLine) -> str:
+    """A GDAL VRT of the first ``line.lines`` lines of the line's cube (every band, the same pixels)."""
+    from xml.sax.saxutils import escape
+
+    assert line.image is not None and line.image_shape is not None
+    _, samples, bands, dtype = line.image_shape
+    gdal_type = _GDAL_TYPES[np.dtype(dtype).str[1:]]
+    rect = f'xOff="0" yOff="0" xSize="{samples}" ySize="{line.lines}"'
+    names = line.sensor.bands if len(line.sensor.bands) == bands else ()
+    out = [f'<VRTDataset rasterXSize="{samples}" rasterYSize="{line.lines}">']
+    for b in range(1, bands + 1):
+        out.append(f'  <VRTRasterBand dataType="{gdal_type}" band="{b}">')
+        if names:
+            out.append(f"    <Description>{escape(names[b - 1])}</Description>")
+        out += ["    <SimpleSource>",
+                f'      <SourceFilename relativeToVRT="0">{escape(str(line.image))}</SourceFilename>',
+                f"      <SourceBand>{b}</SourceBand>", f"      <SrcRect {rect}/>", f"      <DstRect {rect}/>",
+                "    </SimpleSource>", "  </VRTRasterBand>"]
+    out.append("</VRTDataset>")
+    return "\n".join(out) + "\n"
 
 
 def with_boresight(lines: list[ImportedLine], boresight_deg: tuple[float, float, float]) -> list[ImportedLine]:

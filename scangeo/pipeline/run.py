@@ -31,6 +31,7 @@ from scangeo.pipeline.settings import SETTINGS_FILE, read_settings
 from scangeo.pipeline.settings import settings_file as settings_file_of
 from scangeo.pipeline.stages import NAMES, STAGES, Context, RunSettings, Stage, tie_points
 from scangeo.progress import ProgressCallback, no_progress, scaled
+from scangeo.reports.unchecked import UNCHECKED
 from scangeo.version import __version__
 
 log = logging.getLogger(__name__)
@@ -362,6 +363,10 @@ def _one_stage(stage: Stage, ctx: Context, manifest: Manifest, forced: set[str],
 def _recommended(ctx: Context) -> dict[str, Any] | None:
     """The recommended variant, why, and its figures (the manifest's ``recommended``)."""
     compare = ctx.records.get("compare", {}).get("summary")
+    rectify = ctx.records.get("rectify", {}).get("summary")
+    if not compare and rectify and "compare" not in ctx.records:  # no points: direct georeferencing, unchecked
+        return {"variant": rectify["variant"], "why": UNCHECKED, "checked": False,
+                "orthoimages": rectify["orthoimages"]}
     if not compare:
         return None
     name = compare["recommended"]
@@ -369,7 +374,6 @@ def _recommended(ctx: Context) -> dict[str, Any] | None:
     for key in ("margin", "cv_choice", "check_choice", "disagreement", "contradicts_checks", "independent_check"):
         if compare.get(key):
             out[key] = compare[key]
-    rectify = ctx.records.get("rectify", {}).get("summary")
     if rectify and rectify.get("variant") == name:
         out["orthoimages"] = rectify["orthoimages"]
         out["stac_items"] = rectify["stac_items"]

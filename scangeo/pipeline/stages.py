@@ -130,6 +130,20 @@ def no_images(ctx: Context) -> str | None:
     return "no strip has an image (project.toml [[strips]] image)"
 
 
+def no_points(ctx: Context) -> str | None:
+    """Why the stages that adjust cannot run: no points.csv (a line imported without GCPs)."""
+    if (ctx.root / "points.csv").exists():
+        return None
+    return "no points.csv: no GCPs and no tie points; the orthoimage is a direct georeferencing (DG), unchecked"
+
+
+def nothing_to_match(ctx: Context) -> str | None:
+    """Why matching cannot run: no images, or a single strip and no reference to match it with."""
+    if ctx.images() and len(ctx.project.strips) == 1 and not ctx.settings.references:
+        return "a single strip and no --reference: no tie points to match, no control to find"
+    return no_images(ctx)
+
+
 # -- check -------------------------------------------------------------------------------------------------
 
 def _check(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
@@ -259,7 +273,8 @@ def _compare(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], 
 # -- rectify -----------------------------------------------------------------------------------------------
 
 def _rectify(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
-    variant = ctx.records["compare"]["summary"]["recommended"]
+    # without points compare cannot run: the GPS/IMU as measured, unchecked
+    variant = ctx.records["compare"]["summary"]["recommended"] if "compare" in ctx.records else "DG"
     result = rectify_project(ctx.root, variant, options=ctx.settings.rectify, workers=1, progress=progress)
     rasters = [Path(s["path"]) for s in result.strips.values()] + ([result.mosaic] if result.mosaic else [])
     spans = {}
@@ -294,15 +309,15 @@ STAGES: tuple[Stage, ...] = (
     Stage("match", 0.20, (), _match_files,
           lambda c: {"options": asdict(c.settings.match),
                      "references": [relative_name(p, c.root) for p in c.settings.references]},
-          _match, "tie points (and control against --reference) from the images", no_images),
+          _match, "tie points (and control against --reference) from the images", nothing_to_match),
     Stage("clean", 0.15, (), lambda c: c.base_files() + c.points_files(), lambda c: asdict(c.settings.clean), _clean,
-          "blunders found by a robust adjustment and set aside for every later adjustment"),
+          "blunders found by a robust adjustment and set aside for every later adjustment", no_points),
     Stage("diagnose", 0.13, ("clean",), lambda c: c.base_files() + c.points_files(), _no_options, _diagnose,
-          "problem strips and breaks from an SE adjustment of the cleaned measurements; variants.toml"),
+          "problem strips and breaks from an SE adjustment of the cleaned measurements; variants.toml", no_points),
     Stage("compare", 0.35, ("clean", "diagnose"),
           lambda c: c.base_files() + c.points_files() + [c.root / "variants.toml"],
           lambda c: {"folds": c.settings.folds}, _compare,
-          "every variant adjusted, compared, cross-validated; the recommended variant"),
+          "every variant adjusted, compared, cross-validated; the recommended variant", no_points),
     Stage("rectify", 0.12, ("compare",), lambda c: c.base_files() + c.images(),
           lambda c: asdict(c.settings.rectify), _rectify,
           "orthoimages and mosaic of the recommended variant, with STAC items", no_images),

@@ -54,6 +54,7 @@ from scangeo.reports.quicklook import quicklook_section
 from scangeo.reports.reliability import reliability_section
 from scangeo.reports.residual_vectors import ResidualVectors, check_vectors
 from scangeo.reports.tables import markdown_tables, read_comparison
+from scangeo.reports.unchecked import write_unchecked_report
 from scangeo.version import __version__
 
 
@@ -292,8 +293,12 @@ def write_report(
     if project.is_laser:  # the laser's report (reports/laser.py): no residual vectors, no GeoPackage
         html_path, count = write_laser_report(root, Path(out) if out else None)
         return ReportFiles(html_path, None, count)
-    comparison = read_comparison(root / "results")
     folder = Path(out) if out else root / "results"
+    if not (root / "points.csv").exists() and not (root / "results" / "comparison.json").exists():
+        folder.mkdir(parents=True, exist_ok=True)  # no points: a direct georeferencing, unchecked
+        frames = {s.id: strip_frame(project, s.id) for s in project.strips}
+        return ReportFiles(write_unchecked_report(project, frames, folder), None, 1)
+    comparison = read_comparison(root / "results")
     folder.mkdir(parents=True, exist_ok=True)
     names = [v.name for v in comparison.variants if v.error is None]
     steps, done = len(names) + 6, 0
