@@ -80,3 +80,35 @@ def lcf_line_of_project(project_root, strip: str, out_folder, clock_start_s: flo
                     s.roll[keep], s.pitch[keep], s.heading[keep])
     times = write_times(out / f"line{strip}.bil.times", line_times, clock_start_s)
     return {"cube": cube, "lcf": lcf, "times": times, "shift_s": shift}  # type: ignore[dict-item]
+
+
+def synthetic_line(folder, *, samples: int = 60, lines: int = 300, bands: int = 2, altitude_m: float = 50.0,
+                   heading_rad: float = np.pi / 2, roll_rad: float = 0.0, pitch_rad: float = 0.0,
+                   speed_mps: float = 4.0, nav_rate_hz: float = 200.0, line_rate_hz: float = 100.0,
+                   lat_deg: float = 67.2156, lon_deg: float = 15.005, start_s: float = 487934.235,
+                   clock_start_s: float = 876.386137, extra_s: float = 0.2) -> dict[str, Path]:
+    """A level drone line in lcf files: ``line.bil`` (+ ``.bil.hdr``), ``line.lcf``, ``line.bil.times``.
+
+    It flies ``speed_mps`` along ``heading_rad`` (lcf_spec's heading) at ``altitude_m`` with the constant
+    lcf attitude ``roll_rad`` (lcf_spec's: positive right wing up) and ``pitch_rad``; the navigation
+    starts with the first line and runs ``extra_s`` beyond the last. The cube's band 1 holds each
+    cell's line, band 2 its pixel.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    t_lines = np.arange(lines) / line_rate_hz
+    t_nav = np.arange(int(np.ceil((t_lines[-1] + extra_s) * nav_rate_hz)) + 1) / nav_rate_hz
+    import pyproj
+
+    n = len(t_nav)
+    lon, lat, _ = pyproj.Geod(ellps="WGS84").fwd(np.full(n, lon_deg), np.full(n, lat_deg),
+                                                  np.full(n, np.degrees(heading_rad)), speed_mps * t_nav)
+    write_lcf(folder / "line.lcf", start_s + t_nav, lat, lon, np.full(n, altitude_m), np.full(n, -roll_rad),
+              np.full(n, pitch_rad), np.full(n, heading_rad))  # write_lcf takes scangeo's roll
+    write_times(folder / "line.bil.times", start_s + t_lines, clock_start_s)
+    cube = np.zeros((lines, samples, bands), np.uint16)
+    cube[:, :, 0] = np.arange(lines)[:, None]
+    if bands > 1:
+        cube[:, :, 1] = np.arange(samples)[None, :]
+    write_cube(folder / "line.bil", cube)
+    return {"cube": folder / "line.bil", "lcf": folder / "line.lcf", "times": folder / "line.bil.times"}
