@@ -46,9 +46,10 @@ _WRITERS = ("scangeo", "gdal")
 #: A pixel-interleaved block holds at most this many bytes, uncompressed (:meth:`GeoTiffProfile.for_image`)
 BLOCK_BYTES = 16 * 2**20
 #: With ``overviews = "auto"`` an output whose larger side exceeds this many cells gets internal
-#: overviews: a viewer (QGIS) zoomed out on a larger raster reads every cell without them
+#: overviews: a viewer (QGIS) zoomed out on a larger raster reads every cell without them, and a
+#: cloud-optimised GeoTIFF's strict validation (rio-cogeo's) asks for them above 512 cells
 #: (docs/rectify.md, the cost measured in docs/performance.md).
-OVERVIEW_MIN_SIZE = 2048
+OVERVIEW_MIN_SIZE = 512
 
 
 @dataclass(frozen=True)

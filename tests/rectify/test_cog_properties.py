@@ -27,7 +27,7 @@ from rasterio.crs import CRS
 from rasterio.windows import Window
 
 from scangeo.rectify.cog_writer import CogWriter, gdal_in_tested_range, read_directories
-from scangeo.rectify.geotiff import OVERVIEW_MIN_SIZE, overview_factors
+from scangeo.rectify.geotiff import overview_factors
 
 cogeo = pytest.importorskip("rio_cogeo.cogeo")
 
@@ -169,17 +169,18 @@ def check_case(tmp, dtype: str, bands: int, height: int, width: int, nodata, blo
         assert {c: t for c, t in x.items() if c not in layout} == {c: t for c, t in y.items() if c not in layout}
 
 
+def check_strict_cog(path) -> None:
+    """rio-cogeo's strict validation of a COG scangeo wrote with the default settings (warnings are errors:
+    internal overviews above 512 cells among them)."""
+    valid, errors, warns = cogeo.cog_validate(str(path), strict=True, quiet=True)
+    assert valid and not errors and not warns, (path, errors, warns)
+
+
 def check_written_cog(path) -> None:
-    """A COG scangeo wrote (an orthoimage, a mosaic): rio-cogeo's strict validation (of at most
-    :data:`OVERVIEW_MIN_SIZE` cells, without overviews by design, the non-strict one), and its first overview
-    level, if any, the 2 x 2 mean of the full resolution's valid cells (integers rounded half up, a valid
-    mean never the nodata value)."""
-    with rasterio.open(path) as src:
-        small = max(src.width, src.height) <= OVERVIEW_MIN_SIZE
-    valid, errors, warns = cogeo.cog_validate(str(path), strict=not small, quiet=True)
-    # below OVERVIEW_MIN_SIZE scangeo writes no overviews by design, which rio-cogeo only recommends
-    assert not errors and all("recommended to include internal overviews" in w for w in warns), (path, warns)
-    assert valid and (not warns or small), (path, errors, warns)
+    """An orthoimage, its layers or a mosaic scangeo wrote with the default settings: rio-cogeo's strict
+    validation (:func:`check_strict_cog`), and its first overview level, if any, the 2 x 2 mean of the full
+    resolution's valid cells (integers rounded half up, a valid mean never the nodata value)."""
+    check_strict_cog(path)
     with rasterio.open(path) as src:
         if not src.overviews(1):
             return

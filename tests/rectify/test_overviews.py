@@ -22,9 +22,10 @@ def _working(path, height, width):
 
 @pytest.mark.parametrize("cog", [True, False])
 @pytest.mark.parametrize("overviews, height, expected", [
-    ("auto", OVERVIEW_MIN_SIZE + 100, [2, 4, 8]),   # a long strip: 2148 x 300 cells
-    ("auto", OVERVIEW_MIN_SIZE, []),               # at the threshold: none
-    (False, OVERVIEW_MIN_SIZE + 100, []),
+    ("auto", 2148, [2, 4, 8]),                # a long strip: 2148 x 300 cells
+    ("auto", OVERVIEW_MIN_SIZE + 88, [2]),    # 600 x 300: above 512 cells, as strict COG validation asks
+    ("auto", OVERVIEW_MIN_SIZE, []),          # at the threshold (one block): none
+    (False, 2148, []),
     (True, 600, [2]),
 ])
 def test_overviews_present_or_absent(tmp_path, cog, overviews, height, expected):
