@@ -35,7 +35,7 @@ from scangeo.lsq.keys import Key
 from scangeo.orientation.file import DIRECT, Orientation, StripOrientation, map_reference
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.sensors.models import Pushbroom, Whiskbroom
-from scangeo.sensors.strip import Mounting, StripGeometry
+from scangeo.sensors.strip import MULTIPLE, Mounting, StripGeometry
 from scangeo.trajectory.spline import OrientationSpline
 
 log = logging.getLogger(__name__)
@@ -243,10 +243,11 @@ def evaluate_checks(result_block: Block, geometry_of) -> CheckResiduals:
             dp.append(d_pixel)
             st.append(np.where(np.isfinite(d_line) & np.isfinite(d_pixel), 0, 1))
         else:
-            line, pixel, status = geometry_of(sid).ground_to_image(p_P)
+            # of a point the over-scanning mirror sees more than once, the sighting nearest the measurement
+            line, pixel, status = geometry_of(sid).nearest_sighting(p_P, b.points.line[rows], b.points.pixel[rows])
             dl.append(line - b.points.line[rows])
             dp.append(pixel - b.points.pixel[rows])
-            st.append(status & ~16)  # over-scanning flag: the first sighting is a valid answer
+            st.append(status & ~MULTIPLE)  # seen more than once is no failure: the nearest sighting is the answer
         sig.append(b.points.sigma_px[rows])
         at.append(b.points.line[rows])
     if not pts:

@@ -3,7 +3,8 @@
 ``StripGeometry`` answers image -> ground (rays intersected with the DTM) and ground -> image
 (the time at which a ground point lies in the scan plane, then the pixel), vectorised, with a
 status code per point whose text is ``STATUS[code]``; the bit ``MULTIPLE`` marks points seen more
-than once (pitch-induced over-scanning; the first time is returned).
+than once (pitch-induced over-scanning; the first time is returned, and ``nearest_sighting`` the
+sighting nearest a measured image position).
 """
 from __future__ import annotations
 
@@ -23,6 +24,7 @@ from scangeo.sensors.ground_to_image_kernels import (
 )
 from scangeo.sensors.models import SensorModel
 from scangeo.sensors.raycast import ray_cast_kernel
+from scangeo.sensors.sightings import nearest_sighting
 from scangeo.threading_layer import choose_threading_layer
 from scangeo.timing import LineTiming
 from scangeo.trajectory.spline import OrientationSpline
@@ -271,6 +273,34 @@ class StripGeometry:
             tol_line / self.timing.mean_rate, max(1, min(n, 256)), line, pixel, status,
         )
         return line, pixel, status
+
+    def nearest_sighting(self, p_P: np.ndarray, line, pixel):
+        """(line, pixel, status) of project-frame points (n, 3): of a point seen more than once
+        (over-scanning, status bit ``MULTIPLE``), the sighting nearest the image position ``(line,
+        pixel)`` it was measured at, not the first in time; of the others ``ground_to_image``'s.
+
+        The residual of a measurement, or the error of an orientation at an image position, is that
+        of the sighting standing for it (:mod:`scangeo.sensors.sightings`): the check-point
+        residuals of an adjustment and the true error of a simulation both take it.
+
+        Parameters
+        ----------
+        p_P : (n, 3) float array
+            Ground points, m, project frame.
+        line, pixel : (n,) float arrays
+            Where each was measured (or sampled) in this strip's image, lines and pixels.
+
+        Returns
+        -------
+        line, pixel : (n,) float arrays
+            The sighting's image position, lines and pixels (NaN where the point is not seen).
+        status : (n,) int array
+            ``ground_to_image``'s codes, ``MULTIPLE`` kept where the point is seen more than once.
+        """
+        p_P = np.atleast_2d(np.asarray(p_P, dtype=float))
+        line = np.broadcast_to(np.asarray(line, dtype=float), (len(p_P),))
+        pixel = np.broadcast_to(np.asarray(pixel, dtype=float), (len(p_P),))
+        return nearest_sighting(self, p_P, line, pixel)
 
     def _whiskbroom_ground_to_image(self, p_P: np.ndarray, sp: np.ndarray, tol_line: float):
         """line, pixel, status and the exact-solution flag per point (whiskbroom)."""

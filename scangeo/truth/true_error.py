@@ -15,7 +15,8 @@ true ground point is the true ray on the true terrain; the error of an orientati
 Both leave out the DTM error and the measurement noise: they are the orientation's own error. The
 image error leaves out the samples at the folds of an over-scanning mirror's scan lines, where the truth
 itself sees the ground point more than once (:meth:`Truth.one_to_one`); of a point the orientation sees
-more than once, the sighting nearest the sample counts (:func:`nearest_sighting`).
+more than once, the sighting nearest the sample counts
+(:meth:`~scangeo.sensors.strip.StripGeometry.nearest_sighting`).
 """
 from __future__ import annotations
 
@@ -27,7 +28,6 @@ import numpy as np
 from scangeo.dtm import DTM
 from scangeo.errors import ProjectFileError
 from scangeo.io.project import Project
-from scangeo.sensors.kernels import OK, OUTSIDE_SWATH
 from scangeo.sensors.strip import MULTIPLE, Mounting, StripGeometry
 from scangeo.trajectory.readers import read_trajectory
 from scangeo.trajectory.spline import OrientationSpline
@@ -115,7 +115,7 @@ class Truth:
         """The true error of ``geometry`` (an adjusted or measured orientation of the strip): in the image
         over the samples :meth:`one_to_one` keeps, on the ground over all."""
         line, pixel, p_true = self.samples(strip_id)
-        l_m, p_m, status = nearest_sighting(geometry, p_true, line, pixel)
+        l_m, p_m, status = geometry.nearest_sighting(p_true, line, pixel)
         ok_img = (((status & ~MULTIPLE) == 0) & np.isfinite(l_m) & np.isfinite(p_m)
                   & self.one_to_one(strip_id))
         dl, dp = (l_m - line)[ok_img], (p_m - pixel)[ok_img]
@@ -127,94 +127,4 @@ class Truth:
         return TrueError(int(ok_img.sum()), rms(dl), rms(dp), rms(d), float(d.max()) if d.size else float("nan"))
 
 
-#: lines searched either side of a sample for its own sighting, and the step of that search (lines)
-SIGHTING_WINDOW, SIGHTING_STEP = 64, 0.25
-
-
-def _scan_condition(geometry: StripGeometry, p_P: np.ndarray, line: np.ndarray, pixel: np.ndarray):
-    """The along-track condition ``g = v_x / v_z - tan(along(pixel))`` of points ``p_P`` (n, 3) at lines
-    ``line`` (n, k), with the pixel their direction gives there (two passes: a whiskbroom pixel's time
-    depends on the pixel); returns (g, pixel), both (n, k)."""
-    n, k = line.shape
-    P = np.repeat(p_P, k, axis=0)
-    px = np.repeat(pixel, k) if np.ndim(pixel) == 1 else pixel.ravel()
-    for _ in range(2):
-        p_S, R = geometry.pose(geometry.time_of(line.ravel(), px))
-        v = np.einsum("nji,nj->ni", R, P - p_S)
-        px = geometry.sensor.pixel_of(v)
-    g = v[:, 0] / v[:, 2] - np.tan(geometry.sensor.along_angle(px))
-    return g.reshape(n, k), px.reshape(n, k)
-
-
-def _nearest_root(geometry: StripGeometry, P: np.ndarray, px0: np.ndarray, centre: np.ndarray, half: float,
-                  step: float) -> np.ndarray:
-    """The line of the sighting of each point ``P`` nearest to ``centre`` within ``half`` lines of it (NaN
-    where none): the sign changes of the scan-plane condition over lines ``step`` apart, refined by
-    bisection, and the tangent sightings (the scan line turns back just there: a local minimum of ``|g|``
-    that reaches zero), refined by golden section."""
-    grid = centre[:, None] + np.arange(-half, half + step / 2, step)[None, :]
-
-    def cond(at):
-        return _scan_condition(geometry, P, at[:, None], px0)[0][:, 0]
-
-    g, _ = _scan_condition(geometry, P, grid, px0)
-    ok = np.isfinite(g)
-    dist = np.abs(grid - centre[:, None])
-    rows = np.arange(len(P))
-    change = ok[:, :-1] & ok[:, 1:] & (np.sign(g[:, :-1]) != np.sign(g[:, 1:]))
-    k = np.argmin(np.where(change, np.minimum(dist[:, :-1], dist[:, 1:]), np.inf), axis=1)
-    lo, hi, g_lo = grid[rows, k], grid[rows, k + 1], g[rows, k]
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        g_m = cond(mid)
-        left = np.sign(g_m) == np.sign(g_lo)
-        lo, g_lo, hi = np.where(left, mid, lo), np.where(left, g_m, g_lo), np.where(left, hi, mid)
-    root = np.where(change.any(axis=1), 0.5 * (lo + hi), np.nan)
-    a = np.abs(np.where(ok, g, np.inf))
-    is_min = np.zeros_like(ok)
-    is_min[:, 1:-1] = (a[:, 1:-1] <= a[:, :-2]) & (a[:, 1:-1] <= a[:, 2:]) & ok[:, 1:-1]
-    k = np.clip(np.argmin(np.where(is_min, dist, np.inf), axis=1), 1, grid.shape[1] - 2)
-    lo, hi = grid[rows, k - 1], grid[rows, k + 1]
-    for _ in range(60):
-        c, d = hi - 0.618034 * (hi - lo), lo + 0.618034 * (hi - lo)
-        keep_left = np.abs(cond(c)) < np.abs(cond(d))
-        lo, hi = np.where(keep_left, lo, c), np.where(keep_left, d, hi)
-    touch = 0.5 * (lo + hi)
-    touch = np.where(is_min.any(axis=1) & (np.abs(cond(touch)) < 1e-9), touch, np.nan)
-    return np.where(np.isnan(root) | (np.abs(touch - centre) < np.abs(root - centre)), touch, root)
-
-
-def nearest_sighting(geometry: StripGeometry, p_P: np.ndarray, line: np.ndarray, pixel: np.ndarray):
-    """(line, pixel, status) of project-frame points ``p_P`` in ``geometry``: of a point seen more than
-    once, the sighting nearest to its true image position ``(line, pixel)``.
-
-    A rotating mirror's scan lines overlap at the swath's edges when the pitch rate runs against the
-    flight (over-scanning): a ground point there is seen by two or three scans, in the true orientation
-    as in an adjusted one. ``ground_to_image`` keeps the first sighting, which can be scans away from the
-    sample's own line (vienna2000 seed 37: 20 lines at one edge sample of 780; the truth itself put
-    that sample 17 lines from its own line). An orientation's error there is the displacement of the
-    sighting that stands for the sample's. For the points seen more than once, every sighting within
-    :data:`SIGHTING_WINDOW` lines of the sample is found (the sign changes of the scan-plane condition
-    over lines :data:`SIGHTING_STEP` apart, refined by bisection, and the tangent ones where the scan
-    line turns back, local minima of ``|g|`` that reach zero) and the nearest kept. One just outside the
-    swath keeps that status (the sample is then left out, like any other the orientation moves out of
-    the swath).
-    """
-    l_m, p_m, status = geometry.ground_to_image(p_P)
-    again = np.flatnonzero((status & MULTIPLE) != 0)
-    if not again.size:
-        return l_m, p_m, status
-    best = np.full(len(again), np.nan)
-    for half, step in ((SIGHTING_WINDOW, SIGHTING_STEP), (1.0, SIGHTING_STEP / 32)):  # then finely near the sample
-        m = _nearest_root(geometry, p_P[again], pixel[again], line[again], half, step)
-        best = np.where(np.isnan(best) | (np.abs(m - line[again]) < np.abs(best - line[again])), m, best)
-    found = np.isfinite(best)
-    pts, m = again[found], best[found]
-    px = _scan_condition(geometry, p_P[pts], m[:, None], pixel[pts])[1][:, 0]
-    inside = (px >= -0.5) & (px <= geometry.sensor.pixels - 0.5) & (m >= -0.5) & (m <= geometry.n_lines - 0.5)
-    l_m[pts], p_m[pts] = m, px
-    status[pts] = np.where(inside, OK, OUTSIDE_SWATH) | MULTIPLE
-    return l_m, p_m, status
-
-
-__all__ = ["SIGHTING_STEP", "SIGHTING_WINDOW", "TrueError", "Truth", "nearest_sighting"]
+__all__ = ["TrueError", "Truth"]
