@@ -110,9 +110,10 @@ def _compare(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], 
                              + "; ".join(f"{n}: {e}" for n, e in c.errors.items()))
     outputs = write_laser_comparison(ctx.root, c)
     # metres, as every JSON of scangeo (the comparison table's columns are in cm)
-    variants = {name: {"sigma0": r.sigma0, "strip_differences_flat_rms_m": after_m(r, "strip_differences_flat_rms_m"),
-                       "check_patches_rms_m": after_m(r, "check_patches_rms_m"), "rejected": len(r.rejections)}
-                for name, r in c.results.items()}
+    variants: dict[str, dict[str, Any]] = {
+        name: {"sigma0": r.sigma0, "strip_differences_flat_rms_m": after_m(r, "strip_differences_flat_rms_m"),
+               "check_patches_rms_m": after_m(r, "check_patches_rms_m"), "rejected": len(r.rejections)}
+        for name, r in c.results.items()}
     variants.update({n: {"error": e} for n, e in c.errors.items()})
     return {"recommended": c.recommended, "why": c.why, "variants": variants}, outputs
 
