@@ -29,6 +29,7 @@ LONGEST_GROUPS = (
     "strategy/test_physics.py", "compared_small", "pipeline/test_run.py", "rectify/test_refined_map.py",
     "badinput/test_project_commands.py", "badinput/test_other_commands.py", "rectify/test_block_scale.py",
     "match/test_adjustment.py", "test_parallel.py", "rectify/test_batch.py", "rectify/test_strip.py",
+    "importers/test_lcf_simulated.py",
 )
 
 

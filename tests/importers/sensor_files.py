@@ -73,13 +73,19 @@ def lcf_line_of_project(project_root, strip: str, out_folder, clock_start_s: flo
     keep = s.time >= line_times[0] - 1e-9
     t = s.time[keep]
     shift = line_times[0] - t[0]
-    with rasterio.open(project.strip(strip).image) as src:
-        image = np.moveaxis(src.read(), 0, -1)
+    if abs(shift) > 1e-6:  # the simulation's records must include the first line's time (run_in_s x rate whole)
+        raise ValueError(f"no navigation record at the first line's time (the nearest {shift:.6f} s after it)")
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)  # a raw scanner image
+        with rasterio.open(project.strip(strip).image) as src:
+            image = np.moveaxis(src.read(), 0, -1)
     cube = write_cube(out / f"line{strip}.bil", image)
-    lcf = write_lcf(out / f"line{strip}.lcf", t + shift, np.degrees(s.lat[keep]), np.degrees(s.lon[keep]), s.h[keep],
+    lcf = write_lcf(out / f"line{strip}.lcf", t, np.degrees(s.lat[keep]), np.degrees(s.lon[keep]), s.h[keep],
                     s.roll[keep], s.pitch[keep], s.heading[keep])
     times = write_times(out / f"line{strip}.bil.times", line_times, clock_start_s)
-    return {"cube": cube, "lcf": lcf, "times": times, "shift_s": shift}  # type: ignore[dict-item]
+    return {"cube": cube, "lcf": lcf, "times": times}
 
 
 def synthetic_line(folder, *, samples: int = 60, lines: int = 300, bands: int = 2, altitude_m: float = 50.0,
