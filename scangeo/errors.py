@@ -101,6 +101,10 @@ class GeometryError(ScangeoError, ValueError):
     local map, an output grid without cells)."""
 
 
+class StacItemError(InputFileError, ValueError):
+    """A STAC item is not valid by its schemas, or one of its schemas is not held on disk."""
+
+
 class MissingDependencyError(ScangeoError, ImportError):
     """An optional dependency a feature needs is not installed (names the extra to install)."""
 

@@ -1,9 +1,10 @@
 """Data shipped inside the package, read with :mod:`importlib.resources`.
 
-The simulation presets (``scangeo/data/presets/NAME.toml``) and the default variants of a comparison
-(``scangeo/data/variants.toml``) are package data: they are found the same way from the source tree,
-an editable install or an installed wheel. The top-level ``data/`` folder of the source tree holds
-examples for users only; nothing in the package reads it.
+The simulation presets (``scangeo/data/presets/NAME.toml``), the default variants of a comparison
+(``scangeo/data/variants.toml``) and the STAC extensions' schemas (``scangeo/data/stac/``) are package
+data: they are found the same way from the source tree, an editable install or an installed wheel.
+The top-level ``data/`` folder of the source tree holds examples for users only; nothing in the
+package reads it.
 """
 from __future__ import annotations
 
@@ -14,6 +15,8 @@ from importlib.resources.abc import Traversable
 PRESETS: Traversable = files("scangeo") / "data" / "presets"
 #: The default strategies of ``scangeo compare`` (with placeholders for the problem strip).
 DEFAULT_VARIANTS: Traversable = files("scangeo") / "data" / "variants.toml"
+#: The JSON schemas of the STAC extensions scangeo's items use (offline validation, with their licences).
+STAC_SCHEMAS: Traversable = files("scangeo") / "data" / "stac"
 
 
 def preset_names() -> list[str]:
@@ -29,4 +32,4 @@ def preset_file(name: str) -> Traversable | None:
     return path if path.is_file() else None
 
 
-__all__ = ["DEFAULT_VARIANTS", "PRESETS", "preset_file", "preset_names"]
+__all__ = ["DEFAULT_VARIANTS", "PRESETS", "STAC_SCHEMAS", "preset_file", "preset_names"]

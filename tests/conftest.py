@@ -66,6 +66,25 @@ def pytest_collection_modifyitems(config, items):
     items.sort(key=lambda item: rank.get(files[item.path], len(rank)))  # stable: files keep their order
 
 
+@pytest.fixture
+def no_network(monkeypatch):
+    """Every network connection of this process refused while the test runs (name lookups and
+    connects raise OSError); returns the list of the addresses that were tried."""
+    import socket
+
+    tried: list[object] = []
+
+    def refuse(*args, **kwargs):
+        tried.append(args[1] if len(args) > 1 else args[:1])
+        raise OSError("the network is blocked in this test")
+
+    monkeypatch.setattr(socket, "getaddrinfo", lambda *a, **k: refuse(None, a[0]))
+    monkeypatch.setattr(socket, "create_connection", lambda address, *a, **k: refuse(None, address))
+    monkeypatch.setattr(socket.socket, "connect", refuse)
+    monkeypatch.setattr(socket.socket, "connect_ex", refuse)
+    return tried
+
+
 def shared_file(relative: str) -> Path:
     """A file of ../shared/data, or skip the test when it is not there (a user's machine)."""
     path = SHARED_DATA / relative

@@ -16,6 +16,8 @@ from pystac.extensions.projection import ProjectionExtension
 from scangeo.cli import main
 from scangeo.pipeline.laser import LASER_NAMES
 from scangeo.pipeline.run import run
+from scangeo.reports.stac_validation import validate_items
+from tests.rectify.test_cog_properties import check_strict_cog
 from tests.session_projects import copy_project
 
 
@@ -65,6 +67,15 @@ def test_the_overlap_height_differences_at_least_halve(ran):
     ties = results["patches"]["tie"]
     assert sum(results["strips_per_patch"].values()) == ties and set(results["strips_per_patch"]) == {"2"}
     assert len([p for p in results["patch_map"] if p["kind"] == "tie"]) == ties
+
+
+def test_the_items_and_the_difference_grid_are_valid_with_the_network_blocked(ran, no_network):
+    items = sorted((ran / "results").rglob("*.stac.json"))
+    assert len(items) == 2 and all(schemas[1:] == [PointcloudExtension.get_schema_uri(),
+                                                   ProjectionExtension.get_schema_uri()]
+                                   for schemas in validate_items(items).values())
+    check_strict_cog(ran / "results" / "differences.tif")
+    assert no_network == []
 
 
 def test_corrected_strips_are_laz_with_their_returns_and_stac_items(ran, laser_block):

@@ -19,9 +19,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rasterio
+from pystac.extensions.projection import ProjectionExtension
 
 from scangeo import __version__
 from scangeo.pipeline.run import run
+from scangeo.reports.stac_validation import validate_items
 from scangeo.reports.tables import read_comparison
 from tests.rectify.test_cog_properties import check_written_cog
 from tests.session_projects import copy_project
@@ -50,6 +52,20 @@ def ran(textured_block, tmp_path_factory):
     calls: list[tuple[float, float, str]] = []
     result = run(root, progress=lambda d, t, m="": calls.append((d, t, m)))
     return root, result, calls
+
+
+def test_every_stac_item_and_every_cog_of_the_run_is_valid_with_the_network_blocked(ran, no_network):
+    """What the demo writes, as every run does: each STAC item valid by the core item schema and its
+    extensions' (the schemas from the disk), each COG by rio-cogeo's strict validation."""
+    root, result, _ = ran
+    items = sorted((root / "results").rglob("*.stac.json"))
+    rasters = sorted(p for p in (root / "results").rglob("*.tif"))
+    # an item per orthoimage and the mosaic (the layers have none)
+    assert items and len(items) == len([p for p in rasters if not p.name.endswith(".layers.tif")])
+    assert all(schemas[1:] == [ProjectionExtension.get_schema_uri()] for schemas in validate_items(items).values())
+    for path in rasters:
+        check_written_cog(path)
+    assert no_network == []
 
 
 def _check_report(root: Path, recommended: str) -> None:

@@ -1,4 +1,5 @@
-"""STAC Items of orthoimages: core schema (shipped with pystac, no network), projection fields, round trip."""
+"""STAC Items of orthoimages: valid by the core and the projection schemas offline (scangeo.reports.stac_validation),
+projection fields, round trip."""
 from __future__ import annotations
 
 import copy
@@ -13,7 +14,9 @@ from affine import Affine
 from pyproj import Transformer
 from pystac.extensions.projection import ProjectionExtension
 
+from scangeo.errors import StacItemError
 from scangeo.reports.stac import item_path, write_stac_items
+from scangeo.reports.stac_validation import EXTENSION_SCHEMAS, core_schema_uri, validate_item, validate_items
 
 
 @pytest.fixture
@@ -72,3 +75,38 @@ def test_a_mosaic_item_has_no_strip(ortho, tmp_path):
     (path,) = write_stac_items(tmp_path, "S4", [mosaic])
     item = pystac.Item.from_file(str(path))
     assert "scangeo:strip" not in item.properties and item.id.endswith("-S4-mosaic")
+
+
+def test_items_validate_against_their_schemas_with_the_network_blocked(ortho, tmp_path, no_network):
+    (path,) = write_stac_items(tmp_path, "S4", [ortho], {"02": [300010.0, 300022.0]})
+    assert validate_items([path]) == {str(path): [core_schema_uri(pystac.get_stac_version()),
+                                                  ProjectionExtension.get_schema_uri()]}
+    assert no_network == []  # nothing was even tried
+    d = json.loads(path.read_text(encoding="utf-8"))
+    # each schema is applied: a defect of the core item, of the projection fields, of the GeoJSON geometry
+    for defect, schema, where in (
+        (lambda x: x["properties"].pop("datetime"), "item.json", "properties"),
+        (lambda x: x["properties"].__setitem__("proj:shape", [30.5, 50]), "projection", "properties/proj:shape/0"),
+        (lambda x: x["properties"].__setitem__("proj:code", 32633), "projection", "properties/proj:code"),
+        (lambda x: x["geometry"].__setitem__("coordinates", [[[16.0, 48.0]]]), "item.json", ""),  # not a ring
+    ):
+        broken = copy.deepcopy(d)
+        defect(broken)
+        with pytest.raises(StacItemError, match=rf"^02: not valid by \S*{schema}\S* .*; at {where}"):
+            validate_item(broken, source="02")
+    unknown = copy.deepcopy(d)
+    unknown["stac_extensions"].append("https://stac-extensions.github.io/eo/v2.0.0/schema.json")
+    with pytest.raises(StacItemError, match=r"eo/v2.0.0/schema.json is not held on disk"):
+        validate_item(unknown, source="02")
+    assert no_network == []
+    assert set(EXTENSION_SCHEMAS) >= {ProjectionExtension.get_schema_uri()}
+
+
+def test_a_file_that_is_no_item_is_named(tmp_path):
+    bad = tmp_path / "x.stac.json"
+    bad.write_text("{", encoding="utf-8")
+    with pytest.raises(StacItemError, match=rf"^{bad}: not a STAC item's JSON"):
+        validate_item(bad)
+    bad.write_text('{"type": "FeatureCollection"}', encoding="utf-8")
+    with pytest.raises(StacItemError, match=rf"^{bad}: not a STAC item \(expected a Feature"):
+        validate_item(bad)
