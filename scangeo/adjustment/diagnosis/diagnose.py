@@ -31,11 +31,13 @@ import numpy as np
 from scangeo.adjustment.block import strips_read_once
 from scangeo.adjustment.diagnosis.attribution import (
     ADOPT_BIC,
+    AMBIGUOUS_BIC,
     SPLIT_PREFILTER,
     Attribution,
     AttributionCheck,
     adopt,
     attribution_checks,
+    preferred_by_split_model,
     split_model_difference,
 )
 from scangeo.adjustment.diagnosis.patterns import (
@@ -43,6 +45,7 @@ from scangeo.adjustment.diagnosis.patterns import (
     Fit,
     PatternData,
     SelectionOptions,
+    alternatives,
     break_intervals,
     evaluate,
     select_breaks,
@@ -251,12 +254,18 @@ def _with_breaks(strips, fit: Fit) -> list[str]:
 
 
 def adopted_note(search: Fit, adopted: list[Attribution], strips) -> str:
-    """The note of a diagnosis whose search's model an alternative replaced (:func:`~.attribution.adopt`)."""
+    """The note of a diagnosis whose search's model an alternative replaced (:func:`choose_model`)."""
     own = _with_breaks(strips, search)
-    steps = "; then ".join(a.describe() for a in adopted)
+
+    def why(a: Attribution) -> str:
+        if a.delta_bic < -ADOPT_BIC:
+            return (f"more than {ADOPT_BIC:g} below the model it replaces by the BIC, beyond what the best-placed "
+                    "breaks gain on drift-free blocks")
+        return f"more than {AMBIGUOUS_BIC:g} below it by the split model"
+
+    steps = "; then by ".join(f"{a.describe()} ({why(a)})" for a in adopted)
     return (f"the search's own model ({'problem strips ' + ', '.join(own) if own else 'no problem strip'}) is "
-            f"replaced by {steps}: more than {ADOPT_BIC:g} below it by the BIC, beyond what the best-placed "
-            "breaks gain on drift-free blocks (docs/adjustment.md, \"Attribution\")")
+            f"replaced by {steps} (docs/adjustment.md, \"Attribution\")")
 
 
 def _across_axes(result: VariantResult) -> dict[str, np.ndarray]:
@@ -444,7 +453,8 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
         fit, breaks = null, []
     else:
         search = select_breaks(data, options)
-        fit, checks, adopted = adopt(data, search, attribution_checks(data, search, options), options)
+        fit, checks, adopted = choose_model(root, data, search, options, refine, dtm_height_points,
+                                            lambda m: callback(2, steps, m))
         if adopted:
             notes.append(adopted_note(search, adopted, data.strips))
         null = evaluate(data, [[] for _ in data.strips], fit.rho, options.degree, range(len(data.strips)))
@@ -457,9 +467,6 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
                 breaks, n_lines, s_model_cost(project, dtm_height_points, refine.position_degree), refine,
                 lambda i, n: callback(3 + i / n, steps, f"diagnosis: placing break {i} of {n} with the S model"))
             notes += dropped_notes(proposed, breaks, refine.test_level)
-        if refine is not None and any(c.strip is not None for c in checks):
-            callback(4, steps, "diagnosis: the split model's opinion of the other attributions")
-            split_model_opinion(root, checks, _bic_breaks(data, fit), dtm_height_points, refine.position_degree)
         if refine is not None:
             plausible = [a for c in checks for a in c.plausible]
             for i, a in enumerate(plausible):
@@ -479,6 +486,32 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
     log.info("diagnosis of %s: problem strips %s, breaks %s", root, d.problem_strips or "none",
              ", ".join(f"{b.strip}@{b.line:.0f}" for b in breaks) or "none")
     return d
+
+
+def choose_model(root, data: PatternData, search: Fit, options: SelectionOptions, refine: RefineOptions | None,
+                 dtm_height_points=("*",), say=lambda message: None
+                 ) -> tuple[Fit, list[AttributionCheck], list[Attribution]]:
+    """The diagnosis's model: the search's, or an alternative that beats it (module docstring of
+    :mod:`~.attribution`): by the BIC beyond :data:`~.attribution.ADOPT_BIC` (:func:`~.attribution.adopt`),
+    then, a competing one, by the split model's criterion beyond :data:`~.attribution.AMBIGUOUS_BIC`
+    (:func:`~.attribution.preferred_by_split_model`; with ``refine``, which asks the split model's opinion of
+    every competing alternative, :func:`split_model_opinion`). Returns the model, its attribution checks and
+    the alternatives adopted in turn."""
+    fit, checks, adopted = adopt(data, search, attribution_checks(data, search, options), options)
+    if refine is None or not any(c.strip is not None for c in checks):
+        return fit, checks, adopted
+    say("diagnosis: the split model's opinion of the other attributions")
+    split_model_opinion(root, checks, _bic_breaks(data, fit), dtm_height_points, refine.position_degree)
+    better = preferred_by_split_model(checks)
+    if better is None or better.fit is None:
+        return fit, checks, adopted
+    fit = better.fit
+    fit.alternatives = alternatives(data, fit, options)
+    checks = attribution_checks(data, fit, options)
+    adopted.append(better)
+    if any(c.strip is not None for c in checks):
+        split_model_opinion(root, checks, _bic_breaks(data, fit), dtm_height_points, refine.position_degree)
+    return fit, checks, adopted
 
 
 def _bic_breaks(data: PatternData, fit: Fit) -> dict[str, tuple[float, ...]]:

@@ -14,10 +14,12 @@ from scangeo.adjustment.diagnosis.attribution import (
     adopt,
     attribution_checks,
     no_problem_alternatives,
+    preferred_by_split_model,
     split_model_difference,
 )
 from scangeo.adjustment.diagnosis.local_fit import BlockIndex, CurrentFit
 from scangeo.adjustment.diagnosis.patterns import (
+    Fit,
     PatternData,
     SelectionOptions,
     evaluate,
@@ -222,3 +224,19 @@ def test_the_split_models_opinion_can_make_an_attribution_ambiguous():
     # a richer alternative is not judged by it
     r = Attribution("shared", "02", "03", {"02": (2400.0,), "03": (2400.0,)}, 214.0, 14.0, delta_split=-5.0)
     assert not r.doubt
+
+
+def test_a_competing_attribution_the_split_model_prefers_beyond_the_threshold_is_adopted():
+    fit = Fit(((), (), ()), 0.0, 0.0, 0, {}, {})
+
+    def alt(kind, delta_bic, delta_split):
+        return Attribution(kind, "01", "02", {"02": (2400.0, 4900.0)}, 200.0 + delta_bic, delta_bic,
+                           delta_split=delta_split, fit=fit)
+
+    merged, moved = alt("merged", 89.4, -225.6), alt("moved", 80.3, -116.9)
+    check = AttributionCheck("01", merged, None, [], AMBIGUOUS_BIC, [moved, merged])
+    assert preferred_by_split_model([check]) is merged
+    # within the threshold, or a richer alternative (its extra breaks searched), or none asked: none adopted
+    for a in (alt("moved", 12.0, -AMBIGUOUS_BIC), alt("moved", 12.0, None), alt("shared", 12.0, -50.0)):
+        assert preferred_by_split_model([AttributionCheck("01", a, None, [], AMBIGUOUS_BIC, [a])]) is None
+    assert preferred_by_split_model([check], threshold=300.0) is None
