@@ -274,8 +274,12 @@ def _names(text: str) -> tuple[set[str], set[str]]:
     """(camera families, serial numbers) named in a file name or description."""
     upper = text.upper()
     families = {f for f in _FAMILIES if re.search(rf"(?<![A-Z]){f}(?![A-Z])", upper)}
-    serials = set(re.findall(r"SN[_-]?0*(\d+)", upper))
+    serials = set(re.findall(r"SN[_-]?(\d+)", upper))
     return families, serials
+
+
+def _same_serial(a: set[str], b: set[str]) -> bool:
+    return bool({int(v) for v in a} & {int(v) for v in b})
 
 
 def _check_names(st: ParGeStatus, sensor_model, record: ImportRecord) -> None:
@@ -287,7 +291,7 @@ def _check_names(st: ParGeStatus, sensor_model, record: ImportRecord) -> None:
         sources.append(("the sensor model given", Path(sensor_model).name))
     for what, text in sources:
         fam, ser = _names(text)
-        if (image_f and fam and not image_f & fam) or (image_s and ser and not image_s & ser):
+        if (image_f and fam and not image_f & fam) or (image_s and ser and not _same_serial(image_s, ser)):
             record.warn(f"{st.path.name}: image.NAME names a {_camera_words(image_f, image_s)} "
                         f"({_file_name(st.image_name)}), but {what} names a {_camera_words(fam, ser)} "
                         f"({_file_name(text)}): check that the status file, its image and its sensor model are "
