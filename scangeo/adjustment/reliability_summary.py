@@ -334,8 +334,14 @@ def write_reliability(result: VariantResult, folder, vr: VariantReliability | No
     renamed when complete); ``vr`` the reliability if already computed."""
     vr = vr if vr is not None else variant_reliability(result)
     folder = Path(folder)
-    write_csv(folder / "reliability.csv", UNIT_COLUMNS,
-              ([_fmt_inf(x) if isinstance(x, float) else x for x in r] for r in unit_table(vr)))
+    where = {UNIT_COLUMNS.index(c) for c in ("x", "y", "H")}  # map coordinates to the mm, not 4 digits
+
+    def text(k: int, x):
+        if not isinstance(x, float):
+            return x
+        return (f"{x:.3f}" if math.isfinite(x) else "") if k in where else _fmt_inf(x)
+
+    write_csv(folder / "reliability.csv", UNIT_COLUMNS, ([text(k, x) for k, x in enumerate(r)] for r in unit_table(vr)))
     write_text(folder / "reliability.json", json.dumps(reliability_dict(vr), indent=1))
 
 

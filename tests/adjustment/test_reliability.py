@@ -305,6 +305,12 @@ def test_results_hold_the_reliability(clean, tmp_path):
     units = list(csv.DictReader(open(out / "reliability.csv")))
     assert {u["kind"] for u in units} >= {"control", "tie", "dtm"}
     assert all(np.isfinite(float(u["x"])) for u in units)
+    # a point's map position to the mm (its adjusted position: within a metre of ground.csv's for control)
+    given = {str(p): xyz for p, xyz in zip(clean.block.ground.point, clean.block.ground.xyz)}
+    control = [u for u in units if u["kind"] == "control" and u["point"] in given]
+    assert control and all(len(u["y"].split(".")[1]) == 3 for u in control)
+    assert max(np.hypot(float(u["x"]) - given[u["point"]][0], float(u["y"]) - given[u["point"]][1])
+               for u in control) < 1.0
     summary = json.loads((out / "reliability.json").read_text())
     assert summary["delta0"] == pytest.approx(D0)
     assert set(summary["strips"]) == {"01", "02"} and set(summary["positions"]) == {"01", "02"}
