@@ -19,9 +19,14 @@ from scangeo.reports.figures import png
 from scangeo.reports.tables import correlation_kinds, markdown_tables
 
 
+def _with_ties(diagnosis: dict) -> list[dict]:
+    """The strips of diagnosis.json's series that have tie points with a DTM misclosure."""
+    return [s for s in diagnosis.get("series", []) if len(s.get("tie", {}).get("line", []))]
+
+
 def misclosure_plot(diagnosis: dict) -> bytes:
-    """One panel per strip: DTM misclosures of its tie points over lines, breaks and their intervals."""
-    series = diagnosis.get("series", [])
+    """One panel per strip with tie points: their DTM misclosures over lines, breaks and their intervals."""
+    series = _with_ties(diagnosis)
     fig = Figure(figsize=(10, 1.9 * max(1, len(series)) + 0.6))
     for i, s in enumerate(series):
         ax = fig.add_subplot(len(series), 1, i + 1)
@@ -98,9 +103,15 @@ def diagnosis_section(project_root, comparison: Comparison) -> html.Section:
                     "note warn"))
         if d.get("notes"):  # a sigma0 far above 1 (with its likely causes), breaks the split model dropped
             sec.parts.append(html.bullet_list([f"note: {n}" for n in d["notes"]]))
-        if d.get("series"):
+        shown = _with_ties(d)
+        without = [s["strip"] for s in d.get("series", []) if s not in shown]
+        if shown:
             sec.parts.append(html.figure(misclosure_plot(d), "DTM misclosures of the tie points after SE; red: "
-                                         "proposed breaks with their 95 % intervals", "fig-diagnosis"))
+                                         "proposed breaks with their 95 % intervals"
+                                         + (f"; no tie points on strip {', '.join(without)}" if without else ""),
+                                         "fig-diagnosis"))
+        elif d.get("series") and not any("tie point" in n for n in d.get("notes", [])):  # one line why, no plot
+            sec.parts.append(html.paragraph("No misclosure plot: no strip has a tie point with a DTM misclosure."))
     tables = markdown_tables(comparison)
     if "cross-validation" in tables:
         cv = comparison.crossvalidation or {}

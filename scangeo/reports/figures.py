@@ -88,8 +88,10 @@ def residual_map(frame: StripFrame, vectors: list[ResidualVectors], titles: list
             q = ax.quiver(s[ok] / 1e3, w[ok] / 1e3, ds[ok] * exaggeration / 1e3, dw[ok] * exaggeration / 1e3,
                           angles="xy", scale_units="xy", scale=1.0, width=0.0025,
                           color=np.where(v.flagged[ok], "#d62728", "#1f4e9c"))
-            ax.quiverkey(q, 0.85, 1.08, key_m * exaggeration / 1e3, f"{key_m:g} m (x{exaggeration:g})",
-                         labelpos="E", coordinates="axes", fontproperties={"size": 8})
+            # the key in the empty band below the footprint (the y limits leave 0.4 swath there), clear of the
+            # title however narrow the panel (a short strip drawn at equal scale)
+            ax.quiverkey(q, 0.97, 0.07, key_m * exaggeration / 1e3, f"{key_m:g} m (x{exaggeration:g})",
+                         labelpos="W", coordinates="axes", fontproperties={"size": 8})
         ax.set_title(title, fontsize=9, loc="left")
         ax.set_aspect("equal")
         ax.set_ylim((fv.min() - 0.4 * swath) / 1e3, (fv.max() + 0.4 * swath) / 1e3)

@@ -69,12 +69,15 @@ def quicklook_figure(path: Path, footprints: dict[str, np.ndarray], checks: np.n
 
 
 def quicklook_section(results: Path, variant: str, footprints: dict[str, np.ndarray],
-                      checks: np.ndarray) -> html.Section:
-    """The report's quicklook section (a note instead of the figure when the mosaic is not there)."""
+                      checks: np.ndarray, images: bool = True) -> html.Section:
+    """The report's quicklook section (one line saying why instead of the figure when the mosaic is not
+    there; ``images``: whether any strip of the project has an image to rectify)."""
     path = mosaic_path(results, variant)
     if not path.exists():
-        return html.Section("Quicklook", "quicklook", [html.paragraph(
-            f"no mosaic of {variant} yet (scangeo rectify PROJECT --variant {variant} --mosaic, or scangeo run)")])
+        why = (f"no mosaic of {variant} yet (scangeo rectify PROJECT --variant {variant} --mosaic, or scangeo run)"
+               if images else "no mosaic: no strip of the project has an image to rectify "
+               "(project.toml [[strips]] image)")
+        return html.Section("Quicklook", "quicklook", [html.paragraph(why)])
     return html.Section("Quicklook", "quicklook", [html.figure(
         quicklook_figure(path, footprints, checks, variant),
         f"the mosaic of the recommended variant {variant} ({path.relative_to(results.parent).as_posix()}), "

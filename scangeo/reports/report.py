@@ -152,6 +152,14 @@ def _vectors_section(project: Project, c: Comparison, vectors: dict[str, Residua
 def _corrections_section(project: Project, c: Comparison) -> html.Section:
     sec = html.Section("Correction functions", "corrections")
     adjusted = [v.name for v in c.variants if v.error is None and v.strategy != "DG"]
+    if not adjusted:  # nothing to draw: say why in one line
+        direct = [v.name for v in c.variants if v.error is None]
+        failed = [v.name for v in c.variants if v.error is not None]
+        sec.parts.append(html.paragraph(
+            "No correction functions: no variant corrects the GPS/IMU ("
+            + "; ".join([f"{', '.join(direct)} use it as measured, strategy DG"] * bool(direct)
+                        + [f"{', '.join(failed)} failed"] * bool(failed)) + ")."))
+        return sec
     sec.parts.append(
         html.paragraph(
             "The correction each variant applied to the GPS/IMU: adjusted orientation minus GPS/IMU as measured, over "
@@ -327,7 +335,7 @@ def write_report(
     sections.insert(1, diagnosis_section(root, comparison))  # scangeo diagnose, recommendation, correlations
     chosen = comparison.recommended or comparison.best or comparison.reference  # the variant scangeo run rectifies
     sections.insert(2, quicklook_section(root / "results", chosen, {sid: f.footprint for sid, f in frames.items()},
-                                         _check_points(root)))
+                                         _check_points(root), any(s.image for s in project.strips)))
     calibration = calibration_section(root, comparison, project.sensor.model.pixels)  # estimates, tests, residuals
     if calibration is not None:
         sections.insert(3, calibration)

@@ -9,6 +9,8 @@ and pixels: on the VNIR line scangeo's along-track rms is 11 % above the referen
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 
 import numpy as np
@@ -22,6 +24,7 @@ from scangeo.io.project import Project
 from scangeo.workflow import adjust
 from tests.conftest import shared_file
 from tests.importers.reference_fit import alternate_split, reference_check_rms
+from tests.reports.browser import browser, check_layout
 
 LINES = {"SWIR": "hyspex/20200522_Husky_SWIR_boresight_IFSAR.gcs",
          "VNIR": "hyspex/20200522_Husky_VNIR_boresight_IFSAR.gcs"}
@@ -121,11 +124,19 @@ def test_a_line_without_gcps_imports_without_a_dtm_and_run_stops_at_its_check(tm
     assert "stage check failed" in err and "the project has no DTM" in err and "Traceback" not in err
 
 
-def test_scangeo_run_on_an_imported_line_compares_the_variants_and_says_why_it_cannot_rectify(tmp_path, capsys):
-    out = tmp_path / "project"
+@pytest.fixture(scope="module")
+def swir_run(tmp_path_factory):
+    """The SWIR line imported and run once (``scangeo run``): (project folder, what the run printed)."""
+    out = tmp_path_factory.mktemp("swir-run") / "project"
     import_parge(shared_file(LINES["SWIR"]), out)
-    assert main(["run", str(out)]) == 0
-    printed = capsys.readouterr().out
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        assert main(["run", str(out)]) == 0
+    return out, printed.getvalue()
+
+
+def test_scangeo_run_on_an_imported_line_compares_the_variants_and_says_why_it_cannot_rectify(swir_run, capsys):
+    out, printed = swir_run
     assert "rectify   not run (cannot run: no strip has an image" in printed
     assert "match     not run (cannot run: no strip has an image" in printed
     manifest = json.loads((out / "results" / "run.json").read_text())
@@ -155,6 +166,28 @@ def test_scangeo_run_on_an_imported_line_compares_the_variants_and_says_why_it_c
     # asking for what cannot run is an error naming why, not a traceback
     assert main(["run", str(out), "--until", "rectify"]) == 1
     assert "stage rectify cannot run" in capsys.readouterr().err
+
+
+@pytest.mark.browser
+def test_the_report_of_an_imported_line_draws_no_empty_plot_and_fits_the_page(swir_run, tmp_path):
+    """A single line without tie points, whose variants all use the GPS/IMU as measured and which has no
+    image: the sections with nothing to draw say in one line why and draw nothing; in a browser at 800
+    and 1400 px nothing is wider than the page."""
+    out, _ = swir_run
+    page = out / "results" / "report.html"
+    html = page.read_text(encoding="utf-8")
+    assert "only 0 tie points with a DTM misclosure" in html  # the diagnosis says why it has no plot
+    assert "No correction functions: no variant corrects the GPS/IMU (PARGE, BORESIGHT, CALIBRATED use it as " \
+           "measured, strategy DG)." in html
+    assert "no mosaic: no strip of the project has an image to rectify" in html
+    with browser(tmp_path / "chromium-profile") as driver:
+        for width in (800, 1400):
+            shown = check_layout(driver, page, width, tmp_path / f"report-{width}.png")
+            # no misclosure plot, no correction plots: only figures with something in them
+            assert not [f for f in shown["figures"] if f == "fig-diagnosis" or f.startswith(("fig-corr", "fig-height"))]
+            assert {"fig-rms", "fig-tracks", "fig-calibration-BORESIGHT"} <= set(shown["figures"])
+        images = driver.execute_script("return Array.from(document.images).map(i => i.complete && i.naturalWidth > 0)")
+        assert images and all(images)
 
 
 def test_a_given_geoid_and_dtm_are_what_the_project_uses(tmp_path):

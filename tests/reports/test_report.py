@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import csv
-import shutil
 import sqlite3
 import struct
 
@@ -11,6 +10,7 @@ import pytest
 
 from scangeo.io.project import Project
 from scangeo.reports.residual_vectors import check_vectors, ground_jacobian
+from tests.reports.browser import browser, check_layout
 
 
 def test_ground_jacobian_of_a_level_flight(tiny_project):
@@ -99,31 +99,10 @@ def test_residual_vectors_of_a_variant(compared_small):
         assert np.sqrt(np.mean(s.d_line**2)) == pytest.approx(rms["rms_along_px"], rel=1e-4)
 
 
-def _chromium():
-    pytest.importorskip("selenium")
-    for exe in ("chromium", "chromedriver"):
-        if shutil.which(exe) is None:
-            pytest.skip(f"{exe} is not installed (bash .ci/install installs it)")
-    from selenium import webdriver
-    from selenium.webdriver.chrome.options import Options
-    from selenium.webdriver.chrome.service import Service
-
-    return webdriver, Options, Service
-
-
 @pytest.mark.browser
 def test_report_opens_in_a_browser(compared_small, tmp_path):
     root, c, files = compared_small
-    webdriver, Options, Service = _chromium()
-    options = Options()
-    for arg in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                "--disable-component-update", "--disable-sync", "--no-first-run",
-                f"--user-data-dir={tmp_path / 'chromium-profile'}", "--window-size=1300,1000"):
-        options.add_argument(arg)
-    options.binary_location = shutil.which("chromium")
-    driver = webdriver.Chrome(options=options, service=Service(shutil.which("chromedriver")))
-    try:
-        driver.set_page_load_timeout(60)
+    with browser(tmp_path / "chromium-profile") as driver:
         driver.get(files.html.resolve().as_uri())
         images = driver.execute_script(
             "return Array.from(document.images).map(i => [i.id || i.alt, i.complete, i.naturalWidth, i.naturalHeight])")
@@ -138,8 +117,9 @@ def test_report_opens_in_a_browser(compared_small, tmp_path):
         driver.set_window_size(1300, min(int(height) + 50, 12000))
         shot = tmp_path / "report.png"
         assert driver.save_screenshot(str(shot))
-    finally:
-        driver.quit()
+        # nothing wider than the page at 800 and 1400 px: every table fits or scrolls in its own box
+        for width in (800, 1400):
+            check_layout(driver, files.html, width, tmp_path / f"report-{width}.png")
     assert table_rows == [v.name for v in c.variants]
     assert len(images) == files.figures
     assert all(complete and w > 0 and h > 0 for _, complete, w, h in images), images
