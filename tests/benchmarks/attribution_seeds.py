@@ -3,18 +3,23 @@
 Not collected by pytest. For every seed: simulate vienna2000 without images and with ``--blunders`` blunders
 (``points.blunders``), then ``scangeo run PROJECT --until compare`` (check, clean, diagnose, compare with the
 run's 4-fold cross-validation, as a user would), and print one row: the problem strips found (and the
-injected one), the runner-up attribution and its BIC difference, whether the attribution was called
-ambiguous, the variants built, the recommended variant and its pooled true error as a % of the best
-variant's, the cross-validation's and the check points' own choices, whether the two disagreed (and the
-run said so), and whether the recommended variant is significantly worse at the check points than another
-adjusted variant (F test of the pooled check-point mean squares as the table prints them, 5 %) without the
-run's summary saying so. The last lines sum up.
+injected one), the search's own (when the diagnosis adopted an alternative in its place), the runner-up
+attribution and its BIC difference, whether the attribution was called ambiguous, the variants built, the
+recommended variant (and whether the strips it corrects are the injected ones) and its pooled true error as
+a % of the best variant's, the cross-validation's and the check points' own choices, whether the two
+disagreed (and the run said so), and whether the recommended variant is significantly worse at the check
+points than another adjusted variant (F test of the pooled check-point mean squares as the table prints
+them, 5 %) without the run's summary saying so. The last lines sum up.
 
     python tests/benchmarks/attribution_seeds.py OUT [--seeds 1 2 ... 40] [--blunders 20] [--ties N] [--control N]
-        [--rerun STAGE]
+        [--rerun STAGE] [--preset NAME] [--strips N] [--drift-free] [--until diagnose]
 
 ``--ties`` and ``--control`` thin the tie and control points (harder attributions); ``--rerun diagnose|compare``
-runs the seeds already cleaned again from that stage.
+runs the seeds already cleaned again from that stage. ``--drift-free`` simulates the block without the
+problem strip's GPS/IMU excursions (and the control bands at its breaks), ``--preset`` and ``--strips``
+another block, and ``--until diagnose`` scores the diagnosis alone: per seed, how much the best model with
+breaks beats the search's own model when that has none (the change-point effect the adoption threshold is
+calibrated on, docs/adjustment.md, "Adoption"), summed up as its range, median and 90 % quantile.
 
 Projects already simulated in OUT are reused; a seed whose run already reached compare is only scored, one
 already cleaned runs from the diagnosis on (delete OUT/sN/results to run it all again). Truth is read here
@@ -65,7 +70,7 @@ DRIFT_FREE = {"gpsimu_errors": {"problem_strip": 0, "breaks_lines": [], "strip":
 
 
 def project(root: Path, seed: int, blunders: int, ties: int | None = None, control: int | None = None,
-            preset: str = "vienna2000", drift_free: bool = False) -> None:
+            preset: str = "vienna2000", drift_free: bool = False, strips: int | None = None) -> None:
     if not (root / "project.toml").exists():
         points: dict = {"blunders": blunders}
         if ties is not None:
@@ -73,7 +78,7 @@ def project(root: Path, seed: int, blunders: int, ties: int | None = None, contr
         if control is not None:
             points["control_per_band_per_strip"] = control
         overrides = {"output": {"images": False, "truth_ortho": False}, "seed": seed, "points": points,
-                     **(DRIFT_FREE if drift_free else {})}
+                     **(DRIFT_FREE if drift_free else {}), **({"flight": {"strips": strips}} if strips else {})}
         simulate(root, load_preset(preset, overrides))
 
 
@@ -224,14 +229,16 @@ def main() -> None:
     ap.add_argument("--control", type=int, default=None,
                     help="control points per band and strip (default: the preset's, 8)")
     ap.add_argument("--preset", default="vienna2000", help="the simulation preset (default vienna2000)")
+    ap.add_argument("--strips", type=int, default=None, help="strips of the block (default: the preset's)")
     ap.add_argument("--drift-free", action="store_true",
                     help="without the problem strip's GPS/IMU excursions (and the control bands at its breaks)")
     ap.add_argument("--until", choices=("diagnose", "compare"), default="compare",
                     help="diagnose: score the diagnosis alone (no comparison, no recommendation)")
     a = ap.parse_args()
-    extra = "".join(f", {v} {k}" for k, v in (("tie points per overlap", a.ties),
+    extra = "".join(f", {v} {k}" for k, v in (("strips", a.strips), ("tie points per overlap", a.ties),
                                               ("control points per band and strip", a.control)) if v is not None)
-    print(f"{a.preset} at full length{', drift-free' if a.drift_free else ''}, {a.blunders} blunders{extra}, "
+    print(f"{a.preset}{' at full length' if a.preset == 'vienna2000' else ''}{', drift-free' if a.drift_free else ''}, "
+          f"{a.blunders} blunders{extra}, "
           f"`scangeo run PROJECT --until {a.until}`:\n")
     if a.until == "diagnose":
         print("| seed | problem strips found (injected) | the search's own | best model with breaks: BIC below the "
@@ -250,7 +257,7 @@ def main() -> None:
     for seed in a.seeds:
         root = a.out / f"s{seed}"
         try:
-            project(root, seed, a.blunders, a.ties, a.control, a.preset, a.drift_free)
+            project(root, seed, a.blunders, a.ties, a.control, a.preset, a.drift_free, a.strips)
             cpu = run_seed(root, a.until, a.rerun)
             row = diagnosis_row if a.until == "diagnose" else seed_row
             print(row(root, seed, totals, cpu), flush=True)

@@ -121,8 +121,8 @@ class Diagnosis:
         the criterion difference and whether the attribution is ambiguous
         (:mod:`scangeo.adjustment.diagnosis.attribution`).
     adopted : list of Attribution
-        The alternatives that replaced the search's model, in turn, each with its BIC difference to the
-        model it replaced (empty: the search's model stands; :func:`~.attribution.adopt`).
+        The alternatives that replaced the search's model, in turn, each with its BIC (and split model's)
+        difference to the model it replaced (empty: the search's model stands; :func:`choose_model`).
     search : Fit or None
         The search's own model when an alternative replaced it.
     """
@@ -265,7 +265,7 @@ def adopted_note(search: Fit, adopted: list[Attribution], strips) -> str:
 
     steps = "; then by ".join(f"{a.describe()} ({why(a)})" for a in adopted)
     return (f"the search's own model ({'problem strips ' + ', '.join(own) if own else 'no problem strip'}) is "
-            f"replaced by {steps} (docs/adjustment.md, \"Attribution\")")
+            f"replaced by {steps} (docs/adjustment.md, \"Adoption\")")
 
 
 def _across_axes(result: VariantResult) -> dict[str, np.ndarray]:

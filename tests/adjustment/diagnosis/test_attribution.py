@@ -240,3 +240,36 @@ def test_a_competing_attribution_the_split_model_prefers_beyond_the_threshold_is
     for a in (alt("moved", 12.0, -AMBIGUOUS_BIC), alt("moved", 12.0, None), alt("shared", 12.0, -50.0)):
         assert preferred_by_split_model([AttributionCheck("01", a, None, [], AMBIGUOUS_BIC, [a])]) is None
     assert preferred_by_split_model([check], threshold=300.0) is None
+
+
+def test_an_adopted_model_is_what_the_diagnosis_and_the_run_summary_name():
+    from types import SimpleNamespace
+
+    from scangeo.adjustment.diagnosis.diagnose import Diagnosis, adopted_note
+    from scangeo.adjustment.diagnosis.output import summary_lines
+    from scangeo.adjustment.diagnosis.patterns import BreakEstimate
+    from scangeo.cli.run import summary_lines as run_summary
+
+    none = Fit(((), (), ()), 120.0, 0.0, 6, {}, {}, constant=(0, 1, 2))
+    chosen = Fit(((), (2240.0, 4772.0), ()), 39.7, 0.0, 12, {}, {}, constant=(0, 2))
+    a = Attribution("breaks", "02", None, {"02": (2240.0, 4772.0)}, 39.7, -80.3, fit=chosen)
+    d = Diagnosis("p", ["01", "02", "03"], {"01": 7000, "02": 7000, "03": 7000},
+                  [BreakEstimate("02", 2240.0, 2100.0, 2400.0), BreakEstimate("02", 4772.0, 4600.0, 4900.0)],
+                  chosen, none, 1.0, adopted=[a], search=none)
+    assert d.problem_strips == ["02"] and d.search_problem_strips == []
+    adopted = d.as_dict()["adopted"]
+    assert adopted["search_problem_strips"] == [] and adopted["threshold"] == ADOPT_BIC
+    assert adopted["delta_bic"] == -80.3 and adopted["steps"][0]["breaks"] == {"02": [2240.0, 4772.0]}
+    assert Diagnosis("p", ["01"], {"01": 10}, [], none, none, 1.0).as_dict()["adopted"] is None
+    assert "PROBLEM STRIP" in summary_lines(d)[2]
+    note = adopted_note(none, [a], d.strips)
+    assert note.startswith("the search's own model (no problem strip) is replaced by a problem strip 02") and \
+        f"more than {ADOPT_BIC:g} below the model it replaces by the BIC" in note
+    stage = {"diagnose": {"problem_strips": {"02": [2240, 4772]}, "search_problem_strips": []}}
+    result = SimpleNamespace(stages=[], summary_of=lambda name: stage.get(name, {}), manifest="m", seconds=1.0)
+    first = [line for line in run_summary(result) if line.startswith("problem strips")]
+    assert first == ["problem strips: 02 (breaks at lines 2240, 4772) (the attribution's: the search's own model "
+                     "had none)"]
+    del stage["diagnose"]["search_problem_strips"]  # the search's model stands
+    assert [line for line in run_summary(result) if line.startswith("problem strips")] == \
+        ["problem strips: 02 (breaks at lines 2240, 4772)"]
