@@ -68,6 +68,10 @@ def diagnosis_section(project_root, comparison: Comparison) -> html.Section:
     else:
         crit = d.get("criterion", {})
         problems = ", ".join(d.get("problem_strips", [])) or "none"
+        adopted = d.get("adopted")
+        if adopted:  # an alternative of the attribution replaced the search's own model (docs/adjustment.md)
+            problems += (f" (the attribution's; the search's own model had "
+                         f"{', '.join(adopted['search_problem_strips']) or 'none'})")
         sec.parts.append(html.paragraph(
             f"From an SE adjustment (degree 0, no DTM heights; sigma0 {d.get('se_sigma0', float('nan')):.3f}): C0 "
             "piecewise-linear error functions of every strip fitted to the tie points' DTM misclosures and the "
@@ -93,8 +97,9 @@ def diagnosis_section(project_root, comparison: Comparison) -> html.Section:
             sec.parts.append(html.paragraph(
                 "A competing attribution (the drift on another strip, merged from two, or none) within "
                 f"{attribution[0].get('threshold', 10):g} of the chosen one by the BIC or by the split model's own "
-                "criterion, or a richer one (the drift shared with another strip) that fits better, makes the "
-                "attribution ambiguous (docs/adjustment.md, \"Attribution\")."))
+                "criterion, or a richer one (the drift shared with another strip) more than "
+                f"{-attribution[0].get('richer_threshold', -30):g} better, makes the attribution ambiguous "
+                "(docs/adjustment.md, \"Attribution\")."))
             if d.get("ambiguous"):
                 sec.parts.append(html.paragraph(
                     "The attribution is ambiguous: the data explain the drift nearly as well on another strip (or "

@@ -19,3 +19,12 @@ def test_the_diagnosis_notes_reach_the_report(tmp_path):
     del diagnosis["notes"]
     (tmp_path / "results" / "diagnosis.json").write_text(json.dumps(diagnosis), encoding="utf-8")
     assert "note:" not in "".join(diagnosis_section(tmp_path, Comparison(str(tmp_path), "v", "SE", ["02"], [])).parts)
+
+
+def test_an_adopted_attribution_is_named_beside_the_searchs_own_model(tmp_path):
+    (tmp_path / "results").mkdir()
+    diagnosis = {"problem_strips": ["02"], "breaks": [], "se_sigma0": 1.1, "criterion": {},
+                 "adopted": {"search_problem_strips": [], "delta_bic": -80.3, "threshold": 30.0, "steps": []}}
+    (tmp_path / "results" / "diagnosis.json").write_text(json.dumps(diagnosis), encoding="utf-8")
+    text = "".join(diagnosis_section(tmp_path, Comparison(str(tmp_path), "variants.toml", "S4", ["02"], [])).parts)
+    assert "Problem strips: 02 (the attribution&#x27;s; the search&#x27;s own model had none)." in text
