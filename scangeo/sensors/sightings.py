@@ -11,14 +11,25 @@ the check-point residuals of an adjustment (:mod:`scangeo.adjustment.results`) b
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
 from scangeo.sensors.kernels import MULTIPLE, OK, OUTSIDE_SWATH
+from scangeo.sensors.models import SensorModel
 
-if TYPE_CHECKING:
-    from scangeo.sensors.strip import StripGeometry
+
+class StripGeometry(Protocol):
+    """What the search needs of :class:`scangeo.sensors.strip.StripGeometry` (which calls it)."""
+
+    sensor: SensorModel
+    n_lines: int
+
+    def pose(self, t: np.ndarray, derivatives: bool = False): ...
+
+    def time_of(self, line, pixel) -> np.ndarray: ...
+
+    def ground_to_image(self, p_P: np.ndarray, tol_line: float = 1e-6): ...
 
 #: lines searched either side of a sample for its own sighting, and the step of that search (lines)
 SIGHTING_WINDOW, SIGHTING_STEP = 64, 0.25
