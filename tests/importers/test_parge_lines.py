@@ -19,8 +19,10 @@ from scangeo.errors import ImportFileError
 from scangeo.importers.parge import import_parge
 from scangeo.io.project import Project
 from scangeo.orientation.file import load_adjusted_geometry
+from scangeo.reports.stac_validation import validate_items
 from tests.conftest import shared_file
 from tests.importers.sensor_files import write_cube
+from tests.rectify.test_cog_properties import check_written_cog
 
 SWIR = "hyspex/20200522_Husky_SWIR_boresight_IFSAR.gcs"
 
@@ -170,3 +172,15 @@ def test_run_rectifies_the_cube_at_the_positions_the_adjusted_orientation_gives(
     ok &= (line >= 0) & (line <= project.n_lines(strip) - 1) & (pixel >= 0) & (pixel <= 383)  # edges: clamped
     np.testing.assert_allclose(values[0].data[r, c][ok], line[ok], atol=0.1)
     np.testing.assert_allclose(values[1].data[r, c][ok], pixel[ok], atol=0.1)
+
+
+def test_the_imported_lines_cogs_and_stac_items_are_valid_with_the_network_blocked(rectified, no_network):
+    """What an imported line writes: every GeoTIFF under results/ (the orthoimage and its layers, default
+    GeoTIFF settings) passes rio-cogeo's strict validation, every STAC item its schemas, offline."""
+    rasters = sorted((rectified / "results").rglob("*.tif"))
+    items = sorted((rectified / "results").rglob("*.stac.json"))
+    assert rasters and items
+    for path in rasters:
+        check_written_cog(path)
+    validate_items(items)
+    assert no_network == []
