@@ -1,11 +1,16 @@
 """Set up the adjustment of a project for one variant: unknowns, GPS/IMU models, observation groups;
 and adjust it (:func:`adjust_variant`: build, then :func:`adjust_block` with the variant's settings).
 
-Unknowns: ``Knots(strip)`` (the orientation spline of the navigation reference point, fitted to the
-GPS/IMU as start values; fixed in DG), ``Correction(model)`` per GPS/IMU model, ``Ground(point)``
-for every control, height, planimetric and tie point measured in the images, and the calibration
-blocks (fixed unless the variant calibrates them). Observations: GPS/IMU at the knot epochs, image
-measurements (not of check points), control coordinates, and DTM heights at tie points.
+Unknowns: ``Knots(flight_line)`` (the orientation spline of the navigation reference point over a
+flight line, fitted to its GPS/IMU as start values; fixed in DG), ``Correction(model)`` per GPS/IMU
+model (models belong to flight lines), ``Ground(point)`` for every control, height, planimetric and
+tie point measured in the images, and per sensor the calibration blocks (fixed unless the variant
+calibrates them). Observations: GPS/IMU of every flight line at its knot epochs, image measurements
+(not of check points) of every strip through its flight line's spline and its sensor's mounting,
+control coordinates, DTM heights at tie points, and the priors on relative mountings.
+
+A one-sensor project whose strips each have their own trajectory is one sensor (id ``""``) with one
+flight line per strip: its unknowns and observations are exactly those of a strip-by-strip block.
 """
 from __future__ import annotations
 
@@ -22,7 +27,6 @@ from scangeo.adjustment.gpsimu import GpsImuSamples
 from scangeo.adjustment.ground import DtmHeights, GroundControl
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import (
-    CALIBRATION_KEYS,
     AcrossOffset,
     AcrossScale,
     AlongOffset,
@@ -33,7 +37,9 @@ from scangeo.adjustment.keys import (
     ScanIndex,
     ScanScale,
     TimeOffset,
+    calibration_keys,
 )
+from scangeo.adjustment.mounting import RelativeMountingPrior
 from scangeo.adjustment.priors import (
     ANGLE_REGULARISATION_RAD,
     LEVER_ARM_REGULARISATION_M,
@@ -43,12 +49,18 @@ from scangeo.adjustment.priors import (
     correction_sigmas,
     snooping_options,
 )
-from scangeo.adjustment.variants import IMAGE_CALIBRATION, PUSHBROOM_CALIBRATION, WHISKBROOM_CALIBRATION, Variant
+from scangeo.adjustment.variants import (
+    IMAGE_CALIBRATION,
+    PUSHBROOM_CALIBRATION,
+    WHISKBROOM_CALIBRATION,
+    StripModels,
+    Variant,
+)
 from scangeo.errors import AdjustmentError
 from scangeo.filecache import FileCache
 from scangeo.io.point_checks import check_points
 from scangeo.io.points import GroundPoints, ImagePoints
-from scangeo.io.project import Project
+from scangeo.io.project import Project, SensorConfig
 from scangeo.lsq.engine import Adjustment, adjust
 from scangeo.lsq.keys import Key
 from scangeo.lsq.observations import ObservationGroup
@@ -68,15 +80,51 @@ CONTROL_COMPONENTS = {"control": (True, True, True), "planimetric": (True, True,
 
 
 @dataclass
-class StripData:
-    """One strip: its GPS/IMU in P, start spline, GPS/IMU epochs and direct-georeferencing geometry."""
+class FlightLineData:
+    """One flight line: its GPS/IMU in P, start spline, GPS/IMU epochs and values, and its image strips."""
 
     id: str
     trajectory: ProjectTrajectory
     spline: OrientationSpline
     epochs: np.ndarray
     gpsimu: np.ndarray
+    strips: tuple[str, ...] = ()
+
+
+@dataclass
+class StripData:
+    """One image strip: its flight line (whose spline it follows), its sensor, and its
+    direct-georeferencing geometry."""
+
+    id: str
+    line: FlightLineData
     geometry: StripGeometry
+    sensor: str = ""
+
+    @property
+    def flight_line(self) -> str:
+        """The id of the strip's flight line."""
+        return self.line.id
+
+    @property
+    def trajectory(self) -> ProjectTrajectory:
+        """The flight line's GPS/IMU in P."""
+        return self.line.trajectory
+
+    @property
+    def spline(self) -> OrientationSpline:
+        """The flight line's start spline."""
+        return self.line.spline
+
+    @property
+    def epochs(self) -> np.ndarray:
+        """The flight line's GPS/IMU epochs (s)."""
+        return self.line.epochs
+
+    @property
+    def gpsimu(self) -> np.ndarray:
+        """The flight line's GPS/IMU at its epochs (m, rad; project frame)."""
+        return self.line.gpsimu
 
 
 @dataclass
@@ -93,6 +141,8 @@ class Block:
     ground: GroundPoints
     roles: dict[str, str]
     notes: list[str] = field(default_factory=list)
+    #: the flight lines of the image strips, by id
+    flight_lines: dict[str, FlightLineData] = field(default_factory=dict)
     #: the t-tests of ``test_calibration`` (:func:`test_calibration`): unknown, component, t, critical,
     #: value, sigma, start, kept (SI units)
     calibration_tests: list[dict] = field(default_factory=list)
@@ -114,21 +164,21 @@ def gpsimu_epochs(spline: OrientationSpline, t_first: float, t_last: float) -> n
     return out
 
 
-#: the strips' trajectories read and fitted, while :func:`strips_read_once` is active; a block of 96
+#: the flight lines' trajectories read and fitted, while :func:`strips_read_once` is active; a block of 96
 #: strips of 7,000 lines holds about 200 MB
 _TRAJECTORIES: FileCache[tuple[ProjectTrajectory, OrientationSpline, np.ndarray, np.ndarray]] = FileCache(
-    "strip trajectories", 512)
+    "flight line trajectories", 512)
 _ACTIVE = 0
 
 
 @contextmanager
 def strips_read_once() -> Iterator[None]:
-    """Within it, :func:`strip_data` reads, checks and fits each strip's trajectory once (while the project
-    file, the DTM (the map frame may come from it), the trajectory and the line times are unchanged:
-    :mod:`scangeo.filecache`): for the many adjustments of one diagnosis or comparison, which otherwise
-    read every strip's trajectory again for each. Each :class:`StripData` still gets its own copies. The
-    trajectories are kept until the outermost ``with`` ends (about 2 MB a strip of 7,000 lines, 512
-    strips at most)."""
+    """Within it, :func:`flight_line_data` reads, checks and fits each flight line's trajectory once (while
+    the project file, the DTM (the map frame may come from it), the trajectory and the line times are
+    unchanged: :mod:`scangeo.filecache`): for the many adjustments of one diagnosis or comparison, which
+    otherwise read every trajectory again for each. Each :class:`FlightLineData` still gets its own
+    copies. The trajectories are kept until the outermost ``with`` ends (about 2 MB a flight line of
+    7,000 lines, 512 at most)."""
     global _ACTIVE
     _ACTIVE += 1
     try:
@@ -139,9 +189,10 @@ def strips_read_once() -> Iterator[None]:
             _TRAJECTORIES.clear()
 
 
-def _read_strip(project: Project, strip_id: str) -> tuple[ProjectTrajectory, OrientationSpline, np.ndarray, np.ndarray]:
-    """A strip's trajectory in the project frame, its orientation spline, GPS/IMU epochs and values."""
-    traj = project.stream(strip_id).to_project(project.map_frame.frame)
+def _read_flight_line(project: Project, flight_line: str
+                      ) -> tuple[ProjectTrajectory, OrientationSpline, np.ndarray, np.ndarray]:
+    """A flight line's trajectory in the project frame, its orientation spline, GPS/IMU epochs and values."""
+    traj = project.flight_line_stream(flight_line).to_project(project.map_frame.frame)
     spline = OrientationSpline.from_trajectory(traj, project.knot_spacing)
     epochs = gpsimu_epochs(spline, traj.time[0], traj.time[-1])
     values = np.column_stack([np.interp(epochs, traj.time, traj.p_P[:, k]) for k in range(3)]
@@ -149,48 +200,104 @@ def _read_strip(project: Project, strip_id: str) -> tuple[ProjectTrajectory, Ori
     return traj, spline, epochs, values
 
 
-def strip_data(project: Project, strip_id: str) -> StripData:
+def flight_line_data(project: Project, flight_line: str, strips: tuple[str, ...] = ()) -> FlightLineData:
+    """A flight line's GPS/IMU and start spline (read once within :func:`strips_read_once`); ``strips``:
+    its image strips in the block."""
     if not _ACTIVE:
-        traj, spline, epochs, values = _read_strip(project, strip_id)
-        return StripData(strip_id, traj, spline, epochs, values, project.geometry(strip_id, spline=spline))
-    strip = project.strip(strip_id)
-    files = [project.root / "project.toml", project.dtm_path, strip.trajectory, strip.line_times]
-    traj, spline, epochs, values = _TRAJECTORIES.get((str(project.root), strip_id), files,
-                                                     lambda: _read_strip(project, strip_id))
+        return FlightLineData(flight_line, *_read_flight_line(project, flight_line), strips)
+    line = project.flight_lines[flight_line]
+    files = [project.root / "project.toml", project.dtm_path, line.trajectory,
+             *(project.strip(sid).line_times for sid in line.strips)]
+    traj, spline, epochs, values = _TRAJECTORIES.get((str(project.root), flight_line), files,
+                                                     lambda: _read_flight_line(project, flight_line))
     traj = replace(traj, time=traj.time.copy(), p_P=traj.p_P.copy(), angles_P=traj.angles_P.copy())
-    spline = spline.with_coef(spline.coef.copy())
-    return StripData(strip_id, traj, spline, epochs.copy(), values.copy(), project.geometry(strip_id, spline=spline))
+    return FlightLineData(flight_line, traj, spline.with_coef(spline.coef.copy()), epochs.copy(), values.copy(),
+                          strips)
 
 
-def build_models(project: Project, variant: Variant, strips: dict[str, StripData]) -> ModelSet:
-    """The GPS/IMU models of a variant (none for DG)."""
+def block_strips(project: Project) -> tuple[dict[str, FlightLineData], dict[str, StripData]]:
+    """The flight lines of the project's image strips and the strips on them (in the file's order)."""
+    images = project.image_strips
+    lines: dict[str, FlightLineData] = {}
+    for s in images:
+        if s.flight_line not in lines:
+            on = tuple(x.id for x in images if x.flight_line == s.flight_line)
+            lines[s.flight_line] = flight_line_data(project, s.flight_line, on)
+    strips = {s.id: StripData(s.id, lines[s.flight_line],
+                              project.geometry(s.id, spline=lines[s.flight_line].spline), s.sensor)
+              for s in images}
+    return lines, strips
+
+
+def strip_data(project: Project, strip_id: str) -> StripData:
+    """One image strip with its flight line (:func:`flight_line_data`)."""
+    s = project.strip(strip_id)
+    line = flight_line_data(project, s.flight_line, (strip_id,))
+    return StripData(strip_id, line, project.geometry(strip_id, spline=line.spline), s.sensor)
+
+
+def _line_overrides(project: Project, variant: Variant, flight_line: str) -> tuple[StripModels, list[float]]:
+    """A variant's per-strip overrides of a flight line's models: the entry naming the flight line, or one of
+    its strips (``breaks_lines`` are that strip's lines), merged; and the breaks as times (s)."""
+    names = (flight_line, *(sid for sid in project.flight_lines[flight_line].strips if sid != flight_line))
+    found = [m for m in variant.strips if m.strip in names]
+    cfg = found[0] if found else StripModels(flight_line)
+    for other in found[1:]:
+        for key in ("position_degree", "attitude_degree", "rotation"):
+            a, b = getattr(cfg, key), getattr(other, key)
+            if a is not None and b is not None and a != b:
+                raise AdjustmentError(f"variant {variant.name}: strips {cfg.strip} and {other.strip} of flight line "
+                                      f"{flight_line} give different {key} ({a}, {b}); the models belong to the "
+                                      "flight line")
+    breaks: list[float] = []
+    for m in found:
+        breaks += list(m.breaks_times)
+        if m.breaks_lines:
+            strip = m.strip if m.strip != flight_line or flight_line in {s.id for s in project.strips} else None
+            if strip is None:
+                raise AdjustmentError(f"variant {variant.name}: breaks_lines of flight line {flight_line}: give "
+                                      "breaks_times, or the lines of one of its strips (id = the strip's)")
+            breaks += list(project.timing(strip).time_of_line(np.array(m.breaks_lines, float)))
+    def first(key: str):
+        return next((getattr(m, key) for m in found if getattr(m, key) is not None), None)
+
+    merged = StripModels(flight_line, position_degree=first("position_degree"),
+                         attitude_degree=first("attitude_degree"), rotation=first("rotation"))
+    return merged, sorted(breaks)
+
+
+def build_models(project: Project, variant: Variant, lines: dict[str, FlightLineData]) -> ModelSet:
+    """The GPS/IMU models of a variant (none for DG): for the block (BE), per mission (ME), or per flight
+    line, split at its breaks (SE, P, S). Every model serves flight lines (its windows are theirs)."""
     if variant.strategy == "DG":
         return ModelSet([])
     if variant.strategy in ("BE", "ME"):
         groups: dict[str, list[str]] = {}
-        for sid in strips:
-            groups.setdefault("block" if variant.strategy == "BE" else f"mission {project.strip(sid).mission}",
-                              []).append(sid)
+        for fid, line in lines.items():
+            missions = sorted({project.strip(sid).mission for sid in line.strips})
+            if len(missions) > 1:
+                raise AdjustmentError(f"flight line {fid}: its strips belong to missions {', '.join(missions)}; "
+                                      "a flight line is flown in one mission")
+            groups.setdefault("block" if variant.strategy == "BE" else f"mission {missions[0]}", []).append(fid)
         out = []
-        for name, sids in groups.items():
-            t0 = min(strips[s].epochs[0] for s in sids)
-            t1 = max(strips[s].epochs[-1] for s in sids)
-            centre = np.mean(np.vstack([strips[s].gpsimu[:, :3] for s in sids]), axis=0)
-            out.append(group_model(name, sids, t0, t1, variant.position_degree, variant.attitude_degree,
+        for name, fids in groups.items():
+            t0 = min(lines[f].epochs[0] for f in fids)
+            t1 = max(lines[f].epochs[-1] for f in fids)
+            centre = np.mean(np.vstack([lines[f].gpsimu[:, :3] for f in fids]), axis=0)
+            out.append(group_model(name, fids, t0, t1, variant.position_degree, variant.attitude_degree,
                                    variant.rotation, centre))
         return ModelSet(out)
     models = []
-    for sid, s in strips.items():
-        cfg = variant.strip_models(sid)
+    for fid, line in lines.items():
+        cfg, breaks = _line_overrides(project, variant, fid)
         pdeg = variant.position_degree if cfg.position_degree is None else cfg.position_degree
         adeg = variant.attitude_degree if cfg.attitude_degree is None else cfg.attitude_degree
         rot = variant.rotation if cfg.rotation is None else cfg.rotation
-        breaks = list(cfg.breaks_times) + list(project.timing(sid).time_of_line(np.array(cfg.breaks_lines, float)))
-        edges = [float(s.epochs[0])] + sorted(breaks) + [float(s.epochs[-1])]
+        edges = [float(line.epochs[0])] + breaks + [float(line.epochs[-1])]
         spans = list(zip(edges, edges[1:]))
-        centres = ([s.gpsimu[(s.epochs >= lo) & (s.epochs <= hi), :3].mean(axis=0) for lo, hi in spans]
+        centres = ([line.gpsimu[(line.epochs >= lo) & (line.epochs <= hi), :3].mean(axis=0) for lo, hi in spans]
                    if all(hi > lo for lo, hi in spans) else None)  # else strip_models names the bad break
-        models += strip_models(sid, edges, pdeg, adeg, rot, centres, where=f"variant {variant.name}, ")
+        models += strip_models(fid, edges, pdeg, adeg, rot, centres, where=f"variant {variant.name}, ")
     return ModelSet(models)
 
 
@@ -211,6 +318,7 @@ class _Setup:
     variant: Variant
     points: ImagePoints
     ground: GroundPoints
+    lines: dict[str, FlightLineData]
     strips: dict[str, StripData]
     models: ModelSet
     roles: dict[str, str] = field(default_factory=dict)
@@ -231,13 +339,14 @@ class _Setup:
 def build_block(project: Project, variant: Variant, points: ImagePoints, ground: GroundPoints) -> Block:
     """The parameters and observation groups of ``variant`` on ``project``.
 
-    The steps: every strip's GPS/IMU and start spline (:func:`strip_data`), the GPS/IMU models
-    (:func:`build_models`), the unknowns of the orientation and the calibration, each point's role
-    and which points enter, their start coordinates, and the observation groups.
+    The steps: every flight line's GPS/IMU and start spline and the image strips on it
+    (:func:`block_strips`), the GPS/IMU models (:func:`build_models`), the unknowns of the orientation
+    and of every sensor's calibration, each point's role and which points enter, their start
+    coordinates, and the observation groups.
     """
     check_points(project, points, ground)  # strips, inside the images, tie points in 2+ strips, near the DTM
-    strips = {s.id: strip_data(project, s.id) for s in project.strips}
-    setup = _Setup(project, variant, points, ground, strips, build_models(project, variant, strips))
+    lines, strips = block_strips(project)
+    setup = _Setup(project, variant, points, ground, lines, strips, build_models(project, variant, lines))
     params = Parameters()
     _orientation_unknowns(setup, params)
     _calibration_unknowns(setup, params)
@@ -247,56 +356,72 @@ def build_block(project: Project, variant: Variant, points: ImagePoints, ground:
     groups = _observation_groups(setup)
     for note in setup.notes:
         log.warning("%s", note)
-    start = {key: params[key].values.copy() for key, _, _ in CALIBRATION_KEYS if key in params}
+    start = {key: params[key].values.copy() for sid in image_sensors(project)
+             for key, _, _ in calibration_keys(sid) if key in params}
     return Block(project, variant, strips, setup.models, params, groups, points, ground, setup.roles, setup.notes,
-                 calibration_start=start)
+                 calibration_start=start, flight_lines=lines)
+
+
+def image_sensors(project: Project) -> dict[str, SensorConfig]:
+    """The line scanners that recorded the project's image strips, by id (in the file's order)."""
+    used = {s.sensor for s in project.image_strips}
+    return {sid: sensor for sid, sensor in project.sensors.items()
+            if sid in used and isinstance(sensor, SensorConfig)}
 
 
 def _orientation_unknowns(setup: _Setup, params: Parameters) -> None:
-    """Knots of every strip's spline (fixed in DG) and the coefficients of every GPS/IMU model."""
+    """Knots of every flight line's spline (fixed in DG) and the coefficients of every GPS/IMU model."""
     v = setup.variant
-    for sid, s in setup.strips.items():
-        params.add(Knots(sid), s.spline.coef.ravel(), v.strategy != "DG",
-                   regularisation_sigma=np.tile([1.0, 1.0, 1.0, 0.01, 0.01, 0.01], s.spline.n_coef),
-                   names=[f"{c}[{k}]" for k in range(s.spline.n_coef) for c in COMPONENTS])
+    for fid, line in setup.lines.items():
+        params.add(Knots(fid), line.spline.coef.ravel(), v.strategy != "DG",
+                   regularisation_sigma=np.tile([1.0, 1.0, 1.0, 0.01, 0.01, 0.01], line.spline.n_coef),
+                   names=[f"{c}[{k}]" for k in range(line.spline.n_coef) for c in COMPONENTS])
     for m in setup.models:
         _correction_block(params, m, v)
 
 
 def _calibration_unknowns(setup: _Setup, params: Parameters) -> None:
-    """Boresight, lever arm, time offset, a whiskbroom's scan index and scale, a pushbroom's across-track
-    offset and scale and along-track offset: free where the variant calibrates them. The pushbroom's
-    three carry priors (``value = the sensor's`` with the variant's ``*_sigma``), always: an across-track
-    offset is nearly a boresight roll and an along-track offset nearly a boresight pitch (and a time
-    offset), so without them calibrating both would leave the normal equations (nearly) singular."""
+    """Per sensor: boresight, lever arm, time offset, a whiskbroom's scan index and scale, a pushbroom's
+    across-track offset and scale and along-track offset: free where the variant calibrates them. The
+    pushbroom's three carry priors (``value = the sensor's`` with the variant's ``*_sigma``), always: an
+    across-track offset is nearly a boresight roll and an along-track offset nearly a boresight pitch (and
+    a time offset), so without them calibrating both would leave the normal equations (nearly) singular.
+    A sensor-specific name of ``calibrate`` (a whiskbroom's, a pushbroom's) frees it on the sensors of
+    that kind, and must fit one of them."""
     project, v = setup.project, setup.variant
-    mount, sensor = project.sensor.mounting, project.sensor.model
+    sensors = image_sensors(project)
     cal = set(v.calibrate)
     for names, kind, cls in ((WHISKBROOM_CALIBRATION, "whiskbroom (scan mirror)", Whiskbroom),
                              (PUSHBROOM_CALIBRATION, "pushbroom (detector line)", Pushbroom)):
         wrong = sorted(cal & set(names))
-        if wrong and not isinstance(sensor, cls):
+        if wrong and not any(isinstance(sc.model, cls) for sc in sensors.values()):
+            kinds = " and ".join(sorted({sc.kind for sc in sensors.values()}))
             raise AdjustmentError(f"variant {v.name}: calibrate {', '.join(wrong)} is a {kind} parameter, but the "
-                                  f"project's sensor is a {project.sensor.kind}")
-    scan = sensor if isinstance(sensor, Whiskbroom) else None
+                                  f"project's sensor is a {kinds}")
     laser_only = sorted(cal - set(IMAGE_CALIBRATION))
     if laser_only:
+        kinds = " and ".join(sorted({sc.kind for sc in sensors.values()}))
         raise AdjustmentError(f"variant {v.name}: calibrate {', '.join(laser_only)} is a laser scanner's parameter, "
-                              f"but the project's sensor is a {project.sensor.kind}")
-    push = sensor if isinstance(sensor, Pushbroom) else None
-    for key, name, sigma in ((AcrossOffset(), "across_offset", np.radians(v.across_offset_sigma_deg)),
-                             (AcrossScale(), "across_scale", v.across_scale_sigma),
-                             (AlongOffset(), "along_offset", np.radians(v.along_offset_sigma_deg))):
-        value = float(getattr(push, name)) if push else 0.0
-        params.add(key, [value], name in cal, prior_sigma=[sigma], prior_values=[value], regularisation_sigma=sigma,
-                   names=[name])
-    add_calibration(params, [
-        ("boresight", Boresight(), mount.boresight, ("roll", "pitch", "heading"), ANGLE_REGULARISATION_RAD),
-        ("lever_arm", LeverArm(), mount.lever_arm_B, ("x", "y", "z"), LEVER_ARM_REGULARISATION_M),
-        ("time_offset", TimeOffset(), [mount.time_offset], ("dt",), TIME_OFFSET_REGULARISATION_S),
-        ("index_error", ScanIndex(), [scan.index_error if scan else 0.0], ("index",), ANGLE_REGULARISATION_RAD),
-        ("scale_error", ScanScale(), [scan.scale_error if scan else 0.0], ("scale",), SCALE_REGULARISATION),
-    ], cal)
+                              f"but the project's sensor is a {kinds}")
+    for sid, sc in sensors.items():
+        mount, sensor = sc.mounting, sc.model
+        scan = sensor if isinstance(sensor, Whiskbroom) else None
+        push = sensor if isinstance(sensor, Pushbroom) else None
+        mine = cal - set(PUSHBROOM_CALIBRATION if scan else WHISKBROOM_CALIBRATION)
+        for key, name, sigma in ((AcrossOffset(sid), "across_offset", np.radians(v.across_offset_sigma_deg)),
+                                 (AcrossScale(sid), "across_scale", v.across_scale_sigma),
+                                 (AlongOffset(sid), "along_offset", np.radians(v.along_offset_sigma_deg))):
+            value = float(getattr(push, name)) if push else 0.0
+            params.add(key, [value], name in mine, prior_sigma=[sigma], prior_values=[value],
+                       regularisation_sigma=sigma, names=[name])
+        add_calibration(params, [
+            ("boresight", Boresight(sid), mount.boresight, ("roll", "pitch", "heading"), ANGLE_REGULARISATION_RAD),
+            ("lever_arm", LeverArm(sid), mount.lever_arm_B, ("x", "y", "z"), LEVER_ARM_REGULARISATION_M),
+            ("time_offset", TimeOffset(sid), [mount.time_offset], ("dt",), TIME_OFFSET_REGULARISATION_S),
+            ("index_error", ScanIndex(sid), [scan.index_error if scan else 0.0], ("index",),
+             ANGLE_REGULARISATION_RAD),
+            ("scale_error", ScanScale(sid), [scan.scale_error if scan else 0.0], ("scale",), SCALE_REGULARISATION),
+        ], mine)
 
 
 def _require_points(setup: _Setup) -> None:
@@ -366,24 +491,32 @@ def _ground_unknowns(setup: _Setup, params: Parameters) -> None:
 
 
 def _observation_groups(setup: _Setup) -> list[ObservationGroup]:
-    """Per strip its GPS/IMU (not in DG) and image measurements; the control coordinates; DTM
-    heights at the tie points the variant asks for."""
+    """Per flight line its GPS/IMU (not in DG); per strip its image measurements; the control coordinates;
+    DTM heights at the tie points the variant asks for; the priors on relative mountings."""
     project, v, points, ground, roles = setup.project, setup.variant, setup.points, setup.ground, setup.roles
     groups: list[ObservationGroup] = []
     sig_gps = np.concatenate([v.gps_sigma_m, np.radians(v.imu_sigma_deg)])
+    if v.strategy != "DG":
+        for fid, line in setup.lines.items():
+            groups.append(GpsImuSamples(fid, line.spline, line.epochs, line.gpsimu, sig_gps, setup.models))
     for sid, s in setup.strips.items():
-        if v.strategy != "DG":
-            groups.append(GpsImuSamples(sid, s.spline, s.epochs, s.gpsimu, sig_gps, setup.models))
         sel = setup.measured_in(sid)
         if sel.size == 0:
-            setup.notes.append(f"strip {sid} has no image measurement in the adjustment")
+            setup.notes.append(f"strip {sid} has no image measurement in the adjustment"
+                               + (f": it takes its orientation from flight line {s.flight_line}"
+                                  if len(s.line.strips) > 1 else ""))
             continue
         sigma = points.sigma_px[sel] if v.image_sigma_px is None else v.image_sigma_px
-        groups.append(ImageObservations(sid, project.sensor.model, s.spline, project.timing(sid),
+        scanner = project.scanner_of(sid)
+        groups.append(ImageObservations(sid, scanner.model, s.spline, project.timing(sid),
                                         points.point[sel].astype(str), points.line[sel], points.pixel[sel], sigma,
-                                        measured_time=project.sensor.measured_time))
+                                        measured_time=scanner.measured_time, flight_line=s.flight_line,
+                                        sensor_id=s.sensor))
         if not any(roles[str(p)] in CONTROL_COMPONENTS for p in points.point[sel]):
-            setup.notes.append(f"strip {sid} has no control point: it is held only by tie points and its GPS/IMU")
+            setup.notes.append(f"strip {sid} has no control point: it is held only by tie points and its GPS/IMU"
+                               + (f" (flight line {s.flight_line}, shared with "
+                                  f"{', '.join(x for x in s.line.strips if x != sid)})"
+                                  if len(s.line.strips) > 1 else ""))
     ctrl = [p for p in setup.used if roles[p] in CONTROL_COMPONENTS]
     if ctrl:
         given = setup.given
@@ -396,6 +529,10 @@ def _observation_groups(setup: _Setup) -> list[ObservationGroup]:
     dtm_pts = [p for p in setup.used if roles[p] == "tie" and v.dtm_height_at(p)]
     if dtm_pts:
         groups.append(DtmHeights(dtm_pts, project.dtm, project.dtm_sigma))
+    sensors = image_sensors(project)
+    for rel in project.relative_mountings:
+        if rel.sensor in sensors and rel.reference in sensors:
+            groups.append(RelativeMountingPrior(rel))
     return groups
 
 
@@ -447,8 +584,10 @@ def test_calibration(block: Block, adjust_it: Callable[[], Adjustment]) -> Adjus
     and an entry of ``block.calibration_tests``; the check points take no part.
     """
     v, params = block.variant, block.parameters
-    names = {key: name for key, name, _ in CALIBRATION_KEYS if name in v.test_calibration}
-    units = {key: unit for key, _, unit in CALIBRATION_KEYS}
+    keys = [(k, f"{sid} {name}" if sid else name, name, unit) for sid in image_sensors(block.project)
+            for k, name, unit in calibration_keys(sid)]
+    names = {key: label for key, label, name, _ in keys if name in v.test_calibration}
+    units = {key: unit for key, _, _, unit in keys}
     start = {key: block.calibration_start[key] for key in names if key in block.calibration_start}
     tests = block.calibration_tests
     adjustment = adjust_it()

@@ -1,12 +1,13 @@
 """GPS/IMU samples as observations of the orientation spline through a GPS/IMU model.
 
-At every knot epoch ``t_k`` of a strip's spline the GPS/IMU (positions of the navigation reference
+At every knot epoch ``t_k`` of a flight line's spline the GPS/IMU (positions of the navigation reference
 point in P, metres; roll, pitch, heading w.r.t. the project NED frame, radians) observes
 
     gpsimu(t_k) = s(t_k) - c_m(t_k) + v
 
-with ``s`` the spline (``Knots(strip)``) and ``c_m`` the correction function of the serving model
-(``Correction(model)``, see ``scangeo.orientation.models``). The group is linear: its Jacobian is built once.
+with ``s`` the spline (``Knots(flight_line)``: every strip on the flight line follows it) and ``c_m``
+the correction function of the serving model (``Correction(model)``, see ``scangeo.orientation.models``).
+The group is linear: its Jacobian is built once.
 Rows are epoch-major: ``x, y, z, roll, pitch, heading`` of epoch 0, then epoch 1, ...
 """
 from __future__ import annotations
@@ -24,13 +25,13 @@ UNITS = ("m", "m", "m", "rad", "rad", "rad")
 
 
 class GpsImuSamples(ObservationGroup):
-    """GPS/IMU of one strip at epochs ``times`` (s). Not tested by data snooping: its errors are the
+    """GPS/IMU of one flight line at epochs ``times`` (s). Not tested by data snooping: its errors are the
     correction function's business, and an epoch removed would leave knots undetermined.
 
     Parameters
     ----------
-    strip : strip id.
-    spline : the strip's spline (its layout: t0, spacing, number of coefficients).
+    flight_line : the flight line's id (a strip with its own trajectory: the strip's id).
+    spline : the flight line's spline (its layout: t0, spacing, number of coefficients).
     times : (n,) epochs, seconds.
     values : (n, 6) the GPS/IMU there (m, m, m, rad, rad, rad; project frame).
     sigma : (6,) a priori standard deviations (m and rad).
@@ -39,26 +40,26 @@ class GpsImuSamples(ObservationGroup):
 
     snooped = False
 
-    def __init__(self, strip: str, spline: OrientationSpline, times: np.ndarray, values: np.ndarray,
+    def __init__(self, flight_line: str, spline: OrientationSpline, times: np.ndarray, values: np.ndarray,
                  sigma, models: ModelSet) -> None:
-        self.name = f"gpsimu {strip}"
-        self.strip = strip
-        self.key = Knots(strip)
+        self.name = f"gpsimu {flight_line}"
+        self.flight_line = flight_line
+        self.key = Knots(flight_line)
         self.times = np.asarray(times, float)
         self.values = np.asarray(values, float)
         n = self.times.size
         sig6 = np.broadcast_to(np.asarray(sigma, float), (6,))
         self.sigma = np.tile(sig6, n)
-        self._describe(np.repeat([f"{strip}@{t:.3f}" for t in self.times], 6), np.tile(COMPONENTS, n),
+        self._describe(np.repeat([f"{flight_line}@{t:.3f}" for t in self.times], 6), np.tile(COMPONENTS, n),
                        np.tile(UNITS, n), np.repeat(np.arange(n), 6))
         B = spline.basis_matrix(self.times).tocoo()  # (n, K)
-        # knots: coefficient (k, c) is component k*6 + c of Knots(strip)
+        # knots: coefficient (k, c) is component k*6 + c of Knots(flight_line)
         r = (B.row[:, None] * 6 + np.arange(6)).ravel()
         c = (B.col[:, None] * 6 + np.arange(6)).ravel()
         v = np.repeat(B.data, 6)
         self._knot_part = JacobianPart([self.key], r, c, v / self.sigma[r])
         self._basis = sp.csr_matrix(B)
-        self._corrections = models.design(strip, self.times, self.values[:, :3])
+        self._corrections = models.design(flight_line, self.times, self.values[:, :3])
         self._corr_parts = []
         for key, rows, D in self._corrections:
             rr = np.broadcast_to((rows[:, None] * 6 + np.arange(6))[:, :, None], D.shape)

@@ -10,15 +10,17 @@ sees the point). Residuals are ``model - observed`` in lines (along track) and p
 track), whitened by the measurement's sigma (pixels).
 
 Pose: ``p_S = p(t_nav) + R_PB l_B``, ``R_PS = R_PB R_BS``, ``R_PB = R_ENU_NED Rz(h) Ry(p) Rx(r)`` with
-``(x, y, z, r, p, h)(t_nav)`` the strip's spline at navigation time ``t_nav = t + time_offset``.
+``(x, y, z, r, p, h)(t_nav)`` the spline of the strip's flight line at navigation time
+``t_nav = t + time_offset``.
 
 Analytic Jacobian by the implicit function theorem: ``g(v(t, x)) = 0`` gives
 ``dt/dx = -(dg/dv dv/dx) / (dg/dv dv/dt)``; then ``dv/dx + dv/dt dt/dx`` into the pixel and the line.
-Unknowns: ``Knots(strip)`` (the 4 coefficients of the segment at ``t_nav``), ``Ground(point)``,
-``Boresight()``, ``LeverArm()``, ``TimeOffset()``, for a whiskbroom ``ScanIndex()`` and
-``ScanScale()`` (they move the pixel only, not the scan plane), for a pushbroom ``AcrossOffset()``,
-``AcrossScale()`` and ``AlongOffset()`` (they move the pixel and, through the along-track look angle
-of the pixel and the along-track offset, the scan plane: ``dt/dx`` gets their direct ``dg/dx``).
+Unknowns: ``Knots(flight_line)`` (the 4 coefficients of the segment at ``t_nav``), ``Ground(point)``,
+and the strip's sensor's ``Boresight(sensor)``, ``LeverArm(sensor)``, ``TimeOffset(sensor)``, for a
+whiskbroom ``ScanIndex(sensor)`` and ``ScanScale(sensor)`` (they move the pixel only, not the scan
+plane), for a pushbroom ``AcrossOffset(sensor)``, ``AcrossScale(sensor)`` and ``AlongOffset(sensor)``
+(they move the pixel and, through the along-track look angle of the pixel and the along-track offset,
+the scan plane: ``dt/dx`` gets their direct ``dg/dx``).
 """
 from __future__ import annotations
 
@@ -34,8 +36,10 @@ from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.timing import LineTiming
 from scangeo.trajectory.spline import OrientationSpline, bspline_basis
 
-#: The mounting's calibration keys (the sensor's own, if any, come from ``scanplane``).
-MOUNTING_KEYS = (Boresight(), LeverArm(), TimeOffset())
+
+def mounting_keys(sensor: str = "") -> tuple[Boresight, LeverArm, TimeOffset]:
+    """The mounting's calibration keys of a sensor (its own calibration's come from ``scanplane``)."""
+    return Boresight(sensor), LeverArm(sensor), TimeOffset(sensor)
 
 
 def _T(R: np.ndarray) -> np.ndarray:
@@ -50,7 +54,7 @@ class ImageObservations(ObservationGroup):
     strip : strip id.
     sensor : the whiskbroom or pushbroom model (its geometry; a whiskbroom's index and scale errors
         come from the unknowns).
-    spline : the strip's spline (layout only: t0, spacing, number of coefficients).
+    spline : the spline of the strip's flight line (layout only: t0, spacing, number of coefficients).
     timing : the strip's line timing.
     points : (n,) ids of the measured points; line, pixel : (n,) measurements; sigma_px : (n,).
     measured_time : the measured line fixes the time (``[sensor] measurement_time = "line"``): the
@@ -61,17 +65,24 @@ class ImageObservations(ObservationGroup):
         would carry an along-track misfit into the across-track residual through the jitter. ``k``
         is fixed at the first values the group sees (the start orientation), so the residual is
         linear in ``g`` and its Jacobian exact.
+    flight_line : the flight line whose spline the strip follows (``Knots(flight_line)``; default the
+        strip's own).
+    sensor_id : the id of the sensor whose mounting and calibration unknowns the strip uses (``""``: the
+        one sensor of a one-sensor project).
     """
 
     def __init__(self, strip: str, sensor: Whiskbroom | Pushbroom, spline: OrientationSpline, timing: LineTiming,
-                 points, line, pixel, sigma_px, name: str | None = None, measured_time: bool = False) -> None:
+                 points, line, pixel, sigma_px, name: str | None = None, measured_time: bool = False,
+                 flight_line: str | None = None, sensor_id: str = "") -> None:
         if not isinstance(sensor, (Whiskbroom, Pushbroom)):
             raise AdjustmentError(f"strip {strip}: image observations need a whiskbroom or pushbroom sensor, "
                                   f"not {type(sensor).__name__}")
         self.name = name or f"image {strip}"
         self.strip = strip
         self.sensor = sensor
-        self.plane = scan_plane(sensor)
+        self.plane = scan_plane(sensor, sensor_id)
+        self.sensor_id = sensor_id
+        self.bore_key, self.lever_key, self.toff_key = mounting_keys(sensor_id)
         self.t0, self.spacing, self.n_coef = spline.t0, spline.spacing, spline.n_coef
         self.timing = timing
         self.points = np.asarray(points, dtype=object)
@@ -82,20 +93,22 @@ class ImageObservations(ObservationGroup):
         self._describe(np.repeat(self.points, 2), np.tile(["line", "pixel"], n), np.tile(["line", "px"], n),
                        np.repeat(np.arange(n), 2))
         self._ground = [Ground(str(p)) for p in self.points]
-        self.knots = Knots(strip)
+        self.flight_line = strip if flight_line is None else flight_line
+        self.knots = Knots(self.flight_line)
         self.t_obs = timing.time_of_line(self.line) + sensor.time_offset(self.pixel)
         self.measured_time = measured_time
         self._lines_per_g: np.ndarray | None = None
 
     def keys(self):
-        return [self.knots, *dict.fromkeys(self._ground), *MOUNTING_KEYS, *self.plane.calibration_keys]
+        return [self.knots, *dict.fromkeys(self._ground), self.bore_key, self.lever_key, self.toff_key,
+                *self.plane.calibration_keys]
 
     # -- model ----------------------------------------------------------------------------------
     def _pose(self, values, t: np.ndarray, P: np.ndarray):
         coef = np.asarray(values[self.knots], float).reshape(-1, 6)
-        bore = np.asarray(values[Boresight()], float)
-        lever = np.asarray(values[LeverArm()], float)
-        toff = float(values[TimeOffset()][0])
+        bore = np.asarray(values[self.bore_key], float)
+        lever = np.asarray(values[self.lever_key], float)
+        toff = float(values[self.toff_key][0])
         s = (t + toff - self.t0) / self.spacing
         j = np.clip(np.floor(s), 0, self.n_coef - 4).astype(np.intp)
         u = s - j
@@ -235,11 +248,11 @@ class ImageObservations(ObservationGroup):
         # boresight, lever arm, time offset
         dv_db = np.stack([np.einsum("nji,nj->ni", f["R_PB"] @ f["dR_BS"][b], f["e"]) for b in range(3)], -1)
         dl, dp = chain(dv_db)
-        add([Boresight()], dl, dp, np.arange(3))
+        add([self.bore_key], dl, dp, np.arange(3))
         dl, dp = chain(np.broadcast_to(-_T(f["R_BS"]), (n, 3, 3)))
-        add([LeverArm()], dl, dp, np.arange(3))
+        add([self.lever_key], dl, dp, np.arange(3))
         dl, dp = chain(f["dv_dt"][:, :, None])
-        add([TimeOffset()], dl, dp, np.arange(1))
+        add([self.toff_key], dl, dp, np.arange(1))
         # the sensor's own calibration (whiskbroom index and scale error, pushbroom offsets and scale):
         # the pixel directly, and for a pushbroom the scan-plane condition too
         for key, dpix_dkey in direct.items():

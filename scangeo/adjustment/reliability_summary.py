@@ -72,16 +72,18 @@ def strip_probes(result: VariantResult, grid: tuple[int, int] = PROBE_GRID,
     out = []
     for sid, strip in result.block.strips.items():
         geometry = result.geometry(sid)
+        scanner = project.scanner_of(sid)
         L, X = np.meshgrid(np.linspace(0.0, geometry.n_lines - 1.0, grid[0]),
-                           np.linspace(0.0, project.sensor.model.pixels - 1.0, grid[1]), indexing="ij")
+                           np.linspace(0.0, scanner.model.pixels - 1.0, grid[1]), indexing="ij")
         p_P, _ = geometry.image_to_ground(L.ravel(), X.ravel(), project.dtm)
         ok = np.isfinite(p_P).all(axis=1)
         if not ok.any():
             continue
         ids = [f"probe {sid} {k}" for k in range(int(ok.sum()))]
-        probe = ImageObservations(sid, project.sensor.model, strip.spline, project.timing(sid), ids,
+        probe = ImageObservations(sid, scanner.model, strip.spline, project.timing(sid), ids,
                                   L.ravel()[ok], X.ravel()[ok], 1.0, name=f"probe {sid}",
-                                  measured_time=project.sensor.measured_time)
+                                  measured_time=scanner.measured_time, flight_line=strip.flight_line,
+                                  sensor_id=strip.sensor)
         keys = [Ground(i) for i in ids]
         lin = probe.linearise(ChainMap(dict(zip(keys, p_P[ok])), values))
         # columns of the adjustment (probe points fixed), and of the probe points alone (x, y free)

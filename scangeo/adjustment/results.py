@@ -12,10 +12,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from scangeo.adjustment.block import Block, adjust_variant
+from scangeo.adjustment.block import Block, adjust_variant, image_sensors
+from scangeo.adjustment.mounting import RelativeMountingEstimate, relative_mounting
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import (
-    CALIBRATION_KEYS,
     AcrossOffset,
     AcrossScale,
     AlongOffset,
@@ -25,14 +25,14 @@ from scangeo.adjustment.keys import (
     ScanIndex,
     ScanScale,
     TimeOffset,
+    calibration_keys,
 )
 from scangeo.adjustment.variants import Variant, find_variant
 from scangeo.io import rejected
 from scangeo.io.points import GroundPoints, ImagePoints
-from scangeo.io.project import Project
+from scangeo.io.project import Project, SensorConfig
 from scangeo.lsq.engine import Adjustment
-from scangeo.lsq.keys import Key
-from scangeo.orientation.file import DIRECT, Orientation, StripOrientation, map_reference
+from scangeo.orientation.file import DIRECT, Orientation, SensorSetup, StripOrientation, map_reference
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.sensors.strip import MULTIPLE, Mounting, StripGeometry
@@ -93,7 +93,7 @@ class VariantResult:
         return self.block.variant
 
     def spline(self, strip: str) -> OrientationSpline:
-        """A strip's adjusted orientation spline.
+        """A strip's adjusted orientation spline (its flight line's).
 
         Parameters
         ----------
@@ -103,13 +103,19 @@ class VariantResult:
         Returns
         -------
         OrientationSpline
-            x, y, z (metres) and roll, pitch, heading (radians) of the sensor in the project frame, in time.
+            x, y, z (metres) and roll, pitch, heading (radians) of the navigation reference point in the
+            project frame, in time.
         """
-        s = self.block.strips[strip].spline
-        return s.with_coef(self.adjustment.parameters[Knots(strip)].values.reshape(-1, 6))
+        s = self.block.strips[strip]
+        return s.spline.with_coef(self.adjustment.parameters[Knots(s.flight_line)].values.reshape(-1, 6))
 
-    def mounting(self) -> Mounting:
-        """The adjusted mounting.
+    def mounting(self, sensor: str = "") -> Mounting:
+        """A sensor's adjusted mounting.
+
+        Parameters
+        ----------
+        sensor : str
+            The sensor's id (``""``: the one sensor of a one-sensor project).
 
         Returns
         -------
@@ -117,7 +123,36 @@ class VariantResult:
             Lever arm (metres, body frame), boresight (radians) and time offset (seconds).
         """
         p = self.adjustment.parameters
-        return Mounting(p[LeverArm()].values.copy(), p[Boresight()].values.copy(), float(p[TimeOffset()].values[0]))
+        return Mounting(p[LeverArm(sensor)].values.copy(), p[Boresight(sensor)].values.copy(),
+                        float(p[TimeOffset(sensor)].values[0]))
+
+    def sensor_setup(self, sensor: str = "") -> SensorSetup:
+        """A sensor's adjusted model (with its calibration) and mounting.
+
+        Parameters
+        ----------
+        sensor : str
+            The sensor's id.
+
+        Returns
+        -------
+        SensorSetup
+            The model with the adjusted index and scale error (whiskbroom) or offsets and scale
+            (pushbroom), the mounting, and the names of what the adjustment estimated.
+        """
+        p = self.adjustment.parameters
+        scanner = self.block.project.sensors[sensor]
+        assert isinstance(scanner, SensorConfig)  # the block's sensors are line scanners (image_sensors)
+        model = scanner.model
+        if isinstance(model, Whiskbroom):
+            model = model.with_calibration(index_error=float(p[ScanIndex(sensor)].values[0]),
+                                           scale_error=float(p[ScanScale(sensor)].values[0]))
+        elif isinstance(model, Pushbroom):
+            model = model.with_calibration(across_offset=float(p[AcrossOffset(sensor)].values[0]),
+                                           across_scale=float(p[AcrossScale(sensor)].values[0]),
+                                           along_offset=float(p[AlongOffset(sensor)].values[0]))
+        calibrated = tuple(name for key, name, _ in calibration_keys(sensor) if p[key].free.any())
+        return SensorSetup(model, self.mounting(sensor), calibrated)
 
     def orientation(self) -> Orientation:
         """The adjusted orientation (what ``orientation.json`` holds; built once).
@@ -125,27 +160,56 @@ class VariantResult:
         Returns
         -------
         Orientation
-            Splines, GPS/IMU corrections, mounting, scanner calibration, sigma0.
+            Splines, GPS/IMU corrections, every sensor's mounting and calibration, sigma0.
         """
         if self._orientation is None:
             project, p = self.block.project, self.adjustment.parameters
-            sensor = project.sensor.model
-            if isinstance(sensor, Whiskbroom):
-                sensor = sensor.with_calibration(index_error=float(p[ScanIndex()].values[0]),
-                                                 scale_error=float(p[ScanScale()].values[0]))
-            elif isinstance(sensor, Pushbroom):
-                sensor = sensor.with_calibration(across_offset=float(p[AcrossOffset()].values[0]),
-                                                 across_scale=float(p[AcrossScale()].values[0]),
-                                                 along_offset=float(p[AlongOffset()].values[0]))
-            strips = {sid: StripOrientation(sid, s.geometry.n_lines, s.geometry.timing, self.spline(sid))
+            sensors = {sid: self.sensor_setup(sid) for sid in image_sensors(project)}
+            strips = {sid: StripOrientation(sid, s.geometry.n_lines, s.geometry.timing, self.spline(sid), s.sensor,
+                                            "" if s.flight_line == sid else s.flight_line)
                       for sid, s in self.block.strips.items()}
-            calibrated = tuple(name for key, name in _CALIBRATION if p[key].free.any())
+            calibrated = tuple(dict.fromkeys(n for setup in sensors.values() for n in setup.calibrated))
             models = tuple(self.block.models)
             self._orientation = Orientation(
-                self.variant.name, self.variant.strategy != DIRECT, sensor, self.mounting(), strips,
-                map_reference(project), models, {m.id: p[m.key].values.copy() for m in models}, calibrated,
-                self.adjustment.statistics.sigma0)
+                self.variant.name, self.variant.strategy != DIRECT, sensors, strips, map_reference(project), models,
+                {m.id: p[m.key].values.copy() for m in models}, calibrated, self.adjustment.statistics.sigma0)
         return self._orientation
+
+    def relative_mountings(self, posterior: bool = True) -> list[RelativeMountingEstimate]:
+        """The adjusted relative mountings of a platform's sensors, with their precision.
+
+        Every pair given a prior in ``[[relative_mountings]]``, and every other sensor relative to the
+        first sensor; nothing for a one-sensor project.
+
+        Parameters
+        ----------
+        posterior : bool
+            Precision scaled by sigma0 a posteriori (False: a priori).
+
+        Returns
+        -------
+        list of RelativeMountingEstimate
+            The relative rotation (roll, pitch, heading, radians) and lever-arm difference (metres),
+            their standard deviations, and the prior where one was given.
+        """
+        sensors = list(image_sensors(self.block.project))
+        if len(sensors) < 2:
+            return []
+        priors = {(r.sensor, r.reference): r for r in self.block.project.relative_mountings
+                  if r.sensor in sensors and r.reference in sensors}
+        pairs = list(priors) + [(s, sensors[0]) for s in sensors[1:]
+                                if (s, sensors[0]) not in priors and (sensors[0], s) not in priors]
+        stats, values = self.adjustment.statistics, self.adjustment.solution.parameters.values()
+        out = []
+        for sensor, reference in pairs:
+            keys = [Boresight(sensor), Boresight(reference), LeverArm(sensor), LeverArm(reference)]
+            cov = np.zeros((12, 12))
+            free = np.concatenate([self.adjustment.parameters[k].free for k in keys])
+            idx = np.flatnonzero(free)
+            if idx.size:
+                cov[np.ix_(idx, idx)] = stats.joint_covariance(keys, posterior)
+            out.append(relative_mounting(values, cov, sensor, reference, priors.get((sensor, reference))))
+        return out
 
     def geometry(self, strip: str) -> StripGeometry:
         """A strip's adjusted geometry (``Orientation.geometry`` of :meth:`orientation`).
@@ -210,10 +274,6 @@ class VariantResult:
         return out
 
 
-#: calibration blocks -> their names in orientation.json's ``calibrated``
-_CALIBRATION: tuple[tuple[Key, str], ...] = tuple((key, name) for key, name, _ in CALIBRATION_KEYS)
-
-
 def _rms(dl: np.ndarray, dp: np.ndarray) -> dict:
     n = int(dl.size)
     if n == 0:
@@ -237,7 +297,7 @@ def evaluate_checks(result_block: Block, geometry_of) -> CheckResiduals:
         p_P = b.project.map_frame.map_to_project(xyz[:, 0], xyz[:, 1], xyz[:, 2])
         pts.append(b.points.point[rows].astype(str))
         strips.append(np.full(rows.size, sid, dtype=object))
-        if b.project.sensor.measured_time:  # as the adjustment's image observations: at the measured line
+        if b.project.scanner_of(sid).measured_time:  # as the adjustment's image observations: at the measured line
             d_line, d_pixel = geometry_of(sid).measured_line_residuals(p_P, b.points.line[rows], b.points.pixel[rows])
             dl.append(d_line)
             dp.append(d_pixel)

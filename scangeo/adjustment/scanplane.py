@@ -46,13 +46,14 @@ def _along_condition(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 class WhiskbroomPlane:
-    """Scan-plane terms of a rotating-mirror scanner (index and scale error from the unknowns)."""
+    """Scan-plane terms of a rotating-mirror scanner (index and scale error from the unknowns of the
+    sensor ``sensor_id``)."""
 
-    calibration_keys: tuple[Key, ...] = (ScanIndex(), ScanScale())
-
-    def __init__(self, sensor: Whiskbroom) -> None:
+    def __init__(self, sensor: Whiskbroom, sensor_id: str = "") -> None:
         self.sensor = sensor
         self.dt_pixel = sensor.dt_pixel
+        self.index_key, self.scale_key = ScanIndex(sensor_id), ScanScale(sensor_id)
+        self.calibration_keys: tuple[Key, ...] = (self.index_key, self.scale_key)
 
     def condition(self, v: np.ndarray, values) -> tuple[np.ndarray, np.ndarray]:
         """``g(v)`` (n,) and ``dg/dv`` (n, 3)."""
@@ -66,14 +67,14 @@ class WhiskbroomPlane:
     def pixel(self, v: np.ndarray, values) -> tuple[np.ndarray, np.ndarray, dict[Key, np.ndarray]]:
         """Pixel (n,), ``dpixel/dv`` (n, 3) and ``{key: dpixel/dkey (n, m)}`` for calibration keys."""
         sen = self.sensor
-        index = float(values[ScanIndex()][0])
-        scale = float(values[ScanScale()][0])
+        index = float(values[self.index_key][0])
+        scale = float(values[self.scale_key][0])
         k = sen.scan_direction / (sen.step * (1 + scale))
         vy, vz = v[:, 1], v[:, 2]
         pixel = sen.centre + k * (np.arctan2(vy, vz) - index)
         dpix_dv = k * np.column_stack([np.zeros_like(vz), vz, -vy]) / (vy**2 + vz**2)[:, None]
-        direct = {ScanIndex(): np.full((v.shape[0], 1), -k),
-                  ScanScale(): (-(pixel - sen.centre) / (1 + scale))[:, None]}
+        direct = {self.index_key: np.full((v.shape[0], 1), -k),
+                  self.scale_key: (-(pixel - sen.centre) / (1 + scale))[:, None]}
         return pixel, dpix_dv, direct
 
     def time_offset(self, pixel: np.ndarray) -> np.ndarray:
@@ -89,10 +90,11 @@ class PushbroomPlane:
     (``t_c = T_x(j_c)``), and the condition is ``g = v_x / v_z - T_a(pixel) - b``.
     """
 
-    calibration_keys: tuple[Key, ...] = (AcrossOffset(), AcrossScale(), AlongOffset())
     dt_pixel = 0.0
 
-    def __init__(self, sensor: Pushbroom) -> None:
+    def __init__(self, sensor: Pushbroom, sensor_id: str = "") -> None:
+        self.a_key, self.s_key, self.b_key = AcrossOffset(sensor_id), AcrossScale(sensor_id), AlongOffset(sensor_id)
+        self.calibration_keys: tuple[Key, ...] = (self.a_key, self.s_key, self.b_key)
         # the nominal sensor: the calibration comes from the unknowns
         self.sensor = sensor.with_calibration(across_offset=0.0, across_scale=0.0, along_offset=0.0)
         self.centre_tangent = self.sensor.centre_tangent
@@ -130,15 +132,15 @@ class PushbroomPlane:
 
     def pixel(self, v: np.ndarray, values) -> tuple[np.ndarray, np.ndarray, dict[Key, np.ndarray]]:
         """Pixel (n,), ``dpixel/dv`` (n, 3) and ``{key: dpixel/dkey (n, 1)}`` for the calibration keys."""
-        a = float(values[AcrossOffset()][0])
-        s = float(values[AcrossScale()][0])
+        a = float(values[self.a_key][0])
+        s = float(values[self.s_key][0])
         tc = self.centre_tangent
         tx, dtx_dv = _tan_derivative(v)
         u = tc + (tx - a - tc) / (1 + s)
         pixel, dpix_du = self._pixel_of_tan(u)
-        direct = {AcrossOffset(): (-dpix_du / (1 + s))[:, None],
-                  AcrossScale(): (-dpix_du * (u - tc) / (1 + s))[:, None],
-                  AlongOffset(): np.zeros((v.shape[0], 1))}
+        direct = {self.a_key: (-dpix_du / (1 + s))[:, None],
+                  self.s_key: (-dpix_du * (u - tc) / (1 + s))[:, None],
+                  self.b_key: np.zeros((v.shape[0], 1))}
         return pixel, (dpix_du / (1 + s))[:, None] * dtx_dv, direct
 
     def condition(self, v: np.ndarray, values) -> tuple[np.ndarray, np.ndarray]:
@@ -152,19 +154,19 @@ class PushbroomPlane:
         ta_v, dta_dv = _along_condition(v)
         pixel, dpix_dv, direct = self.pixel(v, values)
         ta, dta_dpix = self._tan_along_of(pixel)
-        b = float(values[AlongOffset()][0])
+        b = float(values[self.b_key][0])
         dg = {key: -dta_dpix[:, None] * d for key, d in direct.items()}
-        dg[AlongOffset()] = np.full((v.shape[0], 1), -1.0)
+        dg[self.b_key] = np.full((v.shape[0], 1), -1.0)
         return ta_v - ta - b, dta_dv - dta_dpix[:, None] * dpix_dv, dg
 
     def time_offset(self, pixel: np.ndarray) -> np.ndarray:
         return np.zeros_like(pixel)
 
 
-def scan_plane(sensor: Whiskbroom | Pushbroom) -> WhiskbroomPlane | PushbroomPlane:
-    """The scan-plane terms of a sensor model."""
+def scan_plane(sensor: Whiskbroom | Pushbroom, sensor_id: str = "") -> WhiskbroomPlane | PushbroomPlane:
+    """The scan-plane terms of a sensor model, with the calibration unknowns of sensor ``sensor_id``."""
     if isinstance(sensor, Whiskbroom):
-        return WhiskbroomPlane(sensor)
+        return WhiskbroomPlane(sensor, sensor_id)
     if isinstance(sensor, Pushbroom):
-        return PushbroomPlane(sensor)
+        return PushbroomPlane(sensor, sensor_id)
     raise TypeError(f"no image-measurement model for sensor {type(sensor).__name__}")

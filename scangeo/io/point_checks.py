@@ -18,12 +18,13 @@ from scangeo.io.points import GroundPoints, ImagePoints
 
 def check_measurements(project, points: ImagePoints, ground: GroundPoints) -> None:
     """Raise ProjectFileError naming points.csv's line of the first implausible measurement."""
-    points.check_strips([s.id for s in project.strips])
-    pixels = project.sensor.model.pixels
-    n_lines = {s.id: project.n_lines(s.id) for s in project.strips}
+    images = project.image_strips
+    points.check_strips([s.id for s in images])
+    n_lines = {s.id: project.n_lines(s.id) for s in images}
+    pixels = {s.id: project.scanner_of(s.id).model.pixels for s in images}
     for i in range(len(points)):
         sid, line, pixel = str(points.strip[i]), points.line[i], points.pixel[i]
-        for name, value, n in (("line", line, n_lines[sid]), ("pixel", pixel, pixels)):
+        for name, value, n in (("line", line, n_lines[sid]), ("pixel", pixel, pixels[sid])):
             if not -0.5 <= value <= n - 0.5:
                 raise ProjectFileError(
                     f"{points.source} line {points.file_line[i]}: {name} {value:g} of point {points.point[i]} is "

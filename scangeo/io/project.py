@@ -1,10 +1,17 @@
 """The project folder: ``project.toml`` (docs/formats.md) and access to its DTM, strips and points.
 
 One schema for both kinds of sensor: a line scanner (whiskbroom, pushbroom) whose strips are images
-with their line times, or a laser scanner (``[sensor] kind = "laser"``) whose strips are LAS/LAZ files
-of returns (``las``), with an optional trajectory each and no DTM needed. :attr:`Project.sensor` is
-the line scanner, :attr:`Project.laser` the laser scanner; asking a project for the other kind's is a
-:class:`~scangeo.errors.ProjectFileError` naming the file.
+with their line times, or a laser scanner (``kind = "laser"``) whose strips are LAS/LAZ files of
+returns (``las``), with an optional trajectory each and no DTM needed.
+
+The platform: a project has one navigation system and one or more sensors (``[sensor]``, or
+``[[sensors]]`` with ids). A **flight line** is a stretch of the platform's trajectory
+(``[[flight_lines]]``); a **strip** is what one sensor recorded on one flight line, and strips of
+different sensors on one flight line share its trajectory. A one-sensor project of one ``[sensor]``
+whose strips each give their own ``trajectory`` is the special case of one sensor (id ``""``) and one
+flight line per strip (the flight line's id is the strip's). :meth:`Project.sensor_of` is the sensor of
+a strip and :meth:`Project.flight_line_of` its flight line; :attr:`Project.sensor` (the line scanner)
+and :attr:`Project.laser` (the laser scanner) are the one sensor of a one-sensor project.
 """
 from __future__ import annotations
 
@@ -18,7 +25,13 @@ import numpy as np
 from scangeo.dtm import DTM
 from scangeo.errors import InputFileError, MissingFileError, ProjectFileError
 from scangeo.frames import Geoid, MapFrame, ProjectFrame, parse_crs
-from scangeo.io.project_schema import SensorKeys, StripKeys, read_project_file
+from scangeo.io.project_schema import (
+    RelativeMountingKeys,
+    SensorKeys,
+    StripKeys,
+    read_project_file,
+    sensor_tables,
+)
 from scangeo.io.toml_config import load_toml
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.sensors.strip import Mounting, StripGeometry
@@ -33,7 +46,8 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class SensorConfig:
-    """The [sensor] table."""
+    """A line scanner: the [sensor] table, or one [[sensors]] entry (``id``; ``""`` for the one sensor of a
+    one-sensor project)."""
 
     kind: str
     model: Whiskbroom | Pushbroom
@@ -42,6 +56,7 @@ class SensorConfig:
     bands: tuple[str, ...] = ()
     wavelengths_nm: tuple[float, ...] = ()
     measurement_time: str = "scan_plane"
+    id: str = ""
 
     @property
     def measured_time(self) -> bool:
@@ -71,7 +86,7 @@ class SensorConfig:
             ).with_calibration(**_pushbroom_calibration(t))
         mounting = Mounting(lever_arm_B=np.array(t.lever_arm_m), boresight=np.radians(t.boresight_deg),
                             time_offset=t.time_offset_s)
-        return cls(t.kind, model, mounting, t.line_rate_hz, t.bands, t.wavelengths_nm, t.measurement_time)
+        return cls(t.kind, model, mounting, t.line_rate_hz, t.bands, t.wavelengths_nm, t.measurement_time, t.id or "")
 
 
 def _pushbroom_calibration(t: SensorKeys) -> dict[str, float]:
@@ -92,12 +107,56 @@ class LaserSensor:
     range_offset_m: float = 0.0
     index_error_deg: float = 0.0
     info: dict = field(default_factory=dict)
+    id: str = ""
+    kind: str = "laser"
 
     @classmethod
     def from_keys(cls, t: SensorKeys) -> LaserSensor:
         info = {k: getattr(t, k) for k in ("fov_deg", "pulse_rate_hz", "scan_rate_hz", "scan_pattern")}
         return cls(t.boresight_deg, t.lever_arm_m, t.range_sigma_m, t.angle_sigma_deg, t.range_offset_m,
-                   t.index_error_deg, {k: v for k, v in info.items() if v is not None})
+                   t.index_error_deg, {k: v for k, v in info.items() if v is not None}, t.id or "")
+
+
+Sensor = SensorConfig | LaserSensor
+
+
+@dataclass(frozen=True)
+class RelativeMounting:
+    """A prior on the mounting of ``sensor`` relative to ``reference`` (``[[relative_mountings]]``):
+    ``R_BS(sensor) = R_BS(reference) R_rel``, with ``R_rel`` from ``boresight`` (roll, pitch, heading,
+    radians) within ``boresight_sigma``, and the lever arm difference ``lever_arm`` (sensor minus
+    reference, body frame, metres) within ``lever_arm_sigma``; None: not given."""
+
+    sensor: str
+    reference: str
+    boresight: np.ndarray | None = None
+    boresight_sigma: np.ndarray | None = None
+    lever_arm: np.ndarray | None = None
+    lever_arm_sigma: np.ndarray | None = None
+
+    @classmethod
+    def from_keys(cls, t: RelativeMountingKeys) -> RelativeMounting:
+        def rad(v):
+            return None if v is None else np.radians(np.array(v, float))
+
+        def arr(v):
+            return None if v is None else np.array(v, float)
+
+        return cls(t.sensor, t.reference, rad(t.boresight_deg), rad(t.boresight_sigma_deg), arr(t.lever_arm_m),
+                   arr(t.lever_arm_sigma_m))
+
+
+@dataclass(frozen=True)
+class FlightLine:
+    """A stretch of the platform's trajectory: ``id``, the trajectory file (the project folder when a laser
+    strip has none: ``has_trajectory`` False) and the strips recorded on it. ``own``: the flight line of a
+    strip that gives its own ``trajectory`` (its id is the strip's)."""
+
+    id: str
+    trajectory: Path
+    strips: tuple[str, ...]
+    own: bool = False
+    has_trajectory: bool = True
 
 
 def las_extent(path: Path) -> tuple[float, float, float, float]:
@@ -128,7 +187,8 @@ def read_look_angles(path: Path, pixels: int) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True)
 class StripConfig:
-    """One [[strips]] entry: an image strip (image, line times) or a laser strip (LAS/LAZ files)."""
+    """One [[strips]] entry: an image strip (image, line times) or a laser strip (LAS/LAZ files), recorded by
+    ``sensor`` on ``flight_line`` (whose trajectory is ``trajectory``)."""
 
     id: str
     image: Path | None
@@ -140,14 +200,20 @@ class StripConfig:
     point_source_id: int | None = None
     mission: str = "1"
     has_trajectory: bool = True
+    sensor: str = ""
+    flight_line: str = ""
 
     @classmethod
-    def from_keys(cls, t: StripKeys, root: Path) -> StripConfig:
-        """A strip of a checked [[strips]] entry (paths relative to the project folder); a laser strip
-        without a trajectory has ``has_trajectory`` False (its ``trajectory`` is then the folder)."""
-        return cls(t.id, root / t.image if t.image else None, root / (t.trajectory or ""), t.first_line_time,
+    def from_keys(cls, t: StripKeys, root: Path, sensor: str, trajectories: dict[str, str]) -> StripConfig:
+        """A strip of a checked [[strips]] entry (paths relative to the project folder; ``trajectories``: the
+        [[flight_lines]]' files by id); a laser strip without a trajectory has ``has_trajectory`` False (its
+        ``trajectory`` is then the folder)."""
+        line = t.flight_line if t.flight_line is not None else t.id
+        trajectory = trajectories[t.flight_line] if t.flight_line is not None else t.trajectory
+        return cls(t.id, root / t.image if t.image else None, root / (trajectory or ""), t.first_line_time,
                    root / t.line_times if t.line_times else None, t.lines,
-                   tuple(root / n for n in (t.las or ())), t.point_source_id, t.mission, t.trajectory is not None)
+                   tuple(root / n for n in (t.las or ())), t.point_source_id, t.mission, trajectory is not None,
+                   sensor, line)
 
 
 @dataclass(frozen=True)
@@ -170,10 +236,15 @@ class Project:
     origin : tuple of 3 float or None
         Origin of the project frame: latitude, longitude (degrees), ellipsoidal height (metres);
         None: the DTM's centre (or the strips' returns').
-    scanner : SensorConfig or LaserSensor
-        The line scanner (sensor model, mounting, line rate) or the laser scanner.
+    sensors : dict of str to SensorConfig or LaserSensor
+        The platform's sensors by id, in the file's order: line scanners (sensor model, mounting, line
+        rate) and laser scanners; a one-sensor project's ``[sensor]`` has the id ``""``.
     strips : tuple of StripConfig
-        The strips: id, image or LAS files, trajectory, line times.
+        The strips: id, sensor, flight line, image or LAS files, trajectory, line times.
+    flight_lines : dict of str to FlightLine
+        The flight lines by id: their trajectory and strips (a strip with its own trajectory is one).
+    relative_mountings : tuple of RelativeMounting
+        Priors on the mounting of one sensor relative to another.
     knot_spacing : float
         Spacing of the orientation spline's knots, seconds.
     dtm_sigma : float
@@ -191,8 +262,10 @@ class Project:
     dtm_file: Path | None
     geoid: Geoid
     origin: tuple[float, float, float] | None
-    scanner: SensorConfig | LaserSensor
+    sensors: dict[str, Sensor]
     strips: tuple[StripConfig, ...]
+    flight_lines: dict[str, FlightLine] = field(default_factory=dict)
+    relative_mountings: tuple[RelativeMounting, ...] = ()
     knot_spacing: float = 0.2
     dtm_sigma: float = 1.5
     trajectory_crs: str | None = None
@@ -201,25 +274,120 @@ class Project:
 
     @property
     def kind(self) -> str:
-        """The kind of scanner.
+        """The kind of scanner of a one-sensor project.
 
         Returns
         -------
         str
-            ``whiskbroom``, ``pushbroom`` or ``laser``.
+            ``whiskbroom``, ``pushbroom`` or ``laser``; ``platform`` for several sensors.
         """
-        return "laser" if isinstance(self.scanner, LaserSensor) else self.scanner.kind
+        kinds = {sensor.kind for sensor in self.sensors.values()}
+        return kinds.pop() if len(self.sensors) == 1 else "platform"
 
     @property
     def is_laser(self) -> bool:
-        """Whether this is a laser project.
+        """Whether every sensor is a laser scanner (a laser project).
 
         Returns
         -------
         bool
-            True for ``[sensor] kind = "laser"``.
+            True for ``kind = "laser"`` sensors only.
         """
-        return isinstance(self.scanner, LaserSensor)
+        return all(isinstance(sensor, LaserSensor) for sensor in self.sensors.values())
+
+    @property
+    def is_platform(self) -> bool:
+        """Whether the project has several sensors or flight lines shared by several strips.
+
+        Returns
+        -------
+        bool
+            False for a project of one ``[sensor]`` whose strips each have their own trajectory.
+        """
+        return len(self.sensors) > 1 or any(len(f.strips) > 1 for f in self.flight_lines.values())
+
+    def sensor_of(self, strip_id: str) -> Sensor:
+        """The sensor that recorded a strip.
+
+        Parameters
+        ----------
+        strip_id : str
+            The strip's id.
+
+        Returns
+        -------
+        SensorConfig or LaserSensor
+            Its line scanner (model, mounting, line rate) or laser scanner.
+        """
+        return self.sensors[self.strip(strip_id).sensor]
+
+    def scanner_of(self, strip_id: str) -> SensorConfig:
+        """The line scanner that recorded an image strip.
+
+        Parameters
+        ----------
+        strip_id : str
+            The strip's id.
+
+        Returns
+        -------
+        SensorConfig
+            The whiskbroom or pushbroom model, its mounting and line rate.
+
+        Raises
+        ------
+        ProjectFileError
+            A strip of a laser scanner.
+        """
+        sensor = self.sensor_of(strip_id)
+        if isinstance(sensor, LaserSensor):
+            raise ProjectFileError(f"{self.file} strip {strip_id}: recorded by the laser scanner "
+                                   f"{sensor.id or '[sensor]'}; this needs a line scanner's image")
+        return sensor
+
+    def flight_line_of(self, strip_id: str) -> FlightLine:
+        """The flight line a strip was recorded on.
+
+        Parameters
+        ----------
+        strip_id : str
+            The strip's id.
+
+        Returns
+        -------
+        FlightLine
+            Its id, trajectory file and strips (a strip with its own trajectory: a flight line of its own,
+            of the strip's id).
+        """
+        return self.flight_lines[self.strip(strip_id).flight_line]
+
+    @property
+    def image_strips(self) -> tuple[StripConfig, ...]:
+        """The strips of line scanners (images).
+
+        Returns
+        -------
+        tuple of StripConfig
+            In the file's order.
+        """
+        return tuple(s for s in self.strips if not isinstance(self.sensors[s.sensor], LaserSensor))
+
+    @property
+    def laser_strips(self) -> tuple[StripConfig, ...]:
+        """The strips of laser scanners (returns).
+
+        Returns
+        -------
+        tuple of StripConfig
+            In the file's order.
+        """
+        return tuple(s for s in self.strips if isinstance(self.sensors[s.sensor], LaserSensor))
+
+    def _one_sensor(self, what: str) -> Sensor:
+        if len(self.sensors) != 1:
+            raise ProjectFileError(f"{self.file} [sensors]: a platform of {len(self.sensors)} sensors "
+                                   f"({', '.join(self.sensors)}); {what} of a strip is Project.sensor_of(strip)")
+        return next(iter(self.sensors.values()))
 
     @property
     def file(self) -> Path:
@@ -246,10 +414,11 @@ class Project:
         ProjectFileError
             A laser project.
         """
-        if isinstance(self.scanner, LaserSensor):
+        sensor = self._one_sensor("the line scanner")
+        if isinstance(sensor, LaserSensor):
             raise ProjectFileError(f"{self.file} [sensor.kind]: a laser project; this needs a line scanner's images "
                                    "(whiskbroom or pushbroom); a laser project runs through scangeo run (docs/run.md)")
-        return self.scanner
+        return sensor
 
     @property
     def laser(self) -> LaserSensor:
@@ -265,10 +434,11 @@ class Project:
         ProjectFileError
             An image project.
         """
-        if not isinstance(self.scanner, LaserSensor):
-            raise ProjectFileError(f"{self.file} [sensor.kind]: a {self.scanner.kind} project; this needs a laser "
+        sensor = self._one_sensor("the laser scanner")
+        if not isinstance(sensor, LaserSensor):
+            raise ProjectFileError(f"{self.file} [sensor.kind]: a {sensor.kind} project; this needs a laser "
                                    "project (kind = \"laser\", strips with las)")
-        return self.scanner
+        return sensor
 
     @property
     def dtm_path(self) -> Path:
@@ -332,11 +502,22 @@ class Project:
         if p.trajectory_crs is not None:
             parse_crs(p.trajectory_crs, f"{file} [project.trajectory_crs]")
         geoid = Geoid.from_raster(root / p.geoid) if p.geoid else Geoid(p.geoid_undulation_m or 0.0)
-        scanner: SensorConfig | LaserSensor = (LaserSensor.from_keys(keys.sensor) if keys.sensor.kind == "laser"
-                                               else SensorConfig.from_keys(keys.sensor, root))
-        strips = tuple(StripConfig.from_keys(s, root) for s in keys.strips)
-        return cls(root, p.crs, root / p.dtm if p.dtm else None, geoid, p.origin, scanner, strips, p.knot_spacing_s,
-                   p.dtm_sigma_m, p.trajectory_crs, adjustment=dict(keys.adjustment or {}))
+        sensors: dict[str, Sensor] = {
+            sid: LaserSensor.from_keys(t) if t.kind == "laser" else SensorConfig.from_keys(t, root)
+            for sid, (t, _) in sensor_tables(keys, file).items()}
+        first = next(iter(sensors))
+        trajectories = {f.id: f.trajectory for f in keys.flight_lines}
+        strips = tuple(StripConfig.from_keys(s, root, s.sensor if s.sensor is not None else first, trajectories)
+                       for s in keys.strips)
+        lines: dict[str, FlightLine] = {}
+        for f in keys.flight_lines:
+            lines[f.id] = FlightLine(f.id, root / f.trajectory, tuple(s.id for s in strips if s.flight_line == f.id))
+        for s in strips:  # a strip with a trajectory of its own is a flight line of its own
+            if s.flight_line not in lines:
+                lines[s.flight_line] = FlightLine(s.id, s.trajectory, (s.id,), True, s.has_trajectory)
+        relative = tuple(RelativeMounting.from_keys(r) for r in keys.relative_mountings)
+        return cls(root, p.crs, root / p.dtm if p.dtm else None, geoid, p.origin, sensors, strips, lines, relative,
+                   p.knot_spacing_s, p.dtm_sigma_m, p.trajectory_crs, adjustment=dict(keys.adjustment or {}))
 
     @classmethod
     def from_user_input(cls, project: str | Path | Project) -> Project:
@@ -426,7 +607,7 @@ class Project:
         )
 
     def stream(self, strip_id: str, check: bool = True):
-        """The strip's GPS/IMU stream as measured.
+        """The GPS/IMU stream as measured of a strip's flight line.
 
         Parameters
         ----------
@@ -450,9 +631,63 @@ class Project:
         if not strip.has_trajectory:
             raise ProjectFileError(f"{self.file}: strip {strip_id} has no trajectory")
         stream = read_trajectory(strip.trajectory, crs=self.trajectory_crs or self.crs)
-        if check and not self.is_laser:
+        if check and not isinstance(self.sensors[strip.sensor], LaserSensor):
             check_strip_trajectory(stream, strip_times_of(self, strip_id))  # coverage, gaps: errors naming lines
         return stream
+
+    def flight_line_stream(self, flight_line: str, check: bool = True):
+        """A flight line's GPS/IMU stream as measured.
+
+        Parameters
+        ----------
+        flight_line : str
+            The flight line's id.
+        check : bool
+            Check that it covers the lines of every image strip recorded on it.
+
+        Returns
+        -------
+        Trajectory
+            Times (seconds), positions and attitudes as the trajectory file gives them.
+        """
+        line = self.flight_lines[flight_line]
+        if not line.has_trajectory:
+            raise ProjectFileError(f"{self.file}: flight line {flight_line} has no trajectory")
+        stream = read_trajectory(line.trajectory, crs=self.trajectory_crs or self.crs)
+        if check:
+            self.check_flight_line(flight_line)
+            for sid in line.strips:
+                if not isinstance(self.sensor_of(sid), LaserSensor):
+                    check_strip_trajectory(stream, strip_times_of(self, sid))
+        return stream
+
+    def check_flight_line(self, flight_line: str) -> None:
+        """Check that the image strips of different sensors recorded on one flight line overlap in time.
+
+        Parameters
+        ----------
+        flight_line : str
+            The flight line's id.
+
+        Raises
+        ------
+        ProjectFileError
+            Two strips of different sensors on the flight line whose line times do not overlap (a strip
+            put on the wrong flight line), naming both strips and their times.
+        """
+        spans = []
+        for sid in self.flight_lines[flight_line].strips:
+            if isinstance(self.sensor_of(sid), LaserSensor):
+                continue
+            times = self.timing(sid).as_table(self.n_lines(sid))
+            spans.append((sid, self.strip(sid).sensor, float(times[0]), float(times[-1])))
+        for i, (a, sa, a0, a1) in enumerate(spans):
+            for b, sb, b0, b1 in spans[i + 1:]:
+                if sa != sb and (a1 < b0 or b1 < a0):
+                    raise ProjectFileError(
+                        f"{self.file} [strips] (flight line {flight_line}): strip {a} ({sa}, {a0:.3f}..{a1:.3f} s) "
+                        f"and strip {b} ({sb}, {b0:.3f}..{b1:.3f} s) do not overlap in time; strips of one flight "
+                        "line are recorded at the same time by the platform's sensors (another flight_line?)")
 
     def timing(self, strip_id: str) -> LineTiming:
         """When the strip's lines were taken.
@@ -472,7 +707,7 @@ class Project:
         if s.line_times is not None:
             return LineTiming.from_table_file(s.line_times)
         assert s.first_line_time is not None  # project_schema: exactly one of the two
-        return LineTiming(s.first_line_time, self.sensor.line_rate)
+        return LineTiming(s.first_line_time, self.scanner_of(strip_id).line_rate)
 
     def n_lines(self, strip_id: str) -> int:
         """The number of image lines of a strip.
@@ -520,9 +755,9 @@ class Project:
             The orientation (project frame); default direct georeferencing: the spline fitted to the
             GPS/IMU as measured.
         mounting : Mounting, optional
-            Lever arm and boresight (default the project's).
+            Lever arm and boresight (default the strip's sensor's, as project.toml gives it).
         sensor : Whiskbroom or Pushbroom, optional
-            The sensor model (default the project's).
+            The sensor model (default the strip's sensor's).
         check : bool
             Check the trajectory's coverage and gaps (False: locate answers point by point "outside the
             trajectory" instead; rectify, adjust and the reports keep the check).
@@ -535,11 +770,12 @@ class Project:
         if spline is None:
             traj = self.stream(strip_id, check=check).to_project(self.map_frame.frame)
             spline = OrientationSpline.from_trajectory(traj, self.knot_spacing)
+        scanner = self.scanner_of(strip_id)
         return StripGeometry(
-            sensor or self.sensor.model,
+            sensor or scanner.model,
             spline,
             self.timing(strip_id),
             self.n_lines(strip_id),
-            mounting or self.sensor.mounting,
+            mounting or scanner.mounting,
             strip_id,
         )

@@ -46,10 +46,14 @@ class ProjectKeys:
 
 @dataclass(frozen=True)
 class SensorKeys:
-    """The ``[sensor]`` table; whiskbroom, pushbroom and laser keys exist only for their kind."""
+    """The ``[sensor]`` table, or one ``[[sensors]]`` entry of a platform; whiskbroom, pushbroom and laser
+    keys exist only for their kind."""
 
     kind: str = setting(choices=KINDS, doc="the scanner type: a line scanner recording images (whiskbroom, "
                                           "pushbroom) or a laser scanner recording returns (laser)")
+    id: str | None = setting(None, file_type=str | int, parse=lambda v, where: str(v), default_doc="required in "
+                             "[[sensors]]", doc="the sensor's name, unique in the project; the strips name it "
+                                                "(`sensor`)")
     pixels: int | None = setting(None, ge=1, unit="px", when=_IMAGE, default_doc="required",
                                  doc="pixels per line (detector elements of a pushbroom)")
     line_rate_hz: float | None = setting(None, gt=0, when=_IMAGE, default_doc="required",
@@ -125,14 +129,68 @@ class SensorKeys:
 
 
 @dataclass(frozen=True)
+class RelativeMountingKeys:
+    """One ``[[relative_mountings]]`` entry: a prior on the mounting of one sensor relative to another's
+    (from an earlier calibration), ``R_BS(sensor) = R_BS(reference) R_rel``."""
+
+    sensor: str = setting(file_type=str | int, parse=lambda v, where: str(v), doc="the sensor whose mounting is "
+                                                                                   "constrained")
+    reference: str = setting(file_type=str | int, parse=lambda v, where: str(v),
+                             doc="the sensor it is given relative to")
+    boresight_deg: tuple[float, float, float] | None = setting(
+        None, doc="roll, pitch, heading of R_rel = R_BS(reference)^T R_BS(sensor): Rz(c) Ry(b) Rx(a)")
+    boresight_sigma_deg: tuple[float, float, float] | None = setting(
+        None, gt=0, default_doc="required with boresight_deg", doc="standard deviations of the three angles")
+    lever_arm_m: tuple[float, float, float] | None = setting(
+        None, doc="lever arm of the sensor minus the reference's (body frame)")
+    lever_arm_sigma_m: tuple[float, float, float] | None = setting(
+        None, gt=0, default_doc="required with lever_arm_m", doc="standard deviations of its three components")
+
+    def check(self, where: str, sensors: dict[str, str]) -> None:
+        """Both sensors exist and differ, each value has its sigma, and something is given."""
+        for key in ("sensor", "reference"):
+            name = getattr(self, key)
+            if name not in sensors:
+                raise ProjectFileError(f"{where}.{key}]: unknown sensor {name!r} (sensors: {', '.join(sensors)})")
+        if self.sensor == self.reference:
+            raise ProjectFileError(f"{where}.reference]: the sensor itself ({self.sensor!r}); expected another sensor")
+        for value, sigma in (("boresight_deg", "boresight_sigma_deg"), ("lever_arm_m", "lever_arm_sigma_m")):
+            if (getattr(self, value) is None) != (getattr(self, sigma) is None):
+                given, missing = (value, sigma) if getattr(self, sigma) is None else (sigma, value)
+                raise ProjectFileError(f"{where}.{missing}]: missing (a prior needs both {value} and its "
+                                       f"{sigma}; {given} is given)")
+        if self.boresight_deg is None and self.lever_arm_m is None:
+            raise ProjectFileError(f"{where}]: expected boresight_deg (with boresight_sigma_deg) or lever_arm_m "
+                                   "(with lever_arm_sigma_m)")
+
+
+@dataclass(frozen=True)
+class FlightLineKeys:
+    """One ``[[flight_lines]]`` entry: a stretch of the platform's trajectory, shared by the strips that
+    the platform's sensors recorded on it."""
+
+    id: str = setting(file_type=str | int, parse=lambda v, where: str(v),
+                      doc="the flight line's name, unique among flight lines and strips with their own trajectory")
+    trajectory: str = setting(doc="the platform's GPS/IMU over the flight line: CSV, or SBET when the name ends "
+                                  "in .out or .sbet")
+
+
+@dataclass(frozen=True)
 class StripKeys:
     """One ``[[strips]]`` entry."""
 
     id: str = setting(file_type=str | int, parse=lambda v, where: str(v),
                       doc="the strip's name, unique in the project (12 and \"12\" are the same)")
-    trajectory: str | None = setting(None, default_doc="required for images",
-                                     doc="the strip's GPS/IMU trajectory: CSV, or SBET when the name ends in .out or "
-                                         ".sbet; a laser strip without one is adjusted trajectory-free")
+    sensor: str | None = setting(None, file_type=str | int, parse=lambda v, where: str(v),
+                                 default_doc="the only sensor", doc="the sensor that recorded it ([[sensors]] id); "
+                                                                    "required with several sensors")
+    flight_line: str | None = setting(None, file_type=str | int, parse=lambda v, where: str(v),
+                                      default_doc="its own", doc="the flight line it was recorded on "
+                                      "([[flight_lines]] id), whose trajectory it shares; instead of `trajectory`")
+    trajectory: str | None = setting(None, default_doc="required for images without flight_line",
+                                     doc="the strip's GPS/IMU trajectory (a flight line of its own): CSV, or SBET "
+                                         "when the name ends in .out or .sbet; a laser strip without one is adjusted "
+                                         "trajectory-free")
     first_line_time: float | None = setting(None, unit="s", default_doc="",
                                             doc="images: time of line 0; exactly one of this and `line_times`")
     line_times: str | None = setting(None, default_doc="", doc="images: a line time table (docs/formats.md)")
@@ -159,11 +217,76 @@ class ProjectFile:
     """The whole project.toml: these tables and nothing else."""
 
     project: ProjectKeys = setting(doc="the project")
-    sensor: SensorKeys = setting(doc="the scanner")
+    sensor: SensorKeys | None = setting(None, default_doc="", doc="the scanner of a one-sensor project")
+    sensors: tuple[SensorKeys, ...] = setting((), doc="the scanners of a platform (instead of [sensor])")
+    relative_mountings: tuple[RelativeMountingKeys, ...] = setting(
+        (), doc="priors on the mounting of one sensor relative to another")
+    flight_lines: tuple[FlightLineKeys, ...] = setting((), doc="trajectories shared by the strips recorded on them")
     strips: tuple[StripKeys, ...] = setting((), doc="one per strip (at least one)")
     adjustment: dict[str, Any] | None = setting(None, default_doc="{}",
                                                 doc="laser: the patch search's settings (docs/formats.md, "
                                                     "scangeo.lidar.options.LaserOptions)")
+
+
+def sensor_tables(pf: ProjectFile, file: Path | str) -> dict[str, tuple[SensorKeys, str]]:
+    """The sensors of a checked project file by id, with the dotted place of each table: ``[sensor]`` is
+    the one sensor of a one-sensor project (id ``""`` unless it names one), ``[[sensors]]`` a platform's."""
+    if pf.sensor is not None:
+        return {pf.sensor.id or "": (pf.sensor, f"{file} [sensor")}
+    return {str(t.id): (t, f"{file} [sensors[{i}]") for i, t in enumerate(pf.sensors)}
+
+
+def _check_sensors(pf: ProjectFile, file: Path | str) -> dict[str, tuple[SensorKeys, str]]:
+    if (pf.sensor is None) == (not pf.sensors):
+        raise ProjectFileError(f"{file}: expected one [sensor] table or [[sensors]] entries"
+                               + (", not both" if pf.sensor is not None else ""))
+    for i, t in enumerate(pf.sensors):
+        if t.id is None:
+            raise ProjectFileError(f"{file} [sensors[{i}].id]: missing (required: the strips name their sensor)")
+    ids = [str(t.id) for t in pf.sensors]
+    dup = sorted({i for i in ids if ids.count(i) > 1})
+    if dup:
+        raise ProjectFileError(f"{file} [sensors]: sensor id {dup[0]!r} appears more than once")
+    sensors = sensor_tables(pf, file)
+    for t, where in sensors.values():
+        t.check(where)
+    kinds = {sid: t.kind for sid, (t, _) in sensors.items()}
+    for i, r in enumerate(pf.relative_mountings):
+        r.check(f"{file} [relative_mountings[{i}]", kinds)
+    pairs = [frozenset((r.sensor, r.reference)) for r in pf.relative_mountings]
+    twice = [pair for pair in pairs if pairs.count(pair) > 1]
+    if twice:
+        raise ProjectFileError(f"{file} [relative_mountings]: the sensors {' and '.join(sorted(twice[0]))} are given "
+                               "a relative mounting more than once")
+    return sensors
+
+
+def _check_strip(s: StripKeys, where: str, kind: str, flight_lines: set[str]) -> None:
+    """One strip's keys against its sensor's kind and the flight lines."""
+    if s.flight_line is not None:
+        if s.flight_line not in flight_lines:
+            raise ProjectFileError(f"{where}: flight_line {s.flight_line!r} is not a [[flight_lines]] id"
+                                   + (f" (flight lines: {', '.join(sorted(flight_lines))})" if flight_lines else
+                                      " (the project has no [[flight_lines]])"))
+        if s.trajectory is not None:
+            raise ProjectFileError(f"{where}: give trajectory or flight_line, not both (a strip on a flight line "
+                                   "shares its trajectory)")
+    if kind == "laser":
+        if s.las is None:
+            raise ProjectFileError(f"{where}: missing las (the strip's LAS/LAZ files; required for a laser)")
+        given = [k for k in ("image", "first_line_time", "line_times", "lines") if getattr(s, k) is not None]
+        if given:
+            raise ProjectFileError(f"{where}: {given[0]} is not a key of a laser strip (las, trajectory, "
+                                   "flight_line, point_source_id, mission)")
+        return
+    given = [k for k in ("las", "point_source_id") if getattr(s, k) is not None]
+    if given:
+        raise ProjectFileError(f"{where}: {given[0]} is a key of laser strips only (a sensor of kind \"laser\")")
+    if s.trajectory is None and s.flight_line is None:
+        raise ProjectFileError(f"{where}: missing trajectory (required for a {kind}), or flight_line: a "
+                               "[[flight_lines]] id")
+    if (s.first_line_time is None) == (s.line_times is None):
+        raise ProjectFileError(f"{where}: give exactly one of first_line_time and line_times")
 
 
 def read_project_file(data: dict, file: Path | str) -> ProjectFile:
@@ -172,38 +295,47 @@ def read_project_file(data: dict, file: Path | str) -> ProjectFile:
     p = pf.project
     if p.geoid is not None and p.geoid_undulation_m is not None:
         raise ProjectFileError(f"{file} [project]: give geoid or geoid_undulation_m, not both")
-    pf.sensor.check(f"{file} [sensor")
+    sensors = _check_sensors(pf, file)
     if not pf.strips:
         raise ProjectFileError(f"{file}: expected at least one [[strips]] entry")
-    laser = pf.sensor.kind == "laser"
-    if not laser and p.dtm is None:
-        raise ProjectFileError(f"{file} [project.dtm]: missing (required for a {pf.sensor.kind}; only a laser "
+    kinds = {sid: t.kind for sid, (t, _) in sensors.items()}
+    images = sorted({k for k in kinds.values() if k in IMAGE_KINDS})
+    if images and p.dtm is None:
+        raise ProjectFileError(f"{file} [project.dtm]: missing (required for a {images[0]}; only a laser "
                                "project needs no DTM)")
-    if not laser and pf.adjustment is not None:
+    if "laser" not in kinds.values() and pf.adjustment is not None:
         raise ProjectFileError(f"{file} [adjustment]: a table of laser projects only (the adjustment of images is "
                                "set in variants.toml)")
+    lines = [f.id for f in pf.flight_lines]
+    dup = sorted({i for i in lines if lines.count(i) > 1})
+    if dup:
+        raise ProjectFileError(f"{file} [flight_lines]: flight line id {dup[0]!r} appears more than once")
     for i, s in enumerate(pf.strips):
         where = f"{file} [strips[{i}]] (id {s.id})"
-        if laser:
-            if s.las is None:
-                raise ProjectFileError(f"{where}: missing las (the strip's LAS/LAZ files; required for a laser)")
-            given = [k for k in ("image", "first_line_time", "line_times", "lines") if getattr(s, k) is not None]
-            if given:
-                raise ProjectFileError(f"{where}: {given[0]} is not a key of a laser strip (las, trajectory, "
-                                       "point_source_id, mission)")
-            continue
-        given = [k for k in ("las", "point_source_id") if getattr(s, k) is not None]
-        if given:
-            raise ProjectFileError(f"{where}: {given[0]} is a key of laser strips only ([sensor] kind = \"laser\")")
-        if s.trajectory is None:
-            raise ProjectFileError(f"{where}: missing trajectory (required for a {pf.sensor.kind})")
-        if (s.first_line_time is None) == (s.line_times is None):
-            raise ProjectFileError(f"{where}: give exactly one of first_line_time and line_times")
+        if s.sensor is None and len(sensors) > 1:
+            raise ProjectFileError(f"{where}: missing sensor (required with several sensors: "
+                                   f"{', '.join(sensors)})")
+        name = s.sensor if s.sensor is not None else next(iter(sensors))
+        if name not in sensors:
+            raise ProjectFileError(f"{where}: sensor {name!r} is not a sensor of the project (sensors: "
+                                   f"{', '.join(repr(k) for k in sensors)})")
+        _check_strip(s, where, kinds[name], set(lines))
     ids = [s.id for s in pf.strips]
     dup = sorted({i for i in ids if ids.count(i) > 1})
     if dup:
         raise ProjectFileError(f"{file}: strip id {dup[0]!r} appears more than once")
+    own = {s.id for s in pf.strips if s.flight_line is None}
+    clash = sorted(own & set(lines))
+    if clash:
+        raise ProjectFileError(f"{file} [flight_lines]: flight line id {clash[0]!r} is also the id of a strip with a "
+                               "trajectory of its own (the strip's own flight line): rename one")
+    used = {s.flight_line for s in pf.strips}
+    unused = [f for f in lines if f not in used]
+    if unused:
+        raise ProjectFileError(f"{file} [flight_lines]: flight line {unused[0]!r} has no strip (a strip names it "
+                               "with flight_line)")
     return pf
 
 
-__all__ = ["IMAGE_KINDS", "KINDS", "ProjectFile", "ProjectKeys", "SensorKeys", "StripKeys", "read_project_file"]
+__all__ = ["IMAGE_KINDS", "KINDS", "FlightLineKeys", "ProjectFile", "ProjectKeys", "RelativeMountingKeys", "SensorKeys",
+           "StripKeys", "read_project_file", "sensor_tables"]

@@ -16,7 +16,7 @@ import numpy as np
 from scangeo.errors import InputFileError, ScangeoError
 from scangeo.frames import geodetic_to_ecef
 from scangeo.io.points import GroundPoints, ImagePoints
-from scangeo.io.project import Project
+from scangeo.io.project import LaserSensor, Project, RelativeMounting, SensorConfig, StripConfig
 from scangeo.sensors.models import Whiskbroom
 from scangeo.textfile import read_text
 from scangeo.trajectory.checks import strip_times_of, uncovered_lines
@@ -217,42 +217,62 @@ def summarise_points(path: Path, kind: str) -> dict[str, Any]:
     }
 
 
+def _scanner_summary(sensor: SensorConfig) -> dict[str, Any]:
+    model = sensor.model
+    return {
+        "kind": sensor.kind,
+        "pixels": model.pixels,
+        "line_rate_hz": sensor.line_rate,
+        **(
+            {"fov_deg": round(float(np.degrees(model.fov)), 6), "per_pixel_timing": model.per_pixel_timing}
+            if isinstance(model, Whiskbroom)
+            else {}
+        ),
+        "lever_arm_m": [float(v) for v in sensor.mounting.lever_arm_B],
+        "boresight_deg": [round(float(v), 9) for v in np.degrees(sensor.mounting.boresight)],
+        "bands": list(sensor.bands),
+    }
+
+
+def _laser_sensor_summary(laser: LaserSensor) -> dict[str, Any]:
+    return {"kind": "laser", "boresight_deg": list(laser.boresight_deg), "lever_arm_m": list(laser.lever_arm_m),
+            "range_sigma_m": laser.range_sigma_m, **laser.info}
+
+
 def summarise_project(path: Path) -> dict[str, Any]:
-    """CRS, sensor, DTM, strips (lines, line and trajectory time spans), point counts.
+    """CRS, sensor, DTM, strips (lines, line and trajectory time spans), point counts; of a platform also
+    its sensors, relative mountings and flight lines (which strips share each).
 
     A strip whose files cannot be read is reported with an ``error`` rather than stopping the summary.
     """
     project = Project.load(path)
-    if project.is_laser:
+    if project.is_laser and not project.is_platform:
         return _laser_project_summary(project)
-    sensor = project.sensor
-    model = sensor.model
     out: dict[str, Any] = {
-        "kind": "project",
+        "kind": "platform project" if project.is_platform else "project",
         "path": str(project.root),
         "crs": project.crs,
         "geoid": str(project.geoid.path) if project.geoid.path else f"constant {project.geoid.constant:g} m",
         "origin": list(project.origin) if project.origin else None,
         "knot_spacing_s": project.knot_spacing,
-        "sensor": {
-            "kind": sensor.kind,
-            "pixels": model.pixels,
-            "line_rate_hz": sensor.line_rate,
-            **(
-                {"fov_deg": round(float(np.degrees(model.fov)), 6), "per_pixel_timing": model.per_pixel_timing}
-                if isinstance(model, Whiskbroom)
-                else {}
-            ),
-            "lever_arm_m": [float(v) for v in sensor.mounting.lever_arm_B],
-            "boresight_deg": [round(float(v), 9) for v in np.degrees(sensor.mounting.boresight)],
-            "bands": list(sensor.bands),
-        },
     }
+    if project.is_platform:
+        out["sensors"] = [{"id": sid, **(_laser_sensor_summary(sc) if isinstance(sc, LaserSensor)
+                                         else _scanner_summary(sc))} for sid, sc in project.sensors.items()]
+        if project.relative_mountings:
+            out["relative_mountings"] = [_relative_summary(r) for r in project.relative_mountings]
+        out["flight_lines"] = [
+            {"id": f.id, "trajectory": str(f.trajectory) if f.has_trajectory else None, "strips": list(f.strips),
+             "sensors": list(dict.fromkeys(project.strip(sid).sensor for sid in f.strips))}
+            for f in project.flight_lines.values()]
+    else:
+        out["sensor"] = _scanner_summary(project.sensor)
     try:
         out["dtm"] = summarise_raster(project.dtm_path, as_dtm=True)
     except ScangeoError as exc:
-        out["dtm"] = {"path": str(project.dtm_path), "error": str(exc)}
-    out["strips"] = [_strip_summary(project, s.id) for s in project.strips]
+        out["dtm"] = {"path": str(project.dtm_file), "error": str(exc)}
+    out["strips"] = [_strip_summary(project, s.id) if s in project.image_strips else _laser_strip_summary(project, s)
+                     for s in project.strips]
     for name, kind in (("points.csv", "points"), ("ground.csv", "ground")):
         file = project.root / name
         if file.exists():
@@ -277,37 +297,49 @@ def _las_summary(path: Path) -> dict[str, Any]:
         return {"path": str(path), "error": f"cannot read the LAS header ({exc})"}
 
 
+def _laser_strip_summary(project: Project, s: StripConfig) -> dict[str, Any]:
+    entry: dict[str, Any] = {"id": s.id}
+    if project.is_platform:
+        entry.update(sensor=s.sensor, flight_line=s.flight_line)
+    entry.update(mission=s.mission, files=[_las_summary(f) for f in s.las])
+    if s.point_source_id is not None:
+        entry["point_source_id"] = s.point_source_id
+    if s.has_trajectory:
+        try:
+            entry["trajectory"] = summarise_trajectory(s.trajectory, project.trajectory_crs or project.crs)
+        except ScangeoError as exc:
+            entry["trajectory"] = {"path": str(s.trajectory), "error": str(exc)}
+    errors = [f["error"] for f in entry["files"] if "error" in f]
+    if errors:
+        entry["error"] = errors[0]
+    return entry
+
+
+def _relative_summary(r: RelativeMounting) -> dict[str, Any]:
+    out: dict[str, Any] = {"sensor": r.sensor, "reference": r.reference}
+    if r.boresight is not None and r.boresight_sigma is not None:
+        out["boresight_deg"] = [round(float(v), 9) for v in np.degrees(r.boresight)]
+        out["boresight_sigma_deg"] = [round(float(v), 9) for v in np.degrees(r.boresight_sigma)]
+    if r.lever_arm is not None and r.lever_arm_sigma is not None:
+        out["lever_arm_m"] = [float(v) for v in r.lever_arm]
+        out["lever_arm_sigma_m"] = [float(v) for v in r.lever_arm_sigma]
+    return out
+
+
 def _laser_project_summary(project: Project) -> dict[str, Any]:
     """A laser project: CRS, the scanner, per strip its LAS/LAZ files' headers, mission and trajectory."""
-    laser = project.laser
-    strips = []
-    for s in project.strips:
-        entry: dict[str, Any] = {"id": s.id, "mission": s.mission, "files": [_las_summary(f) for f in s.las]}
-        if s.point_source_id is not None:
-            entry["point_source_id"] = s.point_source_id
-        if s.has_trajectory:
-            try:
-                entry["trajectory"] = summarise_trajectory(s.trajectory, project.trajectory_crs or project.crs)
-            except ScangeoError as exc:
-                entry["trajectory"] = {"path": str(s.trajectory), "error": str(exc)}
-        errors = [f["error"] for f in entry["files"] if "error" in f]
-        if errors:
-            entry["error"] = errors[0]
-        strips.append(entry)
     return {"kind": "laser project", "path": str(project.root), "crs": project.crs,
             "origin": list(project.origin) if project.origin else None,
-            "sensor": {"kind": "laser", "boresight_deg": list(laser.boresight_deg),
-                       "lever_arm_m": list(laser.lever_arm_m), "range_sigma_m": laser.range_sigma_m, **laser.info},
-            "strips": strips}
+            "sensor": _laser_sensor_summary(project.laser),
+            "strips": [_laser_strip_summary(project, s) for s in project.strips]}
 
 
 def _strip_summary(project, strip_id: str) -> dict[str, Any]:
     cfg = project.strip(strip_id)
-    out: dict[str, Any] = {
-        "id": strip_id,
-        "image": str(cfg.image) if cfg.image else None,
-        "trajectory": str(cfg.trajectory),
-    }
+    out: dict[str, Any] = {"id": strip_id}
+    if project.is_platform:
+        out.update(sensor=cfg.sensor, flight_line=cfg.flight_line)
+    out.update(image=str(cfg.image) if cfg.image else None, trajectory=str(cfg.trajectory))
     try:
         n = project.n_lines(strip_id)
         timing = project.timing(strip_id)

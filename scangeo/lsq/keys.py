@@ -17,8 +17,9 @@ class Key:
 
     @property
     def label(self) -> str:
-        """``Kind(field=value, ...)`` or ``Kind()`` for singletons, for reports and messages."""
-        args = ", ".join(f"{f.name}={getattr(self, f.name)}" for f in fields(self))
+        """``Kind(field=value, ...)`` or ``Kind()`` for singletons, for reports and messages; a field that is
+        the empty string is left out (the one sensor of a one-sensor project: ``Boresight()``)."""
+        args = ", ".join(f"{f.name}={getattr(self, f.name)}" for f in fields(self) if getattr(self, f.name) != "")
         return f"{type(self).__name__}({args})"
 
     def __str__(self) -> str:

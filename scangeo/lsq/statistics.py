@@ -13,6 +13,7 @@ With whitened rows (residual / sigma, Jacobian / sigma) and ``N = J^T J``:
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -161,6 +162,30 @@ class Statistics:
         cols = cols[cols >= 0]
         scale = s.system.scale[cols]
         cov = self.inverse.block(cols) / np.outer(scale, scale)
+        return cov * (self.sigma0 ** 2 if posterior else 1.0)
+
+    def joint_covariance(self, keys: Sequence[Key], posterior: bool = True) -> np.ndarray:
+        """The full covariance of the free components of several keys together, cross terms included
+        (computed by solves restricted to them, exact also where the pattern has no entry).
+
+        Parameters
+        ----------
+        keys : sequence of Key
+            The blocks, in order; their free components in each block's order.
+        posterior : bool
+            Scaled by sigma0 a posteriori squared (False: the a priori covariance).
+
+        Returns
+        -------
+        (m, m) ndarray
+            ``m`` the number of free components of the keys.
+        """
+        s = self.solution
+        cols = np.concatenate([s.layout.columns(k) for k in keys]) if keys else np.zeros(0, np.int64)
+        cols = cols[cols >= 0]
+        z = self.inverse.partial_solver().solve(cols, np.eye(cols.size), cols)
+        scale = s.system.scale[cols]
+        cov = 0.5 * (z + z.T) / np.outer(scale, scale)
         return cov * (self.sigma0 ** 2 if posterior else 1.0)
 
     def sigmas(self, key: Key, posterior: bool = True) -> np.ndarray:

@@ -82,21 +82,22 @@ class Chip:
         return value if np.isfinite(value) else 1.0
 
 
-def matching_bands(project: Project, count: int, options: MatchOptions, source: str) -> list[int]:
-    """1-based bands averaged into the matching image (see :class:`MatchOptions`)."""
+def matching_bands(project: Project, count: int, options: MatchOptions, source: str, strip_id: str) -> list[int]:
+    """1-based bands of a strip's image averaged into its matching image (see :class:`MatchOptions`)."""
     if options.bands:
         bad = [b for b in options.bands if b > count]
         if bad:
             raise InputFileError(f"{source}: band {bad[0]} asked for matching, the image has {count}")
         return list(options.bands)
-    waves = project.sensor.wavelengths_nm
+    sensor = project.scanner_of(strip_id)
+    waves = sensor.wavelengths_nm
     if len(waves) == count:
         lo, hi = DEFAULT_BAND_RANGE_NM
         chosen = [i + 1 for i, w in enumerate(waves) if lo <= w <= hi]
         if chosen:
             return chosen
         return [i + 1 for i, w in enumerate(waves) if w < THERMAL_NM] or [1]
-    names = [n.lower() for n in project.sensor.bands]
+    names = [n.lower() for n in sensor.bands]
     if len(names) == count:
         return [i + 1 for i, n in enumerate(names) if "therm" not in n] or [1]
     return list(range(1, count + 1))
@@ -111,7 +112,7 @@ def read_matching_image(project: Project, strip_id: str, options: MatchOptions) 
         with warnings.catch_warnings():  # a raw scanner image has no georeferencing
             warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
             with rasterio.open(cfg.image) as src:
-                bands = matching_bands(project, src.count, options, str(cfg.image))
+                bands = matching_bands(project, src.count, options, str(cfg.image), strip_id)
                 grey = np.zeros((src.height, src.width), np.float32)
                 bad = np.zeros((src.height, src.width), bool)
                 for b in bands:

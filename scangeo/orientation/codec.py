@@ -1,6 +1,6 @@
 """``orientation.json`` <-> :class:`~scangeo.orientation.document.Orientation`: the JSON document
-(schema ``scangeo.orientation/1``, docs/formats.md) of an orientation and back, with errors that
-name the file and the key.
+(schema ``scangeo.orientation/1`` of a one-sensor project, ``scangeo.orientation/2`` of a platform of
+several sensors; docs/formats.md) of an orientation and back, with errors that name the file and the key.
 """
 from __future__ import annotations
 
@@ -13,7 +13,15 @@ import numpy as np
 
 from scangeo.errors import OrientationFileError, ScangeoError
 from scangeo.frames import ProjectFrame
-from scangeo.orientation.document import SCHEMA, MapReference, Orientation, SensorModel, StripOrientation
+from scangeo.orientation.document import (
+    PLATFORM_SCHEMA,
+    SCHEMA,
+    MapReference,
+    Orientation,
+    SensorModel,
+    SensorSetup,
+    StripOrientation,
+)
 from scangeo.orientation.models import GpsImuModel
 from scangeo.sensors.models import Pushbroom, Whiskbroom
 from scangeo.sensors.strip import Mounting
@@ -57,32 +65,48 @@ def _model_dict(m: GpsImuModel, coefficients: np.ndarray) -> dict[str, Any]:
     }
 
 
+def _mounting_dict(m: Mounting) -> dict[str, Any]:
+    return {"lever_arm": np.asarray(m.lever_arm_B, float).tolist(),
+            "boresight": np.asarray(m.boresight, float).tolist(), "time_offset": float(m.time_offset)}
+
+
+def _strip_dict(s: StripOrientation, platform: bool) -> dict[str, Any]:
+    out: dict[str, Any] = {"id": s.id}
+    if platform:
+        out.update(sensor=s.sensor, flight_line=s.flight_line or s.id)
+    out.update(lines=s.lines, timing=_timing_dict(s.timing),
+               spline={"t0": s.spline.t0, "spacing": s.spline.spacing, "components": list(COMPONENTS),
+                       "coefficients": s.spline.coef.tolist()})
+    return out
+
+
 def orientation_dict(doc: Orientation) -> dict[str, Any]:
-    """The JSON document of an orientation (schema :data:`SCHEMA`)."""
+    """The JSON document of an orientation (schema :data:`SCHEMA`; a platform's :data:`PLATFORM_SCHEMA`)."""
     ref = doc.reference
     geoid = {"raster": ref.geoid_file} if ref.geoid_file else {"undulation_m": ref.geoid_undulation_m or 0.0}
-    return {
-        "schema": SCHEMA,
+    platform = doc.is_platform
+    out: dict[str, Any] = {
+        "schema": PLATFORM_SCHEMA if platform else SCHEMA,
         "variant": doc.variant,
         "adjusted": doc.adjusted,
         "sigma0": _num(doc.sigma0),
         "units": {"length": "m", "angle": "rad", "time": "s"},
         "frame": {"project_frame": {"lat0": ref.frame.lat0, "lon0": ref.frame.lon0, "h0": ref.frame.h0},
                   "map_crs": ref.crs, "geoid": geoid},
-        "sensor": _sensor_dict(doc.sensor),
-        "mounting": {"lever_arm": np.asarray(doc.mounting.lever_arm_B, float).tolist(),
-                     "boresight": np.asarray(doc.mounting.boresight, float).tolist(),
-                     "time_offset": float(doc.mounting.time_offset)},
+    }
+    if platform:
+        out["sensors"] = [{"id": sid, "sensor": _sensor_dict(setup.model), "mounting": _mounting_dict(setup.mounting),
+                           "calibrated": list(setup.calibrated)} for sid, setup in doc.sensors.items()]
+    else:
+        out["sensor"] = _sensor_dict(doc.sensor)
+        out["mounting"] = _mounting_dict(doc.mounting)
+    out.update({
         "calibrated": list(doc.calibrated),
-        "strips": [
-            {"id": s.id, "lines": s.lines, "timing": _timing_dict(s.timing),
-             "spline": {"t0": s.spline.t0, "spacing": s.spline.spacing, "components": list(COMPONENTS),
-                        "coefficients": s.spline.coef.tolist()}}
-            for s in doc.strips.values()
-        ],
+        "strips": [_strip_dict(s, platform) for s in doc.strips.values()],
         "gpsimu_models": [_model_dict(m, doc.coefficients.get(m.id, np.zeros(m.size))) for m in doc.models],
         "breaks": {sid: doc.breaks(sid) for sid in doc.strips if doc.breaks(sid)},
-    }
+    })
+    return out
 
 
 class _Reader:
@@ -126,27 +150,34 @@ class _Reader:
 
 
 def _read_sensor(r: _Reader, node: Any, where: str = "sensor") -> SensorModel:
-    kind = r.get(node, "kind", "sensor", str)
-    n = r.get(node, "pixels", "sensor", int)
+    kind = r.get(node, "kind", where, str)
+    n = r.get(node, "pixels", where, int)
     if kind == "whiskbroom":
-        values = {k: r.get(node, k, "sensor", float) for k in ("fov", "line_rate", "index_error", "scale_error")}
-        return Whiskbroom(n, scan_direction=r.get(node, "scan_direction", "sensor", int),
-                          per_pixel_timing=r.get(node, "per_pixel_timing", "sensor", bool), **values)
+        values = {k: r.get(node, k, where, float) for k in ("fov", "line_rate", "index_error", "scale_error")}
+        return Whiskbroom(n, scan_direction=r.get(node, "scan_direction", where, int),
+                          per_pixel_timing=r.get(node, "per_pixel_timing", where, bool), **values)
     # a pushbroom's calibration (absent from files written before it existed: none)
-    calibration = {k: r.get(node, k, "sensor", float, 0.0) for k in ("across_offset", "across_scale", "along_offset")}
+    calibration = {k: r.get(node, k, where, float, 0.0) for k in ("across_offset", "across_scale", "along_offset")}
     if kind == "pushbroom_pinhole":
-        values = {k: r.get(node, k, "sensor", float)
+        values = {k: r.get(node, k, where, float)
                   for k in ("focal_length", "pitch", "principal_point", "k1", "k2", "line_offset")}
         return Pushbroom(n, **values, **calibration)
     if kind == "pushbroom_table":
-        along, across = (r.array(node, k, "sensor", (n,)) for k in ("along", "across"))
+        along, across = (r.array(node, k, where, (n,)) for k in ("along", "across"))
         return Pushbroom(n, along=along, across=across, **calibration)
-    raise r.fail("sensor.kind", f"unknown sensor kind {kind!r} (expected whiskbroom, pushbroom_pinhole or "
+    raise r.fail(f"{where}.kind", f"unknown sensor kind {kind!r} (expected whiskbroom, pushbroom_pinhole or "
                                 "pushbroom_table)")
+
+
+def _read_mounting(r: _Reader, node: Any, where: str) -> Mounting:
+    return Mounting(r.array(node, "lever_arm", where, (3,)), r.array(node, "boresight", where, (3,)),
+                    r.get(node, "time_offset", where, float))
 
 
 def _read_strip(r: _Reader, node: Any, where: str) -> StripOrientation:
     sid = r.get(node, "id", where, str)
+    sensor = r.get(node, "sensor", where, str, "")
+    line = r.get(node, "flight_line", where, str, "")
     timing_node = r.get(node, "timing", where, dict)
     if "line_times" in timing_node:
         table = r.array(timing_node, "line_times", f"{where}.timing", (None,))
@@ -158,7 +189,8 @@ def _read_strip(r: _Reader, node: Any, where: str) -> StripOrientation:
     at = f"{where}.spline"
     spline = OrientationSpline(r.get(sp, "t0", at, float), r.get(sp, "spacing", at, float),
                                r.array(sp, "coefficients", at, (None, 6)))
-    return StripOrientation(sid, r.get(node, "lines", where, int), timing, spline)
+    return StripOrientation(sid, r.get(node, "lines", where, int), timing, spline, sensor,
+                            "" if line == sid else line)
 
 
 def _read_model(r: _Reader, node: Any, where: str) -> tuple[GpsImuModel, np.ndarray]:
@@ -193,8 +225,8 @@ def orientation_from_dict(data: Any, path: Path | str | None = None) -> Orientat
     """An :class:`Orientation` from its JSON document; errors name ``path`` and the key."""
     r = _Reader(path or "orientation document")
     schema = r.get(data, "schema", "", str)
-    if schema != SCHEMA:
-        raise r.fail("schema", f"schema {schema!r} is not the one this scangeo reads ({SCHEMA!r})")
+    if schema not in (SCHEMA, PLATFORM_SCHEMA):
+        raise r.fail("schema", f"schema {schema!r} is not one this scangeo reads ({SCHEMA!r}, {PLATFORM_SCHEMA!r})")
     try:
         frame_node = r.get(data, "frame", "", dict)
         pf = r.get(frame_node, "project_frame", "frame", dict)
@@ -203,10 +235,18 @@ def orientation_from_dict(data: Any, path: Path | str | None = None) -> Orientat
             ProjectFrame(*(r.get(pf, k, "frame.project_frame", float) for k in ("lat0", "lon0", "h0"))),
             r.get(frame_node, "map_crs", "frame", str),
             r.get(geoid, "undulation_m", "frame.geoid", float, None), r.get(geoid, "raster", "frame.geoid", str, None))
-        mount = r.get(data, "mounting", "", dict)
-        mounting = Mounting(r.array(mount, "lever_arm", "mounting", (3,)),
-                            r.array(mount, "boresight", "mounting", (3,)),
-                            r.get(mount, "time_offset", "mounting", float))
+        calibrated = tuple(r.get(data, "calibrated", "", list))
+        if schema == SCHEMA:
+            sensors = {"": SensorSetup(_checked(r, "sensor", _read_sensor, r.get(data, "sensor", "", dict)),
+                                       _read_mounting(r, r.get(data, "mounting", "", dict), "mounting"), calibrated)}
+        else:
+            sensors = {}
+            for k, node in enumerate(r.get(data, "sensors", "", list)):
+                where = f"sensors[{k}]"
+                sensors[r.get(node, "id", where, str)] = SensorSetup(
+                    _checked(r, f"{where}.sensor", _read_sensor, r.get(node, "sensor", where, dict)),
+                    _read_mounting(r, r.get(node, "mounting", where, dict), f"{where}.mounting"),
+                    tuple(r.get(node, "calibrated", where, list, [])))
         strips = {}
         for k, node in enumerate(r.get(data, "strips", "", list)):
             s = _checked(r, f"strips[{k}]", _read_strip, node)
@@ -216,11 +256,12 @@ def orientation_from_dict(data: Any, path: Path | str | None = None) -> Orientat
             m, c = _checked(r, f"gpsimu_models[{k}]", _read_model, node)
             models.append(m)
             coefficients[m.id] = c
+        for k, so in enumerate(strips.values()):
+            if so.sensor not in sensors:
+                raise r.fail(f"strips[{k}].sensor", f"{so.sensor!r} is not one of the sensors ({', '.join(sensors)})")
         return Orientation(
-            r.get(data, "variant", "", str), r.get(data, "adjusted", "", bool),
-            _checked(r, "sensor", _read_sensor, r.get(data, "sensor", "", dict)),
-            mounting, strips, reference, tuple(models), coefficients,
-            tuple(r.get(data, "calibrated", "", list)), r.get(data, "sigma0", "", (float, type(None))),
+            r.get(data, "variant", "", str), r.get(data, "adjusted", "", bool), sensors, strips, reference,
+            tuple(models), coefficients, calibrated, r.get(data, "sigma0", "", (float, type(None))),
             Path(path) if path is not None else None)
     except OrientationFileError:
         raise

@@ -18,8 +18,11 @@ from scangeo.sensors.strip import Mounting, StripGeometry
 from scangeo.timing import LineTiming
 from scangeo.trajectory.spline import OrientationSpline
 
-#: the schema this version writes and reads
+#: the schema of a one-sensor project's orientation (this version writes and reads it)
 SCHEMA = "scangeo.orientation/1"
+#: the schema of a platform's orientation: per sensor its model and mounting, per strip its sensor and
+#: flight line (this version writes it for projects of several sensors, and reads both)
+PLATFORM_SCHEMA = "scangeo.orientation/2"
 FILE_NAME = "orientation.json"
 #: the variant name of direct georeferencing (the GPS/IMU as measured; needs no results folder)
 DIRECT = "DG"
@@ -29,13 +32,27 @@ SensorModel = Whiskbroom | Pushbroom
 
 @dataclass(frozen=True)
 class StripOrientation:
-    """One strip: its orientation spline (navigation reference point, project frame), line timing
-    and number of image lines."""
+    """One strip: its orientation spline (navigation reference point, project frame: its flight line's),
+    line timing and number of image lines, the sensor that recorded it and its flight line (``""``: the
+    strip's own)."""
 
     id: str
     lines: int
     timing: LineTiming
     spline: OrientationSpline
+    sensor: str = ""
+    flight_line: str = ""
+
+
+@dataclass(frozen=True)
+class SensorSetup:
+    """One sensor of an orientation: its model with its calibration, its mounting (lever arm in metres,
+    body frame; boresight in radians; time offset in seconds), and the names of the values the
+    adjustment estimated (the others are the project's)."""
+
+    model: SensorModel
+    mounting: Mounting
+    calibrated: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -59,10 +76,9 @@ class Orientation:
         The variant's name.
     adjusted : bool
         False for DG (the GPS/IMU as measured, fitted by the spline).
-    sensor : SensorModel
-        The sensor model with its calibration (index and scale error of a whiskbroom).
-    mounting : Mounting
-        Lever arm (metres, body frame), boresight (radians), time offset (seconds).
+    sensors : mapping of str to SensorSetup
+        Per sensor id (``""``: the one sensor of a one-sensor project) its model with its calibration
+        (index and scale error of a whiskbroom, offsets and scale of a pushbroom) and its mounting.
     strips : mapping of str to StripOrientation
         Per strip: lines, line timing, the orientation spline (project frame: x, y, z in metres, roll,
         pitch, heading in radians).
@@ -73,7 +89,7 @@ class Orientation:
     coefficients : dict
         GPS/IMU model id -> its coefficients (in the order of ``GpsImuModel.names()``; metres and radians).
     calibrated : tuple of str
-        The calibration values the adjustment estimated (the others are the project's).
+        The calibration values the adjustment estimated, of any sensor (the others are the project's).
     sigma0 : float or None
         sigma0 a posteriori of the adjustment (None for DG).
     path : Path or None
@@ -82,8 +98,7 @@ class Orientation:
 
     variant: str
     adjusted: bool
-    sensor: SensorModel
-    mounting: Mounting
+    sensors: Mapping[str, SensorSetup]
     strips: Mapping[str, StripOrientation]
     reference: MapReference
     models: tuple[GpsImuModel, ...] = ()
@@ -91,6 +106,49 @@ class Orientation:
     calibrated: tuple[str, ...] = ()
     sigma0: float | None = None
     path: Path | None = None
+
+    @property
+    def is_platform(self) -> bool:
+        """Whether the orientation has several sensors (schema ``scangeo.orientation/2``)."""
+        return len(self.sensors) != 1 or next(iter(self.sensors)) != ""
+
+    def _one(self) -> SensorSetup:
+        if len(self.sensors) != 1:
+            where = self.path or f"the orientation of {self.variant}"
+            raise OrientationFileError(f"{where}: an orientation of {len(self.sensors)} sensors "
+                                       f"({', '.join(self.sensors)}); a strip's is Orientation.sensor_of(strip)")
+        return next(iter(self.sensors.values()))
+
+    @property
+    def sensor(self) -> SensorModel:
+        """The sensor model of a one-sensor orientation (with its calibration)."""
+        return self._one().model
+
+    @property
+    def mounting(self) -> Mounting:
+        """The mounting of a one-sensor orientation."""
+        return self._one().mounting
+
+    def sensor_of(self, strip_id: str) -> SensorSetup:
+        """The sensor of a strip: its model with its calibration and its mounting.
+
+        Parameters
+        ----------
+        strip_id : str
+            The strip's id.
+
+        Returns
+        -------
+        SensorSetup
+            Model, mounting, calibrated names.
+        """
+        sid = self.strip(strip_id).sensor
+        try:
+            return self.sensors[sid]
+        except KeyError:
+            where = self.path or f"the orientation of {self.variant}"
+            raise OrientationFileError(f"{where}: strip {strip_id} names sensor {sid!r}, which it does not hold "
+                                       f"(sensors: {', '.join(self.sensors)})") from None
 
     def strip(self, strip_id: str) -> StripOrientation:
         """One strip's orientation.
@@ -131,7 +189,8 @@ class Orientation:
             Ground <-> image of the strip, project frame.
         """
         s = self.strip(strip_id)
-        return StripGeometry(self.sensor, s.spline, s.timing, s.lines, self.mounting, strip_id)
+        setup = self.sensor_of(strip_id)
+        return StripGeometry(setup.model, s.spline, s.timing, s.lines, setup.mounting, strip_id)
 
     def breaks(self, strip_id: str) -> list[float]:
         """Where the strip's split GPS/IMU models break: where a sub-model follows another.
@@ -146,7 +205,8 @@ class Orientation:
         list of float
             Break epochs, seconds of the project's time base (empty: not split).
         """
-        return sorted(m.t_start for m in self.models if m.follows is not None and strip_id in m.strips)
+        line = self._flight_line(strip_id)
+        return sorted(m.t_start for m in self.models if m.follows is not None and line in m.strips)
 
     def correction(self, strip_id: str, t: np.ndarray, p_gps: np.ndarray) -> np.ndarray:
         """The correction function of the strip's GPS/IMU models: the orientation is the GPS/IMU plus it.
@@ -166,7 +226,11 @@ class Orientation:
             c(t): x, y, z (metres, project frame), roll, pitch, heading (radians).
         """
         coefficients = {m.key: self.coefficients[m.id] for m in self.models}
-        return ModelSet(list(self.models)).correction(strip_id, t, p_gps, coefficients)
+        return ModelSet(list(self.models)).correction(self._flight_line(strip_id), t, p_gps, coefficients)
+
+    def _flight_line(self, strip_id: str) -> str:
+        """The flight line a strip's GPS/IMU models serve (its own id when it has its own)."""
+        return self.strip(strip_id).flight_line or strip_id
 
 
 def strip_geometries(doc: Orientation) -> dict[str, StripGeometry]:
@@ -174,5 +238,5 @@ def strip_geometries(doc: Orientation) -> dict[str, StripGeometry]:
     return {sid: doc.geometry(sid) for sid in doc.strips}
 
 
-__all__ = ["DIRECT", "FILE_NAME", "SCHEMA", "MapReference", "Orientation", "SensorModel", "StripOrientation",
-           "strip_geometries"]
+__all__ = ["DIRECT", "FILE_NAME", "PLATFORM_SCHEMA", "SCHEMA", "MapReference", "Orientation", "SensorModel",
+           "SensorSetup", "StripOrientation", "strip_geometries"]

@@ -24,14 +24,16 @@ from pathlib import Path
 
 from scangeo.atomic import write_text
 from scangeo.errors import OrientationFileError
-from scangeo.io.project import Project
+from scangeo.io.project import Project, SensorConfig
 from scangeo.orientation.codec import orientation_dict, orientation_from_dict
 from scangeo.orientation.document import (
     DIRECT,
     FILE_NAME,
+    PLATFORM_SCHEMA,
     SCHEMA,
     MapReference,
     Orientation,
+    SensorSetup,
     StripOrientation,
     strip_geometries,
 )
@@ -51,7 +53,7 @@ class _DirectStrips(Mapping[str, StripOrientation]):
 
     def __init__(self, project: Project) -> None:
         self.project = project
-        self.ids = [s.id for s in project.strips]
+        self.ids = [s.id for s in project.image_strips]
         self.cache: dict[str, StripOrientation] = {}
 
     def __getitem__(self, strip_id: str) -> StripOrientation:
@@ -59,7 +61,9 @@ class _DirectStrips(Mapping[str, StripOrientation]):
             raise KeyError(strip_id)
         if strip_id not in self.cache:
             g = self.project.geometry(strip_id)
-            self.cache[strip_id] = StripOrientation(strip_id, g.n_lines, g.timing, g.spline)
+            s = self.project.strip(strip_id)
+            self.cache[strip_id] = StripOrientation(strip_id, g.n_lines, g.timing, g.spline, s.sensor,
+                                                    "" if s.flight_line == strip_id else s.flight_line)
         return self.cache[strip_id]
 
     def __iter__(self) -> Iterator[str]:
@@ -69,11 +73,17 @@ class _DirectStrips(Mapping[str, StripOrientation]):
         return len(self.ids)
 
 
+def project_sensors(project: Project) -> dict[str, SensorSetup]:
+    """The line scanners of a project as project.toml gives them (model and mounting), by id."""
+    used = {s.sensor for s in project.image_strips}
+    return {sid: SensorSetup(sc.model, sc.mounting) for sid, sc in project.sensors.items()
+            if sid in used and isinstance(sc, SensorConfig)}
+
+
 def direct_orientation(project: Project) -> Orientation:
-    """Direct georeferencing: per strip the spline fitted to the GPS/IMU as measured (when first
-    used), the project's sensor and mounting."""
-    return Orientation(DIRECT, False, project.sensor.model, project.sensor.mounting, _DirectStrips(project),
-                       map_reference(project))
+    """Direct georeferencing: per strip the spline fitted to the GPS/IMU of its flight line as measured
+    (when first used), the strip's sensor and mounting as project.toml gives them."""
+    return Orientation(DIRECT, False, project_sensors(project), _DirectStrips(project), map_reference(project))
 
 
 def results_folder(project: Project, variant: str) -> Path:
@@ -150,6 +160,7 @@ def read_orientation_file(path: str | Path) -> Orientation:
     return orientation_from_dict(data, path)
 
 
-__all__ = ["SCHEMA", "FILE_NAME", "DIRECT", "Orientation", "StripOrientation", "MapReference", "strip_geometries",
+__all__ = ["SCHEMA", "PLATFORM_SCHEMA", "FILE_NAME", "DIRECT", "SensorSetup", "project_sensors", "Orientation",
+           "StripOrientation", "MapReference", "strip_geometries",
            "direct_orientation", "load_orientation", "load_adjusted_geometry", "read_orientation_file",
            "write_orientation", "orientation_dict", "orientation_from_dict", "map_reference", "results_folder"]

@@ -121,9 +121,10 @@ def is_complete(path: Path, fp: str) -> bool:
         return False
 
 
-def _band_info(project: Project, image: Path) -> list[BandInfo] | None:
-    """Band names and wavelengths: the project's [sensor] bands, else the image's own."""
-    names, waves = project.sensor.bands, project.sensor.wavelengths_nm
+def _band_info(project: Project, strip_id: str) -> list[BandInfo] | None:
+    """Band names and wavelengths: the strip's sensor's bands, else the image's own."""
+    sensor = project.scanner_of(strip_id)
+    names, waves = sensor.bands, sensor.wavelengths_nm
     if not names:
         return None
     return [
@@ -158,7 +159,7 @@ def start_strip_task(task: StripTask, progress: ProgressCallback = no_progress,
     output = Path(task.output)
     if task.options.igm:
         write_igm(geometry, output.with_suffix(".igm"))
-    bands = _band_info(project, cfg.image)
+    bands = _band_info(project, task.strip)
     if bands is not None:
         with warnings.catch_warnings():  # a raw scanner image has no georeferencing
             warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)

@@ -82,13 +82,14 @@ def written_orientations(project: Project, variants: list[str]) -> dict[str, Ori
 
 
 def problem_strips(project: Project, orientations: dict[str, Orientation]) -> list[str]:
-    """Strips that some variant corrects with a polynomial (degree > 0) or a split model."""
+    """Strips that some variant corrects with a polynomial (degree > 0) or a split model (of their flight
+    line: every strip on it)."""
     found: set[str] = set()
     for doc in orientations.values():
         for m in doc.models:
             if (m.follows or max(m.position_degree, m.attitude_degree) > 0) and len(m.strips) == 1:
                 found.add(m.strips[0])
-    return [s.id for s in project.strips if s.id in found]
+    return [s.id for s in project.image_strips if s.flight_line in found]
 
 
 def breaks_of(project: Project, orientations: dict[str, Orientation], strip_id: str) -> list[float]:
@@ -98,8 +99,9 @@ def breaks_of(project: Project, orientations: dict[str, Orientation], strip_id: 
 
 
 def true_gps_error(project: Project, strip_id: str) -> Series | None:
-    """The injected GPS/IMU position error of a simulated strip (``truth/errors_<id>.csv``: total x, y, z m)."""
-    path = project.root / "truth" / f"errors_{strip_id}.csv"
+    """The injected GPS/IMU position error of a simulated strip's flight line (``truth/errors_<flight line
+    id>.csv``: total x, y, z m)."""
+    path = project.root / "truth" / f"errors_{project.strip(strip_id).flight_line}.csv"
     if not path.exists():
         return None
     with open(path) as f:

@@ -336,7 +336,8 @@ def write_report(
     chosen = comparison.recommended or comparison.best or comparison.reference  # the variant scangeo run rectifies
     sections.insert(2, quicklook_section(root / "results", chosen, {sid: f.footprint for sid, f in frames.items()},
                                          _check_points(root), any(s.image for s in project.strips)))
-    calibration = calibration_section(root, comparison, project.sensor.model.pixels)  # estimates, tests, residuals
+    pixels = max(project.scanner_of(s.id).model.pixels for s in project.image_strips)
+    calibration = calibration_section(root, comparison, pixels)  # estimates, tests, residuals
     if calibration is not None:
         sections.insert(3, calibration)
     sections.append(_notes_section(project, comparison))

@@ -154,7 +154,7 @@ def check_strip_trajectory(stream: GpsImuStream, strip: StripTimes) -> None:
 def strip_times_of(project, strip_id: str) -> StripTimes:
     """The navigation times a project's strip needs (its line timing, mounting offset, scan time)."""
     n = project.n_lines(strip_id)
-    model = project.sensor.model
+    sensor = project.scanner_of(strip_id)
+    model = sensor.model
     half_scan = float(np.abs(model.time_offset(np.array([0.0, model.pixels - 1.0]))).max())
-    return StripTimes(str(strip_id), project.timing(strip_id).as_table(n),
-                      project.sensor.mounting.time_offset, half_scan)
+    return StripTimes(str(strip_id), project.timing(strip_id).as_table(n), sensor.mounting.time_offset, half_scan)

@@ -69,21 +69,26 @@ class Truth:
             return None
         try:
             info = json.loads(info_file.read_text())
-            boresight = np.radians(np.asarray(info["true_boresight_deg"], float))
-        except (OSError, ValueError, KeyError) as exc:
-            raise ProjectFileError(f"{info_file}: expected true_boresight_deg ({exc})") from exc
+            given = info["true_boresight_deg"]  # a list (one sensor), or per sensor id (a platform)
+            boresights = {sid: np.radians(np.asarray(given[sid] if isinstance(given, dict) else given, float))
+                          for sid in {s.sensor for s in project.image_strips}}
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise ProjectFileError(f"{info_file}: expected true_boresight_deg, a list of 3 angles or one per sensor "
+                                   f"({exc})") from exc
         frame = project.map_frame.frame
-        mount = project.sensor.mounting
-        mounting = Mounting(mount.lever_arm_B, boresight, mount.time_offset)
         geometries = {}
-        for s in project.strips:
-            path = folder / f"trajectory_{s.id}.csv"
-            if not path.exists():
-                raise ProjectFileError(f"{path}: the true trajectory of strip {s.id} is missing")
-            traj = read_trajectory(path, crs=project.trajectory_crs or project.crs).to_project(frame)
-            spacing = float(np.median(np.diff(traj.time)))  # one knot per sample: the truth as simulated
-            spline = OrientationSpline.from_trajectory(traj, spacing)
-            geometries[s.id] = project.geometry(s.id, spline=spline, mounting=mounting)
+        splines: dict[str, OrientationSpline] = {}
+        for s in project.image_strips:
+            if s.flight_line not in splines:  # the true trajectory of each flight line (a strip's own: its id)
+                path = folder / f"trajectory_{s.flight_line}.csv"
+                if not path.exists():
+                    raise ProjectFileError(f"{path}: the true trajectory of flight line {s.flight_line} is missing")
+                traj = read_trajectory(path, crs=project.trajectory_crs or project.crs).to_project(frame)
+                spacing = float(np.median(np.diff(traj.time)))  # one knot per sample: the truth as simulated
+                splines[s.flight_line] = OrientationSpline.from_trajectory(traj, spacing)
+            mount = project.scanner_of(s.id).mounting
+            mounting = Mounting(mount.lever_arm_B, boresights[s.sensor], mount.time_offset)
+            geometries[s.id] = project.geometry(s.id, spline=splines[s.flight_line], mounting=mounting)
         terrain = DTM.open(folder / "terrain.tif", project.map_frame)
         return cls(project, terrain, geometries, lines, pixels)
 

@@ -319,13 +319,13 @@ def test_roles_of_names_and_globs_last_pattern_wins():
 
 
 def test_rows_of_each_strip_found_in_one_pass_equal_the_per_strip_selection(small):
-    from scangeo.adjustment.block import _choose_points, _Setup, build_models, strip_data
+    from scangeo.adjustment.block import _choose_points, _Setup, block_strips, build_models
 
     project = Project.load(small)
     points, ground = read_measurements(project)
     variant = Variant("SOME", "SE", roles=(("E0*", "check"), ("T01*", "ignore")))
-    strips = {s.id: strip_data(project, s.id) for s in project.strips}
-    setup = _Setup(project, variant, points, ground, strips, build_models(project, variant, strips))
+    lines, strips = block_strips(project)
+    setup = _Setup(project, variant, points, ground, lines, strips, build_models(project, variant, lines))
     _choose_points(setup)
     assert 0 < len(setup.used) < len(set(map(str, points.point)))
     total = 0
@@ -345,13 +345,13 @@ def test_strips_read_once_reads_each_trajectory_once_and_hands_out_copies(tiny_p
 
     project = Project.load(tiny_project.root)
     reads: list[str] = []
-    stream = Project.stream
+    stream = Project.flight_line_stream
 
-    def counted(self, strip_id, check=True):
-        reads.append(strip_id)
-        return stream(self, strip_id, check)
+    def counted(self, flight_line, check=True):
+        reads.append(flight_line)
+        return stream(self, flight_line, check)
 
-    monkeypatch.setattr(Project, "stream", counted)
+    monkeypatch.setattr(Project, "flight_line_stream", counted)
     plain = strip_data(project, "1")
     with strips_read_once():
         first = strip_data(project, "1")
@@ -382,10 +382,10 @@ def test_strips_read_once_reads_each_trajectory_once_and_hands_out_copies(tiny_p
 
 def test_a_model_per_mission_for_images(small, tmp_path):
     """Strategy ME: one GPS/IMU model per mission ([[strips]] mission); one mission is the block's model."""
-    from scangeo.adjustment.block import build_models, strip_data
+    from scangeo.adjustment.block import block_strips, build_models
 
     project = Project.load(small)
-    strips = {s.id: strip_data(project, s.id) for s in project.strips}
+    strips, _ = block_strips(project)  # the flight lines: one per strip
     per_mission, block = Variant("M", "ME"), Variant("B", "BE")
     one = build_models(project, per_mission, strips)
     assert [m.id for m in one] == ["mission 1"] and one.models["mission 1"].strips == tuple(strips)
@@ -398,7 +398,7 @@ def test_a_model_per_mission_for_images(small, tmp_path):
         text = text.replace(f'id = "{sid}"\n', f'id = "{sid}"\nmission = "{"AB"[k % 2]}"\n')
     (root / "project.toml").write_text(text)
     two = Project.load(root)
-    models = build_models(two, per_mission, {s.id: strip_data(two, s.id) for s in two.strips})
+    models = build_models(two, per_mission, block_strips(two)[0])
     expected: dict[str, tuple[str, ...]] = {}
     for k, sid in enumerate(strips):
         expected[f"mission {'AB'[k % 2]}"] = expected.get(f"mission {'AB'[k % 2]}", ()) + (sid,)

@@ -24,6 +24,7 @@ from scangeo.io.project import Project
 from scangeo.orientation.file import (
     SCHEMA,
     Orientation,
+    SensorSetup,
     StripOrientation,
     direct_orientation,
     load_adjusted_geometry,
@@ -127,7 +128,7 @@ def _broken(tmp_path, adjusted, edit):
 
 
 @pytest.mark.parametrize("edit, key, text", [
-    (lambda d: d.update(schema="scangeo.orientation/2"), "[schema]", "'scangeo.orientation/1'"),
+    (lambda d: d.update(schema="scangeo.orientation/9"), "[schema]", "'scangeo.orientation/1'"),
     (lambda d: d["strips"][1]["spline"].pop("coefficients"), "[strips[1].spline.coefficients]", "missing"),
     (lambda d: d["mounting"].update(boresight=[0.1, 0.2]), "[mounting.boresight]", "shape 3"),
     (lambda d: d["sensor"].update(fov="42"), "[sensor.fov]", "expected float, got str"),
@@ -188,7 +189,7 @@ def test_pushbroom_tables_and_line_time_tables_round_trip(tmp_path, adjusted):
     s = doc.strips["01"]
     table = s.timing.time_of_line(np.arange(s.lines)) + 1e-4 * np.sin(np.arange(s.lines))
     strips = {"01": StripOrientation("01", s.lines, LineTiming(float(table[0]), 25.0, table), s.spline)}
-    doc = Orientation("X", True, sensor, doc.mounting, strips, doc.reference)
+    doc = Orientation("X", True, {"": SensorSetup(sensor, doc.mounting)}, strips, doc.reference)
     back = read_orientation_file(write_orientation(doc, tmp_path / "orientation.json"))
     g, h = doc.geometry("01"), back.geometry("01")
     line, pixel = np.linspace(0, s.lines - 1, 7), np.linspace(0, n - 1, 7)

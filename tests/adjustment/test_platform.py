@@ -1,0 +1,169 @@
+"""The platform in the adjustment: flight lines own the orientation and the GPS/IMU corrections, sensors
+their mounting; a one-sensor project written as a platform adjusts to the same numbers, a second sensor
+on the same flight lines takes the drift corrections of the first, and a relative-mounting prior holds
+a sensor without measurements.
+
+The second sensor here is the first one again (the same scanner model and images; its measurements
+the first sensor's): what it must get from the platform is then known exactly.
+"""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from scangeo.adjustment.keys import Boresight, Knots
+from scangeo.adjustment.results import run_variant
+from scangeo.adjustment.variants import Variant
+from scangeo.errors import ProjectFileError
+from scangeo.io.points import ImagePoints
+from scangeo.io.project import Project
+from tests.session_projects import copy_project
+
+SE = Variant("SE", "SE")
+P2 = Variant("P2", "P", position_degree=2, attitude_degree=1)
+#: position corrections per flight line and the boresights calibrated (an attitude constant per flight line
+#: and a boresight would be one unknown twice)
+BORESIGHT = Variant("SE_B", "SE", attitude_degree=-1, calibrate=("boresight",))
+
+
+def _as_platform(root, second: str | None = None, prior: str = "", b_offset_deg: float = 0.0) -> None:
+    """Rewrite a one-sensor project as a platform: sensor ``a``, flight lines ``L01``, ``L02`` with the
+    strips' trajectories; with ``second``, a sensor ``b`` (the same scanner, its boresight off by
+    ``b_offset_deg`` in roll) with strips ``b01``, ``b02`` on the same flight lines, measured as
+    ``second`` says: ``"copy"`` (every measurement of a's strips but those of control points) or
+    ``"checks"`` (only the check points')."""
+    text = (root / "project.toml").read_text()
+    sensor = re.search(r"\[sensor\]\n(.*?)\n\n", text, re.S).group(1)
+    strips = re.findall(r"\[\[strips\]\]\n(.*?)(?=\n\n|\Z)", text, re.S)
+    out = [text[:text.index("[sensor]")], "[[sensors]]\nid = \"a\"\n" + sensor + "\n\n"]
+    if second:
+        b = re.sub(r"boresight_deg = \[([^,]+),", lambda m: f"boresight_deg = [{float(m.group(1)) + b_offset_deg},",
+                   sensor) if "boresight_deg" in sensor else sensor + f"\nboresight_deg = [{b_offset_deg}, 0.0, 0.0]"
+        out.append("[[sensors]]\nid = \"b\"\n" + b + "\n\n")
+    out.append(prior)
+    for body in strips:
+        sid = re.search(r'id = "([^"]+)"', body).group(1)
+        traj = re.search(r'trajectory = "([^"]+)"', body).group(1)
+        out.append(f'[[flight_lines]]\nid = "L{sid}"\ntrajectory = "{traj}"\n\n')
+    for body in strips:
+        sid = re.search(r'id = "([^"]+)"', body).group(1)
+        rest = re.sub(r'trajectory = "[^"]+"\n?', "", body).strip()
+        out.append(f"[[strips]]\n{rest}\nsensor = \"a\"\nflight_line = \"L{sid}\"\n\n")
+        if second:
+            rest_b = rest.replace(f'id = "{sid}"', f'id = "b{sid}"')
+            out.append(f"[[strips]]\n{rest_b}\nsensor = \"b\"\nflight_line = \"L{sid}\"\n\n")
+    (root / "project.toml").write_text("".join(out))
+    if second:
+        points = ImagePoints.read(root / "points.csv")
+        roles = dict(line.split(",")[0::6] for line in (root / "ground.csv").read_text().splitlines()[1:])
+        keep = [i for i, p in enumerate(points.point)
+                if (roles.get(str(p), "tie") == "check") or (second == "copy" and roles.get(str(p), "tie") != "control")]
+        rows = (root / "points.csv").read_text().splitlines()
+        extra = []
+        for i in keep:
+            cells = rows[points.file_line[i] - 1].split(",")
+            cells[1] = "b" + cells[1]
+            extra.append(",".join(cells))
+        (root / "points.csv").write_text("\n".join(rows + extra) + "\n")
+
+
+@pytest.fixture(scope="module")
+def legacy(small_block, tmp_path_factory):
+    root = copy_project(small_block, tmp_path_factory.mktemp("platform") / "legacy", truth=True)
+    return {v.name: run_variant(root, v) for v in (SE, P2)}
+
+
+def test_a_one_sensor_project_as_a_platform_adjusts_to_the_same_numbers(small_block, tmp_path, legacy):
+    root = copy_project(small_block, tmp_path / "platform", truth=True)
+    _as_platform(root)
+    project = Project.load(root)
+    assert list(project.sensors) == ["a"] and set(project.flight_lines) == {"L01", "L02"}
+    assert project.flight_line_of("01").trajectory == project.root / "nav" / "01.csv"
+    for v in (SE, P2):
+        mine, theirs = run_variant(root, v), legacy[v.name]
+        assert Knots("L01") in mine.adjustment.parameters and Boresight("a") in mine.adjustment.parameters
+        assert mine.adjustment.statistics.sigma0 == pytest.approx(theirs.adjustment.statistics.sigma0, rel=1e-9)
+        assert np.allclose(mine.checks.line, theirs.checks.line, atol=1e-7)
+        assert np.allclose(mine.checks.pixel, theirs.checks.pixel, atol=1e-7)
+        assert [m.id for m in mine.block.models] == [f"L{m.id}" for m in theirs.block.models]
+
+
+def test_a_second_sensor_takes_the_drift_corrections_of_its_flight_line(small_block, tmp_path, legacy):
+    """Sensor b measures no control point: its strips are held by the flight lines' corrections, which a's
+    control determines, and by the tie points it shares with a. With b's measurements a copy of a's, b's
+    boresight comes out as a's (its nominal roll was 0.05 deg off) and its check residuals are a's to within
+    the relative boresight's precision."""
+    root = copy_project(small_block, tmp_path / "pair", truth=True)
+    _as_platform(root, second="copy", b_offset_deg=0.05)
+    result = run_variant(root, BORESIGHT)
+    (rel,) = result.relative_mountings()
+    assert (rel.sensor, rel.reference) == ("b", "a") and rel.prior is None
+    assert np.all(np.abs(rel.boresight) < 3 * rel.boresight_sigma) and np.all(np.degrees(rel.boresight) < 0.005)
+    c = result.checks
+    for sid in ("01", "02"):
+        a, b = c.strip == sid, c.strip == f"b{sid}"
+        assert a.sum() == b.sum() > 0
+        # b differs from a by the relative boresight the tie points determine (its sigma: a few thousandths of
+        # a degree, hundredths of a pixel), far below the check residuals themselves
+        for d in (c.pixel[b] - c.pixel[a], c.line[b] - c.line[a]):
+            assert np.sqrt(np.mean(d**2)) < 0.05
+    doc = result.orientation()
+    assert doc.is_platform and set(doc.sensors) == {"a", "b"}
+    assert doc.strip("b01").spline is not None and np.array_equal(doc.strip("b01").spline.coef,
+                                                                  doc.strip("01").spline.coef)
+
+
+def test_a_relative_mounting_prior_holds_a_sensor_without_measurements(small_block, tmp_path):
+    """Sensor b has only check points: its boresight is the prior's, relative to a, and its precision the
+    prior's combined with a's (a priori: the prior's sigma exactly when a's boresight is held fixed)."""
+    prior = ('[[relative_mountings]]\nsensor = "b"\nreference = "a"\nboresight_deg = [0.0, 0.0, 0.0]\n'
+             'boresight_sigma_deg = [0.002, 0.002, 0.004]\n\n')
+    root = copy_project(small_block, tmp_path / "prior", truth=True)
+    _as_platform(root, second="checks", prior=prior, b_offset_deg=0.3)
+    result = run_variant(root, BORESIGHT)
+    values = result.adjustment.parameters
+    assert np.allclose(values[Boresight("b")].values, values[Boresight("a")].values, atol=1e-8)  # the prior alone
+    (rel,) = result.relative_mountings(posterior=False)
+    assert (rel.sensor, rel.reference) == ("b", "a") and rel.prior is not None
+    sig_a = result.adjustment.statistics.sigmas(Boresight("a"), posterior=False)
+    # b = a + w with w the prior's noise (independent of a's): the relative rotation's sigma is the prior's
+    assert np.allclose(rel.boresight_sigma, np.radians([0.002, 0.002, 0.004]), rtol=1e-6)
+    assert np.all(np.isfinite(sig_a))
+    c = result.checks
+    a, b = c.strip == "01", c.strip == "b01"
+    assert np.allclose(c.pixel[a], c.pixel[b], atol=1e-6)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda t: t.replace('sensor = "b"\nflight_line = "L01"', 'sensor = "c"\nflight_line = "L01"'),
+     r"sensor 'c' is not a sensor of the project"),
+    (lambda t: t.replace('flight_line = "L02"', 'flight_line = "L09"', 1),
+     r"flight_line 'L09' is not a \[\[flight_lines\]\] id"),
+    (lambda t: t.replace('sensor = "b"\nflight_line = "L01"', 'flight_line = "L01"'),
+     r"missing sensor \(required with several sensors"),
+    (lambda t: t + '[[relative_mountings]]\nsensor = "b"\nreference = "a"\nboresight_deg = [0.0, 0.0, 0.0]\n',
+     r"\[relative_mountings\[0\]\.boresight_sigma_deg\]: missing"),
+    (lambda t: t.replace("[[sensors]]\nid = \"a\"", "[sensor]"), r"expected one \[sensor\] table or \[\[sensors\]\]"),
+])
+def test_bad_platform_files_are_named_with_their_key(small_block, tmp_path, edit, message):
+    root = copy_project(small_block, tmp_path / "bad")
+    _as_platform(root, second="copy")
+    toml = root / "project.toml"
+    toml.write_text(edit(toml.read_text()))
+    with pytest.raises(ProjectFileError, match=message) as err:
+        Project.load(root)
+    assert str(toml) in str(err.value)
+
+
+def test_strips_of_two_sensors_on_one_flight_line_must_overlap_in_time(small_block, tmp_path):
+    root = copy_project(small_block, tmp_path / "apart")
+    _as_platform(root, second="copy")
+    toml = root / "project.toml"
+    text = toml.read_text()
+    first = re.search(r'id = "b01"\n.*?first_line_time = ([0-9.]+)', text, re.S)
+    moved = text[:first.start(1)] + str(float(first.group(1)) + 3600.0) + text[first.end(1):]
+    toml.write_text(moved)
+    with pytest.raises(ProjectFileError, match=r"strip 01 \(a, .*\) and strip b01 \(b, .*\) do not overlap in time"):
+        Project.load(root).flight_line_stream("L01")
