@@ -13,7 +13,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from scangeo.adjustment.block import Block, adjust_variant, image_sensors
-from scangeo.adjustment.mounting import RelativeMountingEstimate, relative_mounting
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import (
     AcrossOffset,
@@ -27,6 +26,7 @@ from scangeo.adjustment.keys import (
     TimeOffset,
     calibration_keys,
 )
+from scangeo.adjustment.mounting import RelativeMountingEstimate, relative_mounting
 from scangeo.adjustment.variants import Variant, find_variant
 from scangeo.io import rejected
 from scangeo.io.points import GroundPoints, ImagePoints

@@ -58,8 +58,8 @@ def _as_platform(root, second: str | None = None, prior: str = "", b_offset_deg:
     if second:
         points = ImagePoints.read(root / "points.csv")
         roles = dict(line.split(",")[0::6] for line in (root / "ground.csv").read_text().splitlines()[1:])
-        keep = [i for i, p in enumerate(points.point)
-                if (roles.get(str(p), "tie") == "check") or (second == "copy" and roles.get(str(p), "tie") != "control")]
+        role = [roles.get(str(p), "tie") for p in points.point]
+        keep = [i for i, r in enumerate(role) if r == "check" or (second == "copy" and r != "control")]
         rows = (root / "points.csv").read_text().splitlines()
         extra = []
         for i in keep:
