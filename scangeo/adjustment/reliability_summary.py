@@ -23,19 +23,16 @@ from __future__ import annotations
 
 import json
 import math
-from collections import ChainMap
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse as sp
 
-from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import Ground
 from scangeo.adjustment.neighbourhoods import RADIUS, strip_neighbourhoods
 from scangeo.adjustment.results import VariantResult
+from scangeo.adjustment.sensitivity import ground_sensitivity, image_grid
 from scangeo.atomic import write_csv, write_text
-from scangeo.lsq.parameters import JacobianPart, Layout, Parameters
 from scangeo.lsq.reliability import OrientationProbe, Reliability, compute_reliability, delta0
 from scangeo.lsq.statistics import MIN_REDUNDANCY
 
@@ -60,7 +57,8 @@ class VariantReliability:
 def strip_probes(result: VariantResult, grid: tuple[int, int] = PROBE_GRID,
                  radius: int | None = RADIUS) -> list[OrientationProbe]:
     """Per strip, how the unknowns move its ground positions at a grid of image positions (adjusted
-    geometry, on the DTM): ``dG_xy = -(dimage/dG_xy)^-1 dimage/dx`` (see ``OrientationProbe``).
+    geometry, on the DTM): ``dG_xy = -(dimage/dG_xy)^-1 dimage/dx`` (see ``OrientationProbe``;
+    :func:`scangeo.adjustment.sensitivity.ground_sensitivity`).
 
     ``radius``: the probe's neighbourhood (strip steps, :mod:`scangeo.adjustment.neighbourhoods`): the
     observations evaluated for it, where it is smaller than the block; None: every observation.
@@ -70,59 +68,13 @@ def strip_probes(result: VariantResult, grid: tuple[int, int] = PROBE_GRID,
     values = sol.parameters.values()     # once: per strip only its probe points are added (linear)
     project = result.block.project
     out = []
-    for sid, strip in result.block.strips.items():
-        geometry = result.geometry(sid)
-        scanner = project.scanner_of(sid)
-        L, X = np.meshgrid(np.linspace(0.0, geometry.n_lines - 1.0, grid[0]),
-                           np.linspace(0.0, scanner.model.pixels - 1.0, grid[1]), indexing="ij")
-        p_P, _ = geometry.image_to_ground(L.ravel(), X.ravel(), project.dtm)
-        ok = np.isfinite(p_P).all(axis=1)
-        if not ok.any():
+    for sid in result.block.strips:
+        g = ground_sensitivity(result, sid, *image_grid(result, sid, grid), values=values)
+        if g is None:
             continue
-        ids = [f"probe {sid} {k}" for k in range(int(ok.sum()))]
-        probe = ImageObservations(sid, scanner.model, strip.spline, project.timing(sid), ids,
-                                  L.ravel()[ok], X.ravel()[ok], 1.0, name=f"probe {sid}",
-                                  measured_time=scanner.measured_time, flight_line=strip.flight_line,
-                                  sensor_id=strip.sensor)
-        keys = [Ground(i) for i in ids]
-        lin = probe.linearise(ChainMap(dict(zip(keys, p_P[ok])), values))
-        # columns of the adjustment (probe points fixed), and of the probe points alone (x, y free)
-        inside, outside = _split_parts(lin.parts, set(keys))
-        J_x = sol.layout.matrix(outside, probe.n_rows).tocsr()
-        J_g = _probe_layout(keys, p_P[ok]).matrix(inside, probe.n_rows).toarray()   # d(line, pixel)/d(x, y)
-        n = len(ids)
-        blocks = [np.linalg.inv(J_g[2 * i:2 * i + 2, 2 * i:2 * i + 2]) for i in range(n)]
-        M = -(sp.block_diag(blocks, format="csr") @ J_x)
-        x, y, _ = project.map_frame.project_to_map(p_P[ok])
-        out.append(OrientationProbe(sid, M.tocsr(), np.column_stack([x, y]), hoods.get(sid)))
+        x, y, _ = project.map_frame.project_to_map(g.p_P)
+        out.append(OrientationProbe(sid, g.matrix, np.column_stack([x, y]), hoods.get(sid)))
     return out
-
-
-def _probe_layout(keys: list[Ground], p_P: np.ndarray) -> Layout:
-    """The columns of the probe points alone: x, y free, z fixed (positions on the DTM)."""
-    params = Parameters()
-    for k, p in zip(keys, p_P):
-        params.add(k, p, free=np.array([True, True, False]))
-    return Layout.of(params)
-
-
-def _split_parts(parts, keys: set) -> tuple[list[JacobianPart], list[JacobianPart]]:
-    """The Jacobian parts' entries with respect to ``keys`` and those with respect to any other key."""
-    inside: list[JacobianPart] = []
-    outside: list[JacobianPart] = []
-    for part in parts:
-        if part.block is None:
-            (inside if part.keys[0] in keys else outside).append(part)
-            continue
-        r, c, v, b = (np.ravel(a) for a in np.broadcast_arrays(part.rows, part.cols, part.values, part.block))
-        is_key = np.array([k in keys for k in part.keys], dtype=bool)
-        for side, sel in ((inside, is_key[b]), (outside, ~is_key[b])):
-            own = np.flatnonzero(is_key == (side is inside))   # the part's keys on this side, renumbered
-            number = np.full(len(part.keys), -1, dtype=np.int64)
-            number[own] = np.arange(own.size)
-            if own.size:
-                side.append(JacobianPart([part.keys[k] for k in own], r[sel], c[sel], v[sel], number[b[sel]]))
-    return inside, outside
 
 
 def _kinds(result: VariantResult, groups) -> list[np.ndarray]:

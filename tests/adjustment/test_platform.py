@@ -167,3 +167,46 @@ def test_strips_of_two_sensors_on_one_flight_line_must_overlap_in_time(small_blo
     toml.write_text(moved)
     with pytest.raises(ProjectFileError, match=r"strip 01 \(a, .*\) and strip b01 \(b, .*\) do not overlap in time"):
         Project.load(root).flight_line_stream("L01")
+
+
+def test_the_propagation_of_a_displacement_is_the_joint_covariance(small_block, tmp_path):
+    """``D Cov(x) D^T`` by the restricted solves equals the joint covariance of the blocks D selects, and a
+    strip against itself has no relative displacement."""
+    import scipy.sparse as sp
+
+    from scangeo.adjustment.coregistration import _propagate, relative_displacement
+
+    root = copy_project(small_block, tmp_path / "cov", truth=True)
+    _as_platform(root, second="copy")
+    result = run_variant(root, BORESIGHT)
+    layout = result.adjustment.solution.layout
+    cols = np.concatenate([layout.columns(Boresight("b")), layout.columns(Boresight("a"))])
+    D = sp.csr_matrix((np.array([1.0, -1.0, 2.0, 0.5]), (np.array([0, 0, 1, 1]), cols[[0, 3, 1, 5]])),
+                      shape=(2, layout.n))
+    C = result.adjustment.statistics.joint_covariance([Boresight("b"), Boresight("a")])
+    dense = D[:, cols].toarray() @ C @ D[:, cols].toarray().T
+    assert np.allclose(_propagate(result, D)[0], dense, rtol=1e-8, atol=1e-18)
+    same = relative_displacement(result, "01", "01")
+    assert same is not None and same.sigma.size > 0 and np.all(same.sigma < 1e-6)  # metres: the round trip
+
+
+def test_the_coregistration_of_two_sensors_follows_their_relative_boresight(small_block, tmp_path):
+    """Sensor b tied to a by the tie points alone, or by a tight relative-mounting prior: the relative
+    displacement of their rays shrinks with the prior's sigma, and is far below each strip's absolute
+    precision where b carries no measurement of its own."""
+    from scangeo.adjustment.coregistration import coregistration, ground_precision
+
+    loose = copy_project(small_block, tmp_path / "loose", truth=True)
+    _as_platform(loose, second="copy")
+    tight = copy_project(small_block, tmp_path / "tight", truth=True)
+    prior = ('[[relative_mountings]]\nsensor = "b"\nreference = "a"\nboresight_deg = [0.0, 0.0, 0.0]\n'
+             'boresight_sigma_deg = [0.0001, 0.0001, 0.0001]\n\n')
+    _as_platform(tight, second="checks", prior=prior)
+    by_ties, by_prior = (coregistration(run_variant(r, BORESIGHT)) for r in (loose, tight))
+    assert [(c.strip, c.reference) for c in by_ties] == [("b01", "01"), ("b02", "02")]
+    for c in by_ties + by_prior:
+        assert c.sigma.size > 0 and np.all(np.isfinite(c.sigma)) and np.all(c.sigma > 0)
+    assert max(c.summary()["median_m"] for c in by_prior) < min(c.summary()["median_m"] for c in by_ties)
+    result = run_variant(tight, BORESIGHT)
+    absolute = ground_precision(result, "b01")
+    assert absolute is not None and np.median(absolute.sigma) > 5 * by_prior[0].summary()["median_m"]
