@@ -1,10 +1,10 @@
 """Strip neighbourhoods of a block's unknowns: the observations whose blunders the external
 reliability evaluates for a strip.
 
-A strip's unknowns are the columns its own observation groups (its GPS/IMU samples and image
-measurements) touch: its spline knots, the corrections of its GPS/IMU models, the ground points it
-measures. Two strips are neighbours when they share such a column that is not **global**: a column
-that more than ``GLOBAL_STRIPS`` strips touch (a boresight, a block-wide GPS/IMU model) links no two
+A strip's unknowns are the columns its own observation groups (the GPS/IMU samples of its flight line
+and its image measurements) touch: its flight line's spline knots, the corrections of its GPS/IMU
+models, the ground points it measures. Two strips are neighbours when they share such a column that
+is not **global**: a column that more than ``GLOBAL_STRIPS`` strips touch (a boresight, a block-wide GPS/IMU model) links no two
 strips. The neighbourhood of strip ``s`` at radius ``r``
 (:class:`~scangeo.lsq.probe_effects.Neighbourhood`): ``near``, the non-global columns of the strips at
 most ``r`` steps away; the observations that touch them are evaluated for the strip's probe.
@@ -29,15 +29,25 @@ CORE = 2
 
 
 def strip_columns(solution: Solution) -> dict[str, np.ndarray]:
-    """Per strip, the columns its own observation groups (those with a ``strip`` attribute) touch."""
+    """Per strip, the columns its own observation groups touch: those with a ``strip`` attribute (its image
+    measurements) and those of its flight line (a ``flight_line`` attribute without a strip: the GPS/IMU
+    samples, shared by every strip on the flight line; a flight line whose strips measure nothing counts
+    as a strip of its id)."""
     J = solution.system.jacobian
+    on_line: dict[str, list[str]] = {}
+    for g in solution.groups:
+        sid, line = getattr(g, "strip", None), getattr(g, "flight_line", None)
+        if sid is not None and line is not None and str(sid) not in on_line.setdefault(str(line), []):
+            on_line[str(line)].append(str(sid))
     out: dict[str, list[np.ndarray]] = {}
     for g, sl in zip(solution.groups, solution.system.row_slices):
-        sid = getattr(g, "strip", None)
-        if sid is None:
+        sid, line = getattr(g, "strip", None), getattr(g, "flight_line", None)
+        owners = [str(sid)] if sid is not None else on_line.get(str(line), [str(line)]) if line is not None else []
+        if not owners:
             continue
-        rows = J[sl]
-        out.setdefault(str(sid), []).append(np.unique(rows.indices))
+        cols = np.unique(J[sl].indices)
+        for owner in owners:
+            out.setdefault(owner, []).append(cols)
     return {sid: np.unique(np.concatenate(parts)) for sid, parts in out.items()}
 
 

@@ -137,7 +137,7 @@ def residual_rows(result: VariantResult):
     w_all, r_all, res_all = stats.w_tests(), stats.redundancy_numbers(), stats.residuals()
     vr = variant_reliability(result)  # mdb, external reliability, status (reliability_summary.py)
     for gi, (g, act, w, red, res) in enumerate(zip(sol.groups, sol.active, w_all, r_all, res_all)):
-        strip = getattr(g, "strip", "")
+        strip = getattr(g, "strip", None) or getattr(g, "flight_line", "")  # a GPS/IMU group: its flight line
         for i in range(g.n_rows):
             pid = str(g.ids[i])
             kind = (

@@ -192,7 +192,7 @@ def unit_table(vr: VariantReliability) -> list[list]:
     for gi, g in enumerate(sol.groups):
         if g.kind != "observation" or not g.snooped:
             continue
-        strip = str(getattr(g, "strip", ""))
+        strip = str(getattr(g, "strip", None) or getattr(g, "flight_line", ""))  # GPS/IMU: its flight line
         for u in np.unique(g.row_unit):
             sel = np.flatnonzero(g.row_unit == u)
             pid = str(g.ids[sel[0]])
@@ -225,7 +225,7 @@ def summary(vr: VariantReliability) -> list[dict]:
     for gi, g in enumerate(sol.groups):
         if g.kind != "observation":
             continue
-        strip = str(getattr(g, "strip", "")) or "-"
+        strip = str(getattr(g, "strip", None) or getattr(g, "flight_line", "")) or "-"  # GPS/IMU: its flight line
         for i in range(g.n_rows):
             k = (strip, str(vr.kind[gi][i]), str(g.units[i]))
             acc.setdefault(k, []).append((float(rel.mdb[gi][i]), float(rel.ext_point_m[gi][i]),
