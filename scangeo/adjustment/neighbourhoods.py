@@ -4,8 +4,8 @@ reliability evaluates for a strip.
 A strip's unknowns are the columns its own observation groups (the GPS/IMU samples of its flight line
 and its image measurements) touch: its flight line's spline knots, the corrections of its GPS/IMU
 models, the ground points it measures. Two strips are neighbours when they share such a column that
-is not **global**: a column that more than ``GLOBAL_STRIPS`` strips touch (a boresight, a block-wide GPS/IMU model) links no two
-strips. The neighbourhood of strip ``s`` at radius ``r``
+is not **global**: a column that more than ``GLOBAL_STRIPS`` strips touch (a boresight, a block-wide
+GPS/IMU model) links no two strips. The neighbourhood of strip ``s`` at radius ``r``
 (:class:`~scangeo.lsq.probe_effects.Neighbourhood`): ``near``, the non-global columns of the strips at
 most ``r`` steps away; the observations that touch them are evaluated for the strip's probe.
 Strips of one window (a strip and the strips within ``core`` steps not yet served) share one
