@@ -22,7 +22,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.stats
 
-from scangeo.adjustment.calibration import describe_change
+from scangeo.adjustment.calibration import block_calibration, describe_change
 from scangeo.adjustment.gpsimu import GpsImuSamples
 from scangeo.adjustment.ground import DtmHeights, GroundControl
 from scangeo.adjustment.image import ImageObservations
@@ -37,7 +37,6 @@ from scangeo.adjustment.keys import (
     ScanIndex,
     ScanScale,
     TimeOffset,
-    calibration_keys,
 )
 from scangeo.adjustment.mounting import RelativeMountingPrior
 from scangeo.adjustment.priors import (
@@ -60,7 +59,7 @@ from scangeo.errors import AdjustmentError
 from scangeo.filecache import FileCache
 from scangeo.io.point_checks import check_points
 from scangeo.io.points import GroundPoints, ImagePoints
-from scangeo.io.project import Project, SensorConfig
+from scangeo.io.project import Project
 from scangeo.lsq.engine import Adjustment, adjust
 from scangeo.lsq.keys import Key
 from scangeo.lsq.observations import ObservationGroup
@@ -356,17 +355,9 @@ def build_block(project: Project, variant: Variant, points: ImagePoints, ground:
     groups = _observation_groups(setup)
     for note in setup.notes:
         log.warning("%s", note)
-    start = {key: params[key].values.copy() for sid in image_sensors(project)
-             for key, _, _ in calibration_keys(sid) if key in params}
+    start = {key: params[key].values.copy() for key, *_ in block_calibration(project) if key in params}
     return Block(project, variant, strips, setup.models, params, groups, points, ground, setup.roles, setup.notes,
                  calibration_start=start, flight_lines=lines)
-
-
-def image_sensors(project: Project) -> dict[str, SensorConfig]:
-    """The line scanners that recorded the project's image strips, by id (in the file's order)."""
-    used = {s.sensor for s in project.image_strips}
-    return {sid: sensor for sid, sensor in project.sensors.items()
-            if sid in used and isinstance(sensor, SensorConfig)}
 
 
 def _orientation_unknowns(setup: _Setup, params: Parameters) -> None:
@@ -389,7 +380,7 @@ def _calibration_unknowns(setup: _Setup, params: Parameters) -> None:
     A sensor-specific name of ``calibrate`` (a whiskbroom's, a pushbroom's) frees it on the sensors of
     that kind, and must fit one of them."""
     project, v = setup.project, setup.variant
-    sensors = image_sensors(project)
+    sensors = project.line_scanners
     cal = set(v.calibrate)
     for names, kind, cls in ((WHISKBROOM_CALIBRATION, "whiskbroom (scan mirror)", Whiskbroom),
                              (PUSHBROOM_CALIBRATION, "pushbroom (detector line)", Pushbroom)):
@@ -529,7 +520,7 @@ def _observation_groups(setup: _Setup) -> list[ObservationGroup]:
     dtm_pts = [p for p in setup.used if roles[p] == "tie" and v.dtm_height_at(p)]
     if dtm_pts:
         groups.append(DtmHeights(dtm_pts, project.dtm, project.dtm_sigma))
-    sensors = image_sensors(project)
+    sensors = project.line_scanners
     for rel in project.relative_mountings:
         if rel.sensor in sensors and rel.reference in sensors:
             groups.append(RelativeMountingPrior(rel))
@@ -584,10 +575,9 @@ def test_calibration(block: Block, adjust_it: Callable[[], Adjustment]) -> Adjus
     and an entry of ``block.calibration_tests``; the check points take no part.
     """
     v, params = block.variant, block.parameters
-    keys = [(k, f"{sid} {name}" if sid else name, name, unit) for sid in image_sensors(block.project)
-            for k, name, unit in calibration_keys(sid)]
-    names = {key: label for key, label, name, _ in keys if name in v.test_calibration}
-    units = {key: unit for key, _, _, unit in keys}
+    keys = block_calibration(block.project)
+    names = {key: f"{sid} {name}" if sid else name for key, name, _, sid in keys if name in v.test_calibration}
+    units = {key: unit for key, _, unit, _ in keys}
     start = {key: block.calibration_start[key] for key in names if key in block.calibration_start}
     tests = block.calibration_tests
     adjustment = adjust_it()

@@ -20,7 +20,7 @@ import math
 import numpy as np
 import scipy.stats
 
-from scangeo.adjustment.keys import CALIBRATION_KEYS
+from scangeo.adjustment.keys import calibration_keys
 from scangeo.lsq.keys import Key
 
 #: how a value in the block's unit is shown: factor and unit
@@ -31,16 +31,22 @@ def _num(x) -> float | None:
     return None if x is None or not math.isfinite(float(x)) else float(x)
 
 
-def _free(result) -> list[tuple[Key, str, str, int, int]]:
-    """(key, calibrate name, unit, component, column) of every free calibration component."""
+def block_calibration(project) -> list[tuple[Key, str, str, str]]:
+    """Every calibration block of a project's line scanners: (key, name in ``calibrate``, unit, sensor id),
+    sensor by sensor in the file's order (a one-sensor project's: ``calibration_keys()``)."""
+    return [(key, name, unit, sid) for sid in project.line_scanners for key, name, unit in calibration_keys(sid)]
+
+
+def _free(result) -> list[tuple[Key, str, str, int, int, str]]:
+    """(key, calibrate name, unit, component, column, sensor id) of every free calibration component."""
     params, layout = result.adjustment.parameters, result.adjustment.solution.layout
     out = []
-    for key, name, unit in CALIBRATION_KEYS:
+    for key, name, unit, sensor in block_calibration(result.block.project):
         if key not in params:
             continue
         for i, col in enumerate(layout.columns(key)):
             if col >= 0:
-                out.append((key, name, unit, i, int(col)))
+                out.append((key, name, unit, i, int(col), sensor))
     return out
 
 
@@ -71,7 +77,7 @@ def calibration_summary(result, threshold: float = 0.95) -> dict:
     if not free:
         return {"parameters": [], "correlation": {"names": [], "matrix": []}, "correlated": [],
                 "tests": tests_shown(result)}
-    cols = np.array([c for *_, c in free])
+    cols = np.array([c for *_, c, _ in free])
     scale = adj.solution.system.scale[cols]
     q = stats.inverse.block(cols) / np.outer(scale, scale)  # a-priori cofactors (sigma0 = 1)
     sd = np.sqrt(np.diag(q))
@@ -82,7 +88,7 @@ def calibration_summary(result, threshold: float = 0.95) -> dict:
     significance = {(c.key, c.component): c for key in dict.fromkeys(k for k, *_ in free)
                     for c in stats.significance(key)}
     rows, names = [], []
-    for k, (key, name, unit, i, _) in enumerate(free):
+    for k, (key, name, unit, i, _, sensor) in enumerate(free):
         block = params[key]
         comp = block.names[i]
         f, unit_shown = _SHOWN[unit]
@@ -90,11 +96,12 @@ def calibration_summary(result, threshold: float = 0.95) -> dict:
         prior = None if block.prior_sigma is None or not np.isfinite(block.prior_sigma[i]) else float(
             block.prior_sigma[i])
         share = None if prior is None else max(0.0, 1.0 - float(q[k, k]) / prior**2)
-        names.append(label(name, comp))
+        names.append(f"{sensor} {label(name, comp)}" if sensor else label(name, comp))
         start = result.block.calibration_start.get(key)
         x0 = float(start[i]) if start is not None else 0.0
         t_change = abs(c.value - x0) / c.sigma if c.sigma > 0 else None
-        rows.append({"name": names[-1], "calibrate": name, "unit": unit_shown, "value": _num(c.value * f),
+        rows.append({"name": names[-1], "calibrate": name, **({"sensor": sensor} if sensor else {}),
+                     "unit": unit_shown, "value": _num(c.value * f),
                      "sigma": _num(c.sigma * f), "t": _num(c.t), "significant": c.significant,
                      "start": _num(x0 * f), "change": _num((c.value - x0) * f), "t_change": _num(t_change),
                      "significant_change": bool(t_change is not None and t_change > critical),

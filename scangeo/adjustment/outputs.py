@@ -20,9 +20,8 @@ import json
 import math
 from pathlib import Path
 
-from scangeo.adjustment.calibration import calibration_summary
+from scangeo.adjustment.calibration import block_calibration, calibration_summary
 from scangeo.adjustment.image import ImageObservations
-from scangeo.adjustment.keys import CALIBRATION_KEYS
 from scangeo.adjustment.reliability_summary import COLUMNS as RELIABILITY_COLUMNS
 from scangeo.adjustment.reliability_summary import check_columns, row_columns, variant_reliability, write_reliability
 from scangeo.adjustment.results import VariantResult
@@ -45,7 +44,7 @@ def coefficient_table(result: VariantResult) -> list[dict]:
     """Per GPS/IMU model and calibration block: value and sigma (m or deg) and significance."""
     stats = result.adjustment.statistics
     out = []
-    units = {key: unit for key, _, unit in CALIBRATION_KEYS}
+    units = {key: unit for key, _, unit, _ in block_calibration(result.block.project)}
     keys = [m.key for m in result.block.models] + list(units)
     for key in keys:
         if key not in result.adjustment.parameters:

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from scangeo.adjustment.block import Block, adjust_variant, image_sensors
+from scangeo.adjustment.block import Block, adjust_variant
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.keys import (
     AcrossOffset,
@@ -142,7 +142,7 @@ class VariantResult:
         """
         p = self.adjustment.parameters
         scanner = self.block.project.sensors[sensor]
-        assert isinstance(scanner, SensorConfig)  # the block's sensors are line scanners (image_sensors)
+        assert isinstance(scanner, SensorConfig)  # the block's sensors are line scanners (line_scanners)
         model = scanner.model
         if isinstance(model, Whiskbroom):
             model = model.with_calibration(index_error=float(p[ScanIndex(sensor)].values[0]),
@@ -164,7 +164,7 @@ class VariantResult:
         """
         if self._orientation is None:
             project, p = self.block.project, self.adjustment.parameters
-            sensors = {sid: self.sensor_setup(sid) for sid in image_sensors(project)}
+            sensors = {sid: self.sensor_setup(sid) for sid in project.line_scanners}
             strips = {sid: StripOrientation(sid, s.geometry.n_lines, s.geometry.timing, self.spline(sid), s.sensor,
                                             "" if s.flight_line == sid else s.flight_line)
                       for sid, s in self.block.strips.items()}
@@ -192,7 +192,7 @@ class VariantResult:
             The relative rotation (roll, pitch, heading, radians) and lever-arm difference (metres),
             their standard deviations, and the prior where one was given.
         """
-        sensors = list(image_sensors(self.block.project))
+        sensors = list(self.block.project.line_scanners)
         if len(sensors) < 2:
             return []
         priors = {(r.sensor, r.reference): r for r in self.block.project.relative_mountings

@@ -373,6 +373,18 @@ class Project:
         return tuple(s for s in self.strips if not isinstance(self.sensors[s.sensor], LaserSensor))
 
     @property
+    def line_scanners(self) -> dict[str, SensorConfig]:
+        """The line scanners that recorded the image strips, by id, in the file's order.
+
+        Returns
+        -------
+        dict of str to SensorConfig
+            Whiskbrooms and pushbrooms with at least one strip.
+        """
+        used = {s.sensor for s in self.image_strips}
+        return {sid: sc for sid, sc in self.sensors.items() if sid in used and isinstance(sc, SensorConfig)}
+
+    @property
     def laser_strips(self) -> tuple[StripConfig, ...]:
         """The strips of laser scanners (returns).
 

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from scangeo.atomic import write_text
 from scangeo.errors import OrientationFileError
-from scangeo.io.project import Project, SensorConfig
+from scangeo.io.project import Project
 from scangeo.orientation.codec import orientation_dict, orientation_from_dict
 from scangeo.orientation.document import (
     DIRECT,
@@ -75,9 +75,7 @@ class _DirectStrips(Mapping[str, StripOrientation]):
 
 def project_sensors(project: Project) -> dict[str, SensorSetup]:
     """The line scanners of a project as project.toml gives them (model and mounting), by id."""
-    used = {s.sensor for s in project.image_strips}
-    return {sid: SensorSetup(sc.model, sc.mounting) for sid, sc in project.sensors.items()
-            if sid in used and isinstance(sc, SensorConfig)}
+    return {sid: SensorSetup(sc.model, sc.mounting) for sid, sc in project.line_scanners.items()}
 
 
 def direct_orientation(project: Project) -> Orientation:

@@ -13,10 +13,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from scangeo.adjustment.keys import CALIBRATION_KEYS
+from scangeo.adjustment.calibration import block_calibration
 from scangeo.orientation.models import Correction
 
-_CALIBRATION = tuple(key for key, _, _ in CALIBRATION_KEYS)
 _KIND = {"x": "shift in x", "y": "shift in y", "z": "height shift", "roll": "roll", "pitch": "pitch",
          "heading": "heading", "omega": "rotation"}
 
@@ -54,7 +53,7 @@ def correlated_pairs(result, threshold: float = 0.95) -> list[dict]:
     """``[{model, a, b, r, note}]`` for every pair of unknowns with ``|r| > threshold`` (module docstring)."""
     adj = result.adjustment
     stats, layout, params = adj.statistics, adj.solution.layout, adj.parameters
-    calib = [k for k in _CALIBRATION if k in params and params[k].free.any()]
+    calib = [k for k, *_ in block_calibration(result.block.project) if k in params and params[k].free.any()]
     out = []
     for block in params:
         key = block.key
