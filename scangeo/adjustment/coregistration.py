@@ -165,8 +165,15 @@ def coregistration(result: VariantResult, grid: tuple[int, int] = GRID) -> list[
     Returns
     -------
     list of PropagatedGrid
-        One per strip that has a reference, in the block's order.
+        One per strip that has a reference, in the block's order (computed once per result and grid).
     """
+    cached = result.__dict__.setdefault("_coregistration", {})
+    if grid not in cached:
+        cached[grid] = _coregistration(result, grid)
+    return cached[grid]
+
+
+def _coregistration(result: VariantResult, grid: tuple[int, int]) -> list[PropagatedGrid]:
     out = []
     block = result.block
     for line in block.flight_lines.values():

@@ -9,7 +9,12 @@
 - ``report.json``: sigma0, accounting, iterations, rms per strip, coefficients, the calibration (estimates,
   sigmas, t-tests, priors, correlations: ``scangeo.adjustment.calibration``), notes;
 - ``reliability.csv``, ``reliability.json``: MDBs and external reliability per observation unit, per
-  strip and kind of point, non-separable points (``scangeo.adjustment.reliability_summary``).
+  strip and kind of point, non-separable points (``scangeo.adjustment.reliability_summary``);
+- of a platform (several sensors): ``report.json``'s ``platform`` (per sensor its adjusted mounting with
+  its precision, the flight lines and their strips, the relative mountings with their precision and
+  prior, per strip its propagated ground precision, whether it has control, and its co-registration
+  summary) and ``coregistration.json`` (per strip the propagated 1-sigma relative ground displacement to
+  its flight line's reference strip on a grid of its image: ``scangeo.adjustment.coregistration``).
 
 The folder is written under a temporary name and renamed when complete.
 """
@@ -21,6 +26,7 @@ import math
 from pathlib import Path
 
 from scangeo.adjustment.calibration import block_calibration, calibration_summary
+from scangeo.adjustment.coregistration import coregistration, ground_precision
 from scangeo.adjustment.image import ImageObservations
 from scangeo.adjustment.reliability_summary import COLUMNS as RELIABILITY_COLUMNS
 from scangeo.adjustment.reliability_summary import check_columns, row_columns, variant_reliability, write_reliability
@@ -33,6 +39,8 @@ from scangeo.trajectory.readers import write_trajectory_csv
 from scangeo.trajectory.stream import GpsImuStream, ProjectTrajectory
 
 _ANGULAR = ("roll", "pitch", "heading", "omega")
+#: A platform's co-registration grids in a variant's results folder (module docstring).
+COREGISTRATION_FILE = "coregistration.json"
 
 
 def _num(x):
@@ -124,7 +132,56 @@ def report_dict(result: VariantResult) -> dict:
             for r in adj.rejections
         ],
         "notes": list(result.notes),
+        **({"platform": platform_summary(result)} if result.block.project.is_platform else {}),
     }
+
+
+def _deg(values) -> list[float | None]:
+    return [_num(math.degrees(float(v))) for v in values]
+
+
+def platform_summary(result: VariantResult) -> dict:
+    """The platform of a variant (module docstring): sensors' mountings, flight lines, relative mountings,
+    per strip its control, ground precision and co-registration (metres and degrees)."""
+    project, params, stats = result.block.project, result.adjustment.parameters, result.adjustment.statistics
+    sensors = {}
+    for sid in project.line_scanners:
+        m = result.mounting(sid)
+        entry = {"boresight_deg": _deg(m.boresight), "lever_arm_m": [float(v) for v in m.lever_arm_B],
+                 "time_offset_s": float(m.time_offset)}
+        for key, name, unit, sensor in block_calibration(project):
+            if sensor == sid and params[key].free.any():
+                sig = stats.sigmas(key)
+                entry[f"{name}_sigma_{'deg' if unit == 'rad' else unit}"] = (
+                    _deg(sig) if unit == "rad" else [_num(v) for v in sig])
+        sensors[sid] = entry
+    relative = []
+    for r in result.relative_mountings():
+        prior = r.prior
+        relative.append({
+            "sensor": r.sensor, "reference": r.reference, "boresight_deg": _deg(r.boresight),
+            "boresight_sigma_deg": _deg(r.boresight_sigma), "lever_arm_m": [float(v) for v in r.lever_arm],
+            "lever_arm_sigma_m": [_num(v) for v in r.lever_arm_sigma],
+            "prior": None if prior is None else {
+                "boresight_deg": None if prior.boresight is None else _deg(prior.boresight),
+                "boresight_sigma_deg": None if prior.boresight_sigma is None else _deg(prior.boresight_sigma),
+                "lever_arm_m": None if prior.lever_arm is None else [float(v) for v in prior.lever_arm],
+                "lever_arm_sigma_m": (None if prior.lever_arm_sigma is None
+                                      else [float(v) for v in prior.lever_arm_sigma]),
+            }})
+    co = {c.strip: c for c in coregistration(result)}
+    rms = result.rms_per_strip()
+    strips = {}
+    for sid, s in result.block.strips.items():
+        absolute = ground_precision(result, sid)
+        strips[sid] = {"sensor": s.sensor, "flight_line": s.flight_line,
+                       "control_measurements": rms[sid]["control"]["n"],
+                       "ground_precision_m": None if absolute is None else absolute.summary(),
+                       "coregistration": None if sid not in co else {"reference": co[sid].reference,
+                                                                      **co[sid].summary()}}
+    return {"sensors": sensors,
+            "flight_lines": {fid: list(line.strips) for fid, line in result.block.flight_lines.items()},
+            "relative_mountings": relative, "strips": strips}
 
 
 def residual_rows(result: VariantResult):
@@ -211,6 +268,11 @@ def _write_folder(result: VariantResult, tmp: Path) -> None:
     with open(tmp / "residuals.csv", "w", newline="") as f:  # inside write_results' atomic folder
         csv.writer(f).writerows(residual_rows(result))
     (tmp / "report.json").write_text(json.dumps(report_dict(result), indent=1))
+    if result.block.project.is_platform:
+        grids = [c.as_dict() for c in coregistration(result)]
+        (tmp / COREGISTRATION_FILE).write_text(json.dumps({"schema": "scangeo.coregistration/1", "unit": "m",
+                                                           "strips": grids}, indent=1))
 
 
-__all__ = ["coefficient_table", "report_dict", "residual_rows", "write_results"]
+__all__ = ["COREGISTRATION_FILE", "coefficient_table", "platform_summary", "report_dict", "residual_rows",
+           "write_results"]

@@ -210,3 +210,30 @@ def test_the_coregistration_of_two_sensors_follows_their_relative_boresight(smal
     result = run_variant(tight, BORESIGHT)
     absolute = ground_precision(result, "b01")
     assert absolute is not None and np.median(absolute.sigma) > 5 * by_prior[0].summary()["median_m"]
+
+
+def test_a_platform_variant_writes_its_mountings_and_coregistration(small_block, tmp_path):
+    """report.json's platform section and coregistration.json: what the report and rectify read."""
+    import json
+
+    from scangeo.adjustment.outputs import write_results
+
+    prior = ('[[relative_mountings]]\nsensor = "b"\nreference = "a"\nboresight_deg = [0.0, 0.0, 0.0]\n'
+             'boresight_sigma_deg = [0.001, 0.001, 0.002]\n\n')
+    root = copy_project(small_block, tmp_path / "written", truth=True)
+    _as_platform(root, second="checks", prior=prior, b_offset_deg=0.2)
+    result = run_variant(root, BORESIGHT)
+    folder = write_results(result)
+    platform = json.loads((folder / "report.json").read_text())["platform"]
+    assert set(platform["sensors"]) == {"a", "b"} and platform["flight_lines"] == {"L01": ["01", "b01"],
+                                                                                    "L02": ["02", "b02"]}
+    (rel,) = platform["relative_mountings"]
+    assert rel["prior"]["boresight_sigma_deg"] == pytest.approx([0.001, 0.001, 0.002])
+    assert np.allclose(rel["boresight_deg"], 0.0, atol=1e-6)
+    b01 = platform["strips"]["b01"]
+    assert b01["control_measurements"] == 0 and b01["coregistration"]["reference"] == "01"
+    assert b01["ground_precision_m"]["median_m"] > b01["coregistration"]["median_m"] > 0
+    grids = json.loads((folder / "coregistration.json").read_text())["strips"]
+    assert [g["strip"] for g in grids] == ["b01", "b02"] and len(grids[0]["sigma_m"]) == grids[0]["n"] > 0
+    doc = json.loads((folder / "orientation.json").read_text())
+    assert doc["schema"] == "scangeo.orientation/2" and [s["id"] for s in doc["sensors"]] == ["a", "b"]
