@@ -62,6 +62,52 @@ def copy_project(source: Path, target: Path, truth: bool = False) -> Path:
     return target
 
 
+def as_platform(root, second: str | None = None, prior: str = "", b_offset_deg: float = 0.0) -> None:
+    """Rewrite a one-sensor project as a platform: sensor ``a``, flight lines ``L01``, ``L02`` with the
+    strips' trajectories; with ``second``, a sensor ``b`` (the same scanner, its boresight off by
+    ``b_offset_deg`` in roll) with strips ``b01``, ``b02`` on the same flight lines, measured as
+    ``second`` says: ``"copy"`` (every measurement of a's strips but those of control points) or
+    ``"checks"`` (only the check points'). The second sensor is the first one again: what it must get from
+    the platform is then known exactly (tests/adjustment/test_platform.py)."""
+    import re
+
+    from scangeo.io.points import ImagePoints
+
+    text = (root / "project.toml").read_text()
+    sensor = re.search(r"\[sensor\]\n(.*?)\n\n", text, re.S).group(1)
+    strips = re.findall(r"\[\[strips\]\]\n(.*?)(?=\n\n|\Z)", text, re.S)
+    out = [text[:text.index("[sensor]")], "[[sensors]]\nid = \"a\"\n" + sensor + "\n\n"]
+    if second:
+        b = re.sub(r"boresight_deg = \[([^,]+),", lambda m: f"boresight_deg = [{float(m.group(1)) + b_offset_deg},",
+                   sensor) if "boresight_deg" in sensor else sensor + f"\nboresight_deg = [{b_offset_deg}, 0.0, 0.0]"
+        out.append("[[sensors]]\nid = \"b\"\n" + b + "\n\n")
+    out.append(prior)
+    for body in strips:
+        sid = re.search(r'id = "([^"]+)"', body).group(1)
+        traj = re.search(r'trajectory = "([^"]+)"', body).group(1)
+        out.append(f'[[flight_lines]]\nid = "L{sid}"\ntrajectory = "{traj}"\n\n')
+    for body in strips:
+        sid = re.search(r'id = "([^"]+)"', body).group(1)
+        rest = re.sub(r'trajectory = "[^"]+"\n?', "", body).strip()
+        out.append(f"[[strips]]\n{rest}\nsensor = \"a\"\nflight_line = \"L{sid}\"\n\n")
+        if second:
+            rest_b = rest.replace(f'id = "{sid}"', f'id = "b{sid}"')
+            out.append(f"[[strips]]\n{rest_b}\nsensor = \"b\"\nflight_line = \"L{sid}\"\n\n")
+    (root / "project.toml").write_text("".join(out))
+    if second:
+        points = ImagePoints.read(root / "points.csv")
+        roles = dict(line.split(",")[0::6] for line in (root / "ground.csv").read_text().splitlines()[1:])
+        role = [roles.get(str(p), "tie") for p in points.point]
+        keep = [i for i, r in enumerate(role) if r == "check" or (second == "copy" and r != "control")]
+        rows = (root / "points.csv").read_text().splitlines()
+        extra = []
+        for i in keep:
+            cells = rows[points.file_line[i] - 1].split(",")
+            cells[1] = "b" + cells[1]
+            extra.append(",".join(cells))
+        (root / "points.csv").write_text("\n".join(rows + extra) + "\n")
+
+
 #: Two variants for ``scangeo compare`` on a project without a problem strip (no default variants needed).
 TWO_VARIANTS = '[variants.DG]\nstrategy = "DG"\nsnooping = false\n\n[variants.SE]\nstrategy = "SE"\n'
 

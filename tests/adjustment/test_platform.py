@@ -17,56 +17,14 @@ from scangeo.adjustment.keys import Boresight, Knots
 from scangeo.adjustment.results import run_variant
 from scangeo.adjustment.variants import Variant
 from scangeo.errors import ProjectFileError
-from scangeo.io.points import ImagePoints
 from scangeo.io.project import Project
-from tests.session_projects import copy_project
+from tests.session_projects import as_platform, copy_project
 
 SE = Variant("SE", "SE")
 P2 = Variant("P2", "P", position_degree=2, attitude_degree=1)
 #: position corrections per flight line and the boresights calibrated (an attitude constant per flight line
 #: and a boresight would be one unknown twice)
 BORESIGHT = Variant("SE_B", "SE", attitude_degree=-1, calibrate=("boresight",))
-
-
-def _as_platform(root, second: str | None = None, prior: str = "", b_offset_deg: float = 0.0) -> None:
-    """Rewrite a one-sensor project as a platform: sensor ``a``, flight lines ``L01``, ``L02`` with the
-    strips' trajectories; with ``second``, a sensor ``b`` (the same scanner, its boresight off by
-    ``b_offset_deg`` in roll) with strips ``b01``, ``b02`` on the same flight lines, measured as
-    ``second`` says: ``"copy"`` (every measurement of a's strips but those of control points) or
-    ``"checks"`` (only the check points')."""
-    text = (root / "project.toml").read_text()
-    sensor = re.search(r"\[sensor\]\n(.*?)\n\n", text, re.S).group(1)
-    strips = re.findall(r"\[\[strips\]\]\n(.*?)(?=\n\n|\Z)", text, re.S)
-    out = [text[:text.index("[sensor]")], "[[sensors]]\nid = \"a\"\n" + sensor + "\n\n"]
-    if second:
-        b = re.sub(r"boresight_deg = \[([^,]+),", lambda m: f"boresight_deg = [{float(m.group(1)) + b_offset_deg},",
-                   sensor) if "boresight_deg" in sensor else sensor + f"\nboresight_deg = [{b_offset_deg}, 0.0, 0.0]"
-        out.append("[[sensors]]\nid = \"b\"\n" + b + "\n\n")
-    out.append(prior)
-    for body in strips:
-        sid = re.search(r'id = "([^"]+)"', body).group(1)
-        traj = re.search(r'trajectory = "([^"]+)"', body).group(1)
-        out.append(f'[[flight_lines]]\nid = "L{sid}"\ntrajectory = "{traj}"\n\n')
-    for body in strips:
-        sid = re.search(r'id = "([^"]+)"', body).group(1)
-        rest = re.sub(r'trajectory = "[^"]+"\n?', "", body).strip()
-        out.append(f"[[strips]]\n{rest}\nsensor = \"a\"\nflight_line = \"L{sid}\"\n\n")
-        if second:
-            rest_b = rest.replace(f'id = "{sid}"', f'id = "b{sid}"')
-            out.append(f"[[strips]]\n{rest_b}\nsensor = \"b\"\nflight_line = \"L{sid}\"\n\n")
-    (root / "project.toml").write_text("".join(out))
-    if second:
-        points = ImagePoints.read(root / "points.csv")
-        roles = dict(line.split(",")[0::6] for line in (root / "ground.csv").read_text().splitlines()[1:])
-        role = [roles.get(str(p), "tie") for p in points.point]
-        keep = [i for i, r in enumerate(role) if r == "check" or (second == "copy" and r != "control")]
-        rows = (root / "points.csv").read_text().splitlines()
-        extra = []
-        for i in keep:
-            cells = rows[points.file_line[i] - 1].split(",")
-            cells[1] = "b" + cells[1]
-            extra.append(",".join(cells))
-        (root / "points.csv").write_text("\n".join(rows + extra) + "\n")
 
 
 @pytest.fixture(scope="module")
@@ -77,7 +35,7 @@ def legacy(small_block, tmp_path_factory):
 
 def test_a_one_sensor_project_as_a_platform_adjusts_to_the_same_numbers(small_block, tmp_path, legacy):
     root = copy_project(small_block, tmp_path / "platform", truth=True)
-    _as_platform(root)
+    as_platform(root)
     project = Project.load(root)
     assert list(project.sensors) == ["a"] and set(project.flight_lines) == {"L01", "L02"}
     assert project.flight_line_of("01").trajectory == project.root / "nav" / "01.csv"
@@ -96,7 +54,7 @@ def test_a_second_sensor_takes_the_drift_corrections_of_its_flight_line(small_bl
     boresight comes out as a's (its nominal roll was 0.05 deg off) and its check residuals are a's to within
     the relative boresight's precision."""
     root = copy_project(small_block, tmp_path / "pair", truth=True)
-    _as_platform(root, second="copy", b_offset_deg=0.05)
+    as_platform(root, second="copy", b_offset_deg=0.05)
     result = run_variant(root, BORESIGHT)
     (rel,) = result.relative_mountings()
     assert (rel.sensor, rel.reference) == ("b", "a") and rel.prior is None
@@ -121,7 +79,7 @@ def test_a_relative_mounting_prior_holds_a_sensor_without_measurements(small_blo
     prior = ('[[relative_mountings]]\nsensor = "b"\nreference = "a"\nboresight_deg = [0.0, 0.0, 0.0]\n'
              'boresight_sigma_deg = [0.002, 0.002, 0.004]\n\n')
     root = copy_project(small_block, tmp_path / "prior", truth=True)
-    _as_platform(root, second="checks", prior=prior, b_offset_deg=0.3)
+    as_platform(root, second="checks", prior=prior, b_offset_deg=0.3)
     result = run_variant(root, BORESIGHT)
     values = result.adjustment.parameters
     assert np.allclose(values[Boresight("b")].values, values[Boresight("a")].values, atol=1e-8)  # the prior alone
@@ -149,7 +107,7 @@ def test_a_relative_mounting_prior_holds_a_sensor_without_measurements(small_blo
 ])
 def test_bad_platform_files_are_named_with_their_key(small_block, tmp_path, edit, message):
     root = copy_project(small_block, tmp_path / "bad")
-    _as_platform(root, second="copy")
+    as_platform(root, second="copy")
     toml = root / "project.toml"
     toml.write_text(edit(toml.read_text()))
     with pytest.raises(ProjectFileError, match=message) as err:
@@ -159,7 +117,7 @@ def test_bad_platform_files_are_named_with_their_key(small_block, tmp_path, edit
 
 def test_strips_of_two_sensors_on_one_flight_line_must_overlap_in_time(small_block, tmp_path):
     root = copy_project(small_block, tmp_path / "apart")
-    _as_platform(root, second="copy")
+    as_platform(root, second="copy")
     toml = root / "project.toml"
     text = toml.read_text()
     first = re.search(r'id = "b01"\n.*?first_line_time = ([0-9.]+)', text, re.S)
@@ -177,7 +135,7 @@ def test_the_propagation_of_a_displacement_is_the_joint_covariance(small_block, 
     from scangeo.adjustment.coregistration import _propagate, relative_displacement
 
     root = copy_project(small_block, tmp_path / "cov", truth=True)
-    _as_platform(root, second="copy")
+    as_platform(root, second="copy")
     result = run_variant(root, BORESIGHT)
     layout = result.adjustment.solution.layout
     cols = np.concatenate([layout.columns(Boresight("b")), layout.columns(Boresight("a"))])
@@ -197,11 +155,11 @@ def test_the_coregistration_of_two_sensors_follows_their_relative_boresight(smal
     from scangeo.adjustment.coregistration import coregistration, ground_precision
 
     loose = copy_project(small_block, tmp_path / "loose", truth=True)
-    _as_platform(loose, second="copy")
+    as_platform(loose, second="copy")
     tight = copy_project(small_block, tmp_path / "tight", truth=True)
     prior = ('[[relative_mountings]]\nsensor = "b"\nreference = "a"\nboresight_deg = [0.0, 0.0, 0.0]\n'
              'boresight_sigma_deg = [0.0001, 0.0001, 0.0001]\n\n')
-    _as_platform(tight, second="checks", prior=prior)
+    as_platform(tight, second="checks", prior=prior)
     by_ties, by_prior = (coregistration(run_variant(r, BORESIGHT)) for r in (loose, tight))
     assert [(c.strip, c.reference) for c in by_ties] == [("b01", "01"), ("b02", "02")]
     for c in by_ties + by_prior:
@@ -221,7 +179,7 @@ def test_a_platform_variant_writes_its_mountings_and_coregistration(small_block,
     prior = ('[[relative_mountings]]\nsensor = "b"\nreference = "a"\nboresight_deg = [0.0, 0.0, 0.0]\n'
              'boresight_sigma_deg = [0.001, 0.001, 0.002]\n\n')
     root = copy_project(small_block, tmp_path / "written", truth=True)
-    _as_platform(root, second="checks", prior=prior, b_offset_deg=0.2)
+    as_platform(root, second="checks", prior=prior, b_offset_deg=0.2)
     result = run_variant(root, BORESIGHT)
     folder = write_results(result)
     platform = json.loads((folder / "report.json").read_text())["platform"]

@@ -19,6 +19,13 @@ along each strip's lines:
 :mod:`scangeo.adjustment.diagnosis.patterns` fits C0 piecewise-linear error functions to them and
 chooses the breaks by BIC; a strip with at least one break is a problem strip. Check points are
 never used: they stay independent for the comparison.
+
+On a platform the error functions belong to the **flight line** (its GPS/IMU drift is one drift, whichever
+sensor sees it): the diagnosis's strips are one per flight line, the first of its strips in the block,
+whose lines are the axis of the flight line's functions (:func:`flight_line_units`); the measurements of
+the other strips on it enter at the unit's line of their time. A tie point counts once per flight line
+(rays of one flight line's sensors meet at a small angle: no height). A one-sensor project's strips are
+their own units.
 """
 from __future__ import annotations
 
@@ -292,13 +299,37 @@ def _ray_weights(centres: np.ndarray, point: np.ndarray) -> np.ndarray:
     return np.einsum("k,mkl->ml", G[2], A)
 
 
+def flight_line_units(result: VariantResult) -> tuple[list[str], dict[str, str]]:
+    """The diagnosis's strips (one per flight line: its first strip in the block) and each strip's unit
+    (module docstring)."""
+    units: list[str] = []
+    unit_of: dict[str, str] = {}
+    first: dict[str, str] = {}
+    for sid, s in result.block.strips.items():
+        if s.flight_line not in first:
+            first[s.flight_line] = sid
+            units.append(sid)
+        unit_of[sid] = first[s.flight_line]
+    return units, unit_of
+
+
+def _unit_lines(project: Project, strip: str, unit: str, lines: np.ndarray, n_unit: int) -> np.ndarray:
+    """Lines of a strip as lines of its unit: the unit's line at the same time (within the unit's lines)."""
+    if strip == unit:
+        return np.asarray(lines, float)
+    t = project.timing(strip).time_of_line(np.asarray(lines, float))
+    return np.clip(project.timing(unit).line_of_time(t), 0.0, n_unit - 1.0)
+
+
 def pattern_data(result: VariantResult, dtm_height_points=("*",), image_channels: bool = False
                  ) -> tuple[PatternData, list[StripSeries]]:
     """The diagnosis's observations from an adjusted SE block (module docstring)."""
     block, adj = result.block, result.adjustment
     project = block.project
-    strips = list(block.strips)
+    strips, unit_of = flight_line_units(result)
+    every = list(block.strips)
     n_lines = [project.n_lines(s) for s in strips]
+    n_of = {s: project.n_lines(s) for s in strips}
     axes = _across_axes(result)
     params = adj.parameters
     pts, sts = block.points.point.astype(str), block.points.strip.astype(str)
@@ -307,7 +338,7 @@ def pattern_data(result: VariantResult, dtm_height_points=("*",), image_channels
     P = np.array([params[Ground(p)].values for p in ties]).reshape(-1, 3)
     mis, _ = project.dtm.height_condition(P) if ties else (np.zeros(0), None)
     centre = {}
-    for sid in strips:
+    for sid in every:
         sel = np.flatnonzero(sts == sid)
         t = project.timing(sid).time_of_line(block.points.line[sel])
         centre[sid] = dict(zip(pts[sel], result.spline(sid).evaluate(t)[:, :3]))
@@ -319,9 +350,14 @@ def pattern_data(result: VariantResult, dtm_height_points=("*",), image_channels
     tline: list[float] = []
     tw: list[float] = []
     lines_of = {(p, s): line for p, s, line in zip(pts, sts, block.points.line)}
+
+    def unit_line(p: str, s: str) -> float:
+        u = unit_of[s]
+        return float(_unit_lines(project, s, u, np.array([lines_of[(p, s)]]), n_of[u])[0])
+
     tie_series: dict[str, list] = {s: [] for s in strips}
     for i, p in enumerate(ties):
-        seen = [s for s in strips if p in centre[s]]
+        seen = list({unit_of[s]: s for s in reversed(every) if p in centre[s]}.values())[::-1]  # one per unit
         if len(seen) < 2 or not np.isfinite(mis[i]):
             continue
         g = _ray_weights(np.array([centre[s][p] for s in seen]), P[i])
@@ -329,31 +365,32 @@ def pattern_data(result: VariantResult, dtm_height_points=("*",), image_channels
         value.append(float(mis[i]))
         channel.append(0)
         for s, gs in zip(seen, g):
-            line = float(lines_of[(p, s)])
-            tie_series[s].append((line, float(mis[i]), p))
+            line = unit_line(p, s)
+            tie_series[unit_of[s]].append((line, float(mis[i]), p))
             for k, w in ((0, -float(gs @ axes[s])), (1, -float(gs[2]))):
                 trow.append(r)
-                tstrip.append(strips.index(s))
+                tstrip.append(strips.index(unit_of[s]))
                 tcomp.append(k)
                 tline.append(line)
                 tw.append(w)
-    _control_rows(result, strips, axes, value, channel, trow, tstrip, tcomp, tline, tw)
+    _control_rows(result, strips, unit_of, axes, value, channel, trow, tstrip, tcomp, tline, tw)
     ip, istrip, dl, dp, act = result.image_residuals(("control", "height", "planimetric", "tie"))
-    image_lines = {}
-    for s in strips:
+    parts: dict[str, list] = {s: [] for s in strips}
+    for s in every:
         sel = (istrip == s) & act
-        lines = np.array([lines_of[(p, s)] for p in ip[sel]], float)
-        image_lines[s] = (lines, dl[sel], dp[sel], np.array([block.role(p) for p in ip[sel]], dtype=object))
+        lines = np.array([unit_line(p, s) for p in ip[sel]], float)
+        parts[unit_of[s]].append((lines, dl[sel], dp[sel], np.array([block.role(p) for p in ip[sel]], dtype=object)))
         if image_channels:
             for c, (res, k) in enumerate(((dl[sel], 2), (dp[sel], 3)), start=2):
                 for line, v in zip(lines, res):
                     trow.append(len(value))
                     value.append(float(v))
                     channel.append(c)
-                    tstrip.append(strips.index(s))
+                    tstrip.append(strips.index(unit_of[s]))
                     tcomp.append(k)
                     tline.append(float(line))
                     tw.append(1.0)
+    image_lines = {u: tuple(np.concatenate(c) for c in zip(*parts[u])) for u in strips}
     channels = ("misclosure_m", "control_across_px") + (("along_px", "across_px") if image_channels else ())
     data = PatternData(np.asarray(value, float), np.asarray(channel, int), np.asarray(trow, int),
                        np.asarray(tstrip, int), np.asarray(tcomp, int), np.asarray(tline, float),
@@ -369,17 +406,22 @@ def pattern_data(result: VariantResult, dtm_height_points=("*",), image_channels
     return data, series
 
 
-def _control_rows(result: VariantResult, strips, axes, value, channel, trow, tstrip, tcomp, tline, tw) -> None:
+def _control_rows(result: VariantResult, strips, unit_of, axes, value, channel, trow, tstrip, tcomp, tline,
+                  tw) -> None:
     """Rows of the across-track image residuals of full control points: ``J . e_s(l)``, with ``J`` the
     change of the point's pixel with its ground position (a shift of the sensor by ``e`` moves the
-    pixel as a shift of the point by ``-e``, and the model lacks ``e``)."""
+    pixel as a shift of the point by ``-e``, and the model lacks ``e``); every strip's rows go to its
+    unit's functions (``unit_of``), at the unit's lines."""
     block = result.block
+    project = block.project
     ip, istrip, dl, dp, act = result.image_residuals(("control",))
     given = {str(p): i for i, p in enumerate(block.ground.point)}
     frame = block.project.map_frame
     lines_of = {(str(p), str(s)): line for p, s, line in zip(block.points.point, block.points.strip, block.points.line)}
-    for s in strips:
+    for s in block.strips:
         sel = np.flatnonzero((istrip == s) & act)
+        unit = unit_of[s]
+        n_unit = project.n_lines(unit)
         if sel.size == 0:
             continue
         xyz = block.ground.xyz[[given[str(p)] for p in ip[sel]]]
@@ -396,10 +438,10 @@ def _control_rows(result: VariantResult, strips, axes, value, channel, trow, tst
             r = len(value)
             value.append(float(dp[k]))
             channel.append(1)
-            line = float(lines_of[(str(ip[k]), s)])
+            line = float(_unit_lines(project, s, unit, np.array([lines_of[(str(ip[k]), s)]]), n_unit)[0])
             for comp, w in ((0, jac[0][i]), (1, jac[1][i])):
                 trow.append(r)
-                tstrip.append(strips.index(s))
+                tstrip.append(strips.index(unit))
                 tcomp.append(comp)
                 tline.append(line)
                 tw.append(float(w))

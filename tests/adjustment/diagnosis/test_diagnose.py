@@ -76,3 +76,21 @@ def test_a_polynomial_on_a_strip_without_control_completes_with_a_regularisation
     assert result.adjustment.solution.converged and np.isfinite(result.adjustment.statistics.sigma0)
     assert result.adjustment.solution.regularisation, "expected unknowns regularised on the fly"
     assert any("strip 02 has no control point" in n for n in result.notes)
+
+
+def test_a_platform_diagnosis_finds_the_drift_of_the_flight_line(problem_small, tmp_path):
+    """Two sensors on every flight line (the second one the first again, without control): the error
+    functions belong to the flight line, so the diagnosis names one strip per flight line (its first)
+    and finds the problem flight line's breaks as the one-sensor project's diagnosis does."""
+    from tests.session_projects import as_platform
+
+    root = tmp_path / "platform"
+    shutil.copytree(problem_small, root)
+    as_platform(root, second="copy")
+    truth = json.loads((problem_small / "truth" / "errors.json").read_text())
+    d = diagnose(root, refine=None)
+    assert d.strips == ["01", "02", "03"]          # one per flight line: the units
+    assert d.problem_strips == [truth["problem_strip"]]
+    found = [b.line for b in d.breaks if b.strip == truth["problem_strip"]]
+    assert len(found) == len(truth["breaks_lines"])
+    assert all(abs(b - line) <= 30 for b, line in zip(found, truth["breaks_lines"]))
