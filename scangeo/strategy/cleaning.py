@@ -211,9 +211,13 @@ class Cleaning:
 
 
 def cleaning_variant(project: Project, options: CleaningOptions) -> Variant:
-    """The flexible model of the cleaning adjustment (module docstring)."""
+    """The flexible model of the cleaning adjustment (module docstring); on a platform the models are the
+    flight lines': each split in the lines of its first image strip."""
     strips = []
-    for s in project.strips:
+    firsts = {s.flight_line: s for s in reversed(project.image_strips)}
+    for s in project.image_strips:
+        if firsts[s.flight_line] is not s:
+            continue
         n = project.n_lines(s.id)
         k = max(options.min_pieces, round(n / options.piece_lines))
         breaks = tuple(float(round(n * i / k)) for i in range(1, k))
