@@ -86,6 +86,10 @@ def as_platform(root, second: str | None = None, prior: str = "", b_offset_deg: 
         sid = re.search(r'id = "([^"]+)"', body).group(1)
         traj = re.search(r'trajectory = "([^"]+)"', body).group(1)
         out.append(f'[[flight_lines]]\nid = "L{sid}"\ntrajectory = "{traj}"\n\n')
+        for name in ("trajectory", "errors"):  # the truth of a simulated block is the flight lines'
+            truth = root / "truth" / f"{name}_{sid}.csv"
+            if truth.exists():
+                shutil.copy(truth, truth.with_name(f"{name}_L{sid}.csv"))
     for body in strips:
         sid = re.search(r'id = "([^"]+)"', body).group(1)
         rest = re.sub(r'trajectory = "[^"]+"\n?', "", body).strip()

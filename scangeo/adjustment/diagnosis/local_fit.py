@@ -177,8 +177,8 @@ class CurrentFit:
                 for _ in range(2):
                     x += Rinv @ (Rinv.T @ (A.T @ r))
                     r = y - A @ x
-            self.channels.append(_Channel(A, R, Rinv, R @ x, r, float(r @ r), used.size, owners[used], consts[used],
-                                          good))
+            self.channels.append(_Channel(A, R, Rinv, R @ x if good else np.zeros(0), r, float(r @ r), used.size,
+                                          owners[used], consts[used], good))
 
     def bic(self, rho: dict[str, float] | None, n_breaks: int) -> float | None:
         """The current model's BIC as :func:`~.patterns.evaluate` computes it; None when a channel's
