@@ -88,8 +88,18 @@ def run(args: argparse.Namespace) -> int:
     print(f"simulated {config.block.name!r} (seed {block.seed}) into {block.root}")
     print(f"  CRS {block.map_frame.crs.to_string()}, flight height {block.plan.flight_height_m:.0f} m, "
           f"swath {block.plan.swath_m:.0f} m, strip spacing {block.plan.spacing_m:.0f} m")
-    print(f"  strips: {', '.join(s.strip_id for s in block.strips)} x {config.flight.lines} lines x "
-          f"{config.sensor.pixels} pixels")
+    if config.is_platform:
+        lengths = {s.sensor: s.geometry.n_lines for s in block.strips}
+        returns = {s.sensor: 0 for s in block.laser_strips}
+        for laser in block.laser_strips:
+            returns[laser.sensor] += laser.returns
+        print(f"  flight lines: {', '.join(line.line_id for line in block.flight_lines)}, each recorded by "
+              + ", ".join(f"{s.id} ({s.kind}, {returns[s.id]} returns in all)" if s.kind == "laser" else
+                          f"{s.id} ({s.kind}, {lengths[s.id]} lines x {s.pixels} pixels"
+                          + ("" if s.measures_control else ", no control") + ")" for s in config.sensors()))
+    else:
+        print(f"  strips: {', '.join(s.strip_id for s in block.strips)} x {config.flight.lines} lines x "
+              f"{config.sensor.pixels} pixels")
     print(f"  points: {counts['E']} control, {counts['B']} break-band, {counts['K']} check, {counts['H']} height, "
           f"{counts['T']} tie; {len(pts.m_point)} measurements ({int(pts.blunder.sum())} blunders)")
     return 0

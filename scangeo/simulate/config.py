@@ -206,6 +206,53 @@ class OutputConfig:
 
 
 @dataclass(frozen=True)
+class PlatformSensorConfig(SensorConfig):
+    """One sensor of a simulated platform (``[[platform.sensors]]``): the keys of ``[sensor]``, its ``id``, the
+    scene bands it records, whether its strips measure the control points, and a laser scanner's pulses.
+
+    A laser (``kind = "laser"``) uses ``fov_deg`` (the full scan angle), ``boresight_deg``, ``lever_arm_m`` and
+    ``boresight_error_deg`` of the [sensor] keys and the laser keys below; its pixels and line rate are unused."""
+
+    kind: str = setting("pushbroom", choices=("whiskbroom", "pushbroom", "laser"), doc="the sensor type")
+    id: str = setting("", doc="the sensor's id in project.toml (required)")
+    bands: tuple[int, ...] = setting((), doc="the scene's bands (1-11) the sensor records, in this order; empty: all")
+    measures_control: bool = setting(True, doc="its strips measure the control points (E, B, H; false: a sensor "
+                                     "without any control, seeing check and tie points only)")
+    pulse_rate_hz: float = setting(20000.0, gt=0, doc="laser: pulses per second")
+    scan_rate_hz: float = setting(40.0, gt=0, doc="laser: scan lines per second (an oscillating mirror)")
+    range_sigma_m: float = setting(0.02, gt=0, doc="laser: white noise of the ranges")
+    control_patches: int = setting(6, ge=0, unit="1", doc="laser: control patches (4 surveyed points each, on "
+                                   "the open ground of the control flight lines)")
+    check_patches: int = setting(6, ge=0, unit="1", doc="laser: check patches (over every flight line)")
+    patch_sigma_m: float = setting(0.01, gt=0, doc="laser: sigma of the surveyed patch points' coordinates")
+
+
+@dataclass(frozen=True)
+class RelativeMountingConfig:
+    """A relative-mounting prior written to project.toml: the true mounting of ``sensor`` relative to
+    ``reference`` plus noise of the given sigmas (``[[platform.relative_mountings]]``)."""
+
+    sensor: str = setting("", doc="the sensor whose mounting the prior gives (required)")
+    reference: str = setting("", doc="the sensor it is relative to (required)")
+    boresight_sigma_deg: tuple[float, ...] = setting((0.01, 0.01, 0.02), length=3, gt=0,
+                                                     doc="roll, pitch, heading sigma of the prior (and of its noise)")
+    lever_arm_sigma_m: tuple[float, ...] = setting((), doc="x, y, z sigma of a lever-arm prior; empty: none")
+
+
+@dataclass(frozen=True)
+class PlatformConfig:
+    """Several sensors on one GPS/IMU (``[platform]``): each flight line is flown once and every sensor records
+    its strip on it. Empty ``sensors``: the one ``[sensor]`` of a block."""
+
+    sensors: tuple[PlatformSensorConfig, ...] = ()
+    relative_mountings: tuple[RelativeMountingConfig, ...] = ()
+    control_flight_lines: tuple[int, ...] = setting((), doc="the flight lines (1-based) whose strips measure "
+                                                    "control points, placed in their zones only; empty: all")
+    tie_per_flight_line: int = setting(0, ge=0, unit="1", doc="tie points in each flight line's own zone, measured "
+                                       "by every image sensor on it (ties between the sensors)")
+
+
+@dataclass(frozen=True)
 class SimulationConfig:
     """A whole simulated block."""
 
@@ -217,6 +264,7 @@ class SimulationConfig:
     gpsimu_errors: GpsImuErrorConfig = GpsImuErrorConfig()
     points: PointsConfig = PointsConfig()
     output: OutputConfig = OutputConfig()
+    platform: PlatformConfig = PlatformConfig()
     seed: int = setting(1, doc="random seed: the same seed gives the same block byte for byte")
     source: str = field(default="<config>", compare=False, metadata={"setting": Setting(internal=True)})
 
@@ -226,6 +274,29 @@ class SimulationConfig:
             if override.strip == strip:
                 return override
         return dataclasses.replace(self.gpsimu_errors.defaults, strip=strip)
+
+    @property
+    def is_platform(self) -> bool:
+        """Whether the block flies a platform of several sensors (``[[platform.sensors]]``)."""
+        return bool(self.platform.sensors)
+
+    def sensors(self) -> tuple[PlatformSensorConfig, ...]:
+        """Every sensor of the block: the platform's, or the one ``[sensor]`` (id ``""``)."""
+        if self.platform.sensors:
+            return self.platform.sensors
+        return (PlatformSensorConfig(**dataclasses.asdict(self.sensor)),)
+
+    @property
+    def reference_sensor(self) -> PlatformSensorConfig:
+        """The sensor the flight is planned for (swath, sidelap, lines): the first line scanner."""
+        return next(s for s in self.sensors() if s.kind != "laser")
+
+    def record(self) -> dict:
+        """The configuration as truth/scenario.json records it (a one-sensor block without ``platform``)."""
+        data = dataclasses.asdict(self)
+        if not self.is_platform:
+            data.pop("platform")
+        return data
 
 
 # --- reading (scangeo.io.schema: every key typed and checked, errors naming the file and key) -----------
@@ -267,12 +338,28 @@ def available_presets() -> list[str]:
 
 
 def load_preset(name: str | Path, overrides: dict | None = None) -> SimulationConfig:
-    """Read a preset (name or TOML path), apply nested ``overrides`` (same keys as the file)."""
+    """Read a preset (name or TOML path), apply nested ``overrides`` (same keys as the file).
+
+    A preset with ``extends = "NAME"`` is that preset with the file's keys merged over it (:func:`merge`:
+    tables merged key by key, arrays and arrays of tables replaced whole)."""
     path = preset_path(name)
-    data = load_toml(path)
+    data = _extended(load_toml(path), str(path), ())
     if overrides:
         data = merge(data, overrides)
     return config_from_dict(data, source=str(path))
+
+
+def _extended(data: dict, source: str, seen: tuple[str, ...]) -> dict:
+    """A preset's table with the preset it ``extends`` under it (recursively; a cycle is an error)."""
+    base = data.pop("extends", None)
+    if base is None:
+        return data
+    if not isinstance(base, str) or not base:
+        raise ProjectFileError(f"{source} [extends]: expected the name or file of a preset, found {base!r}")
+    path = preset_path(base)
+    if str(path) in seen or str(path) == source:
+        raise ProjectFileError(f"{source} [extends]: {base!r} extends itself (through {', '.join(seen) or source})")
+    return merge(_extended(load_toml(path), str(path), (*seen, source)), data)
 
 
 def validate(config: SimulationConfig) -> None:
@@ -289,6 +376,41 @@ def validate(config: SimulationConfig) -> None:
             raise ProjectFileError(f"{config.source} [{key}]: expected {expected}")
     for errors in (config.gpsimu_errors.defaults, *config.gpsimu_errors.strip):
         _validate_strip_errors(errors, config)
+    _validate_platform(config)
+
+
+def _validate_platform(config: SimulationConfig) -> None:
+    """The platform's sensors, relative mountings and control flight lines name what exists."""
+    p, where = config.platform, f"{config.source} [platform"
+    if not p.sensors:
+        if p.relative_mountings or p.control_flight_lines or p.tie_per_flight_line:
+            raise ProjectFileError(f"{where}]: relative_mountings, control_flight_lines and tie_per_flight_line "
+                                   "need [[platform.sensors]]")
+        return
+    if config.sensor != SensorConfig():
+        raise ProjectFileError(f"{config.source} [sensor]: give [sensor] (one sensor) or [[platform.sensors]], "
+                               "not both")
+    ids = [s.id for s in p.sensors]
+    for k, s in enumerate(p.sensors):
+        if not s.id or ids.index(s.id) != k:
+            raise ProjectFileError(f"{where}.sensors] entry {k + 1}: expected a unique, non-empty id, found {s.id!r}")
+        if any(not 1 <= b <= 11 for b in s.bands) or len(set(s.bands)) != len(s.bands):
+            raise ProjectFileError(f"{where}.sensors.bands] of {s.id}: expected distinct scene bands 1-11, "
+                                   f"found {list(s.bands)}")
+    if all(s.kind == "laser" for s in p.sensors):
+        raise ProjectFileError(f"{where}.sensors]: expected at least one line scanner (whiskbroom or pushbroom) "
+                               "to plan the flight for")
+    for r in p.relative_mountings:
+        if r.sensor not in ids or r.reference not in ids or r.sensor == r.reference:
+            raise ProjectFileError(f"{where}.relative_mountings]: sensor {r.sensor!r} and reference {r.reference!r} "
+                                   f"must be two of the sensors {', '.join(ids)}")
+        if len(r.lever_arm_sigma_m) not in (0, 3) or any(v <= 0 for v in r.lever_arm_sigma_m):
+            raise ProjectFileError(f"{where}.relative_mountings.lever_arm_sigma_m]: expected 3 positive sigmas "
+                                   f"(or none), found {list(r.lever_arm_sigma_m)}")
+    bad = [n for n in p.control_flight_lines if not 1 <= n <= config.flight.strips]
+    if bad:
+        raise ProjectFileError(f"{where}.control_flight_lines]: {bad[0]} is not a flight line "
+                               f"(1..{config.flight.strips})")
 
 
 def _validate_strip_errors(errors: StripErrorConfig, config: SimulationConfig) -> None:

@@ -51,8 +51,6 @@ def _correction(coef: np.ndarray, t: np.ndarray, t0: float, t1: float) -> np.nda
 
 def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = ".las") -> dict:
     """Write a laser project (project.toml, strips/*.las, nav/*.csv, ground.csv, truth.json) to ``out``."""
-    import laspy  # start-up cost: laspy and its LAZ backend load when a LAS file is read
-
     out = Path(out)
     (out / "strips").mkdir(parents=True, exist_ok=True)
     (out / "nav").mkdir(exist_ok=True)
@@ -96,10 +94,7 @@ def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = 
         phase = rng.uniform(0, 2 * np.pi, 3)
         pos, ang = true_trajectory(plan, cfg, t, phase)
         theta = np.radians(cfg.fov_deg / 2) * triangle(t - plan.t0, cfg.scan_rate_hz)
-        R_PB = body_rotations(ang)
-        R_BS = rph_to_matrix(*true_cal.boresight)
-        d = np.einsum("nij,nj->ni", R_PB, beam(theta) @ R_BS.T)
-        o = pos + R_PB @ true_cal.lever_arm
+        o, d = beams(pos, ang, theta, true_cal)
         mine = [(k, dz) for sid, k, dz in moved if sid == plan.id]
         _lift(scene, mine, 1.0)
         rho, ok = scene.cast(o, d)
@@ -126,20 +121,7 @@ def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = 
         pos_m = pos[ok] - _correction(pos_coef, t, t_lo, t_hi)
         ang_m = ang[ok] - _correction(att_coef, t, t_lo, t_hi)
         p_las = georeference(pos_m, ang_m, Polar(t, rho, theta, np.zeros_like(t)), nominal)
-        x, y, z = frame.project_to_map(p_las)
-        path = out / "strips" / f"{plan.id}{las_extension}"
-        header = laspy.LasHeader(point_format=6, version="1.4")
-        header.offsets = [np.floor(x.min()), np.floor(y.min()), np.floor(z.min())]
-        header.scales = [0.001, 0.001, 0.001]
-        header.add_crs(frame.crs)
-        las = laspy.LasData(header)
-        las.x, las.y, las.z = x, y, z
-        las.gps_time = t
-        las.scan_angle = np.round(np.degrees(theta) / 0.006).astype(np.int16)
-        las.point_source_id = np.full(t.size, int(plan.id), np.uint16)
-        las.intensity = np.full(t.size, 100, np.uint16)
-        with atomic_path(path) as tmp:
-            las.write(str(tmp), laz_backend=None) if las_extension == ".las" else las.write(str(tmp))
+        write_las(out / "strips" / f"{plan.id}{las_extension}", frame, p_las, t, theta, int(plan.id))
         # the measured GPS/IMU at the trajectory rate, a second beyond the strip at both ends
         tn = np.arange(plan.t0 - 1.0, plan.t0 + plan.duration + 1.0, 1.0 / cfg.trajectory_rate_hz)
         pn, an = true_trajectory(plan, cfg, tn, phase)
@@ -170,6 +152,38 @@ def simulate_laser(out: str | Path, cfg: LaserBlockConfig, las_extension: str = 
     summary = {"config": asdict(cfg), "truth": asdict(truth), "buildings": scene.buildings.count}
     write_text(out / "truth.json", json.dumps(summary, indent=1))
     return summary
+
+
+def beams(pos: np.ndarray, angles: np.ndarray, theta: np.ndarray, cal: Calibration) -> tuple[np.ndarray, np.ndarray]:
+    """Origins (n, 3) and unit directions (n, 3) of laser beams in the project frame: the laser equation's
+    ``p_nav + R_PB l_B`` and ``R_PB R_BS u_S(theta)`` of navigation positions ``pos`` and angles ``angles``
+    (roll, pitch, heading w.r.t. the project NED frame, rad), scan angles ``theta`` (rad) and the calibration
+    ``cal`` (:mod:`scangeo.lidar.georeference`)."""
+    R_PB = body_rotations(angles)
+    R_BS = rph_to_matrix(*cal.boresight)
+    d = np.einsum("nij,nj->ni", R_PB, beam(theta) @ R_BS.T)
+    return pos + R_PB @ cal.lever_arm, d
+
+
+def write_las(path: Path, frame: MapFrame, p_P: np.ndarray, t: np.ndarray, theta: np.ndarray, source_id: int) -> None:
+    """A strip's returns as a LAS 1.4 file (point format 6, millimetres, the map CRS), atomically: the points
+    ``p_P`` (n, 3; project frame) in map coordinates, their GPS times ``t`` (s), scan angles ``theta`` (rad)
+    and the flight line's ``point_source_id``; ``.laz`` names are compressed."""
+    import laspy  # start-up cost: laspy and its LAZ backend load when a LAS file is written
+
+    x, y, z = frame.project_to_map(p_P)
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.offsets = [np.floor(x.min()), np.floor(y.min()), np.floor(z.min())]
+    header.scales = [0.001, 0.001, 0.001]
+    header.add_crs(frame.crs)
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = x, y, z
+    las.gps_time = t
+    las.scan_angle = np.round(np.degrees(theta) / 0.006).astype(np.int16)
+    las.point_source_id = np.full(t.size, source_id, np.uint16)
+    las.intensity = np.full(t.size, 100, np.uint16)
+    with atomic_path(path) as tmp:
+        las.write(str(tmp), laz_backend=None) if Path(path).suffix == ".las" else las.write(str(tmp))
 
 
 def _moved(scene: LaserScene, strip: str, k: int, dz: float) -> dict:
@@ -269,4 +283,5 @@ def _surveyed(pid: str, role: str, xy: np.ndarray, scene: LaserScene, frame: Map
 
 
 
-__all__ = ["LaserBlockConfig", "LaserTruth", "is_laser_preset", "load_laser_config", "simulate_laser"]
+__all__ = ["LaserBlockConfig", "LaserTruth", "beams", "is_laser_preset", "load_laser_config", "simulate_laser",
+           "write_las"]

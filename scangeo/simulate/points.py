@@ -29,6 +29,8 @@ from scangeo.simulate.scene import OPEN_GROUND
 from scangeo.simulate.terrain import Terrain
 
 ROLE_OF_KIND = {"E": "control", "B": "check", "K": "check", "H": "height", "T": "tie"}
+#: the kinds a strip without control does not measure (the break-band points are control in the 4-band variants)
+CONTROL_KINDS = ("E", "B", "H")
 
 
 @dataclass(frozen=True)
@@ -139,9 +141,16 @@ def _line_to_y(plan: FlightPlan, strip_index: int, line: float) -> float:
 
 def place_points(config: PointsConfig, plan: FlightPlan, geometries: list[StripGeometry], map_frame: MapFrame,
                  terrain: Terrain, scene, rng: np.random.Generator, problem_strip: int = 0,
-                 breaks_lines: tuple = ()) -> tuple[list[str], list[str], np.ndarray, np.ndarray]:
-    """Ids, kinds and true map x, y of all points of the block."""
-    recent = RecentStrips(geometries)
+                 breaks_lines: tuple = (), control_lines: tuple[int, ...] = (), sensor_ties: int = 0,
+                 line_strips: list[list[int]] | None = None) -> tuple[list[str], list[str], np.ndarray, np.ndarray]:
+    """Ids, kinds and true map x, y of all points of the block.
+
+    ``geometries`` are the flight lines' strips of the sensor the flight was planned for (one per plan
+    strip); ``control_lines`` the flight lines (0-based) in whose zones the control points (E, B, H) are placed
+    (empty: all). A platform adds ``sensor_ties`` tie points in each flight line's own zone, visible in every
+    strip of it: ``line_strips[k]`` indexes the flight line's strips in ``geometries`` (which then holds the
+    other sensors' strips after the planned sensor's)."""
+    recent = RecentStrips(geometries, keep=max([2, *(len(s) for s in line_strips or [])]))
     placer = _Placer(recent, plan, map_frame, terrain, scene, config.edge_margin_px, rng)
     n = len(plan.strips)
     half = plan.spacing_m / 2.0
@@ -155,8 +164,9 @@ def place_points(config: PointsConfig, plan: FlightPlan, geometries: list[StripG
         right = plan.strips[k].x + (half if k < n - 1 else swath_half)
         return left, right
 
+    controlled = [k for k in range(n) if not control_lines or k in control_lines]
     groups: list[tuple[str, np.ndarray, np.ndarray]] = []
-    for k in range(n):
+    for k in controlled:
         xr = own_zone(k)
         for yr in ((y_lo, y_lo + band), (y_hi - band, y_hi)):
             groups.append(("E", *placer.draw(config.control_per_band_per_strip, xr, yr, [k])))
@@ -164,17 +174,20 @@ def place_points(config: PointsConfig, plan: FlightPlan, geometries: list[StripG
         half_band = config.break_band_lines / 2.0 * plan.ground_speed_mps / plan.line_rate_hz
         for line in breaks_lines:
             yb = _line_to_y(plan, problem_strip - 1, line)
-            for k in range(n):
+            for k in controlled:
                 groups.append(("B", *placer.draw(config.break_points_per_band_per_strip, own_zone(k),
                                                  (yb - half_band, yb + half_band), [k])))
     for k in range(n):
         groups.append(("K", *placer.draw(config.check_per_strip, own_zone(k), (y_lo + band, y_hi - band), [k])))
-        groups.append(("H", *placer.draw(config.height_per_strip, own_zone(k), (y_lo + band, y_hi - band), [k])))
+        groups.append(("H", *placer.draw(config.height_per_strip if k in controlled else 0, own_zone(k),
+                                         (y_lo + band, y_hi - band), [k])))
     for k in range(n - 1):
         centre = 0.5 * (plan.strips[k].x + plan.strips[k + 1].x)
         overlap = plan.swath_m - plan.spacing_m
         xr = (centre - 0.4 * overlap, centre + 0.4 * overlap)
         groups.append(("T", *placer.draw(config.tie_per_overlap, xr, (y_lo, y_hi), [k, k + 1])))
+    for k in range(n if sensor_ties and line_strips else 0):
+        groups.append(("T", *placer.draw(sensor_ties, own_zone(k), (y_lo, y_hi), line_strips[k])))  # type: ignore[index]
     recent.release()
 
     ids, kinds, xs, ys = [], [], [], []
@@ -190,8 +203,12 @@ def place_points(config: PointsConfig, plan: FlightPlan, geometries: list[StripG
 
 
 def measure_points(ids, kinds, x, y, geometries: list[StripGeometry], map_frame: MapFrame, terrain: Terrain,
-                   scene, config: PointsConfig, rng: np.random.Generator) -> PointSet:
-    """True ground points and their (noisy, possibly blundered) measurements in every strip."""
+                   scene, config: PointsConfig, rng: np.random.Generator,
+                   measures_control: list[bool] | None = None) -> PointSet:
+    """True ground points and their (noisy, possibly blundered) measurements in every strip; a strip whose
+    ``measures_control`` is False (a sensor or flight line without control) measures no control point (E, B,
+    H), only the check and tie points it sees."""
+    control = np.isin(np.asarray(kinds), list(CONTROL_KINDS))
     z = terrain.height(x, y)
     p_P = map_frame.map_to_project(x, y, z)
     point_parts: list[np.ndarray] = []
@@ -204,6 +221,8 @@ def measure_points(ids, kinds, x, y, geometries: list[StripGeometry], map_frame:
         g.release_tables()  # each strip is used once here; a 96-strip block held 0.5 GB of them
         ok = ((status == 0) & (line >= margin) & (line <= g.n_lines - 1 - margin)
               & (pixel >= margin) & (pixel <= g.sensor.pixels - 1 - margin))
+        if measures_control is not None and not measures_control[k]:
+            ok &= ~control
         idx = np.flatnonzero(ok)
         point_parts.append(idx)
         strip_parts.append(np.full(idx.size, k))

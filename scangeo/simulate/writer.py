@@ -47,10 +47,10 @@ def write_raster(path: Path, grid: RasterGrid, dtype: str = "float32", nodata: f
 
 
 def project_toml(*, crs: str, origin_deg: tuple[float, float, float], geoid_undulation_m: float, dtm_sigma_m: float,
-                 sensor, strips: list[dict]) -> str:
-    """The text of project.toml (docs/formats.md)."""
-    names = ", ".join(f'"{b[0]}"' for b in BANDS)
-    centres = ", ".join(f"{500.0 * (b[1] + b[2]):g}" for b in BANDS)  # nm: (lo + hi) / 2 * 1000
+                 sensor, strips: list[dict], sensors: tuple = (), relative_mountings: tuple[dict, ...] = (),
+                 flight_lines: tuple[dict, ...] = ()) -> str:
+    """The text of project.toml (docs/formats.md): one ``[sensor]``, or a platform's ``[[sensors]]`` (``sensor``
+    None) with its ``[[relative_mountings]]`` and ``[[flight_lines]]``."""
     lines = [
         "# written by scangeo simulate: a simulated block (its truth is in truth/)",
         "[project]",
@@ -60,26 +60,56 @@ def project_toml(*, crs: str, origin_deg: tuple[float, float, float], geoid_undu
         f"origin = [{origin_deg[0]!r}, {origin_deg[1]!r}, {origin_deg[2]!r}]",
         f"dtm_sigma_m = {dtm_sigma_m!r}",
         "",
-        "[sensor]",
+    ]
+    if sensor is not None:
+        lines += ["[sensor]", *_sensor_keys(sensor, "look_angles.csv")]
+    for s in sensors:
+        lines += ["[[sensors]]", f"id = {json.dumps(s.id)}", *_sensor_keys(s, f"sensors/{s.id}.csv"), ""]
+    for r in relative_mountings:
+        lines += ["[[relative_mountings]]", *(f"{k} = {_toml(v)}" for k, v in r.items()), ""]
+    for f in flight_lines:
+        lines += ["[[flight_lines]]", f"id = {json.dumps(f['id'])}", f"trajectory = {json.dumps(f['trajectory'])}", ""]
+    if sensors:
+        lines.pop()
+    for s in strips:
+        lines += ["", "[[strips]]", f'id = "{s["id"]}"']
+        lines += [f'{k} = "{s[k]}"' for k in ("sensor", "flight_line", "image", "las") if k in s]
+        lines += [f'trajectory = "{s["trajectory"]}"'] if "trajectory" in s else []
+        lines += [f"first_line_time = {s['first_line_time']!r}", f"lines = {s['lines']}"] if "lines" in s else []
+        lines += [f"point_source_id = {s['point_source_id']}"] if "point_source_id" in s else []
+    return "\n".join(lines) + "\n"
+
+
+def _sensor_keys(sensor, look_angles: str) -> list[str]:
+    """The keys of a sensor table in project.toml: a line scanner's (with its bands) or a laser's."""
+    bore = f"boresight_deg = [{', '.join(repr(float(v)) for v in sensor.boresight_deg)}]"
+    lever = f"lever_arm_m = [{', '.join(repr(float(v)) for v in sensor.lever_arm_m)}]"
+    if sensor.kind == "laser":
+        return ['kind = "laser"', f"fov_deg = {sensor.fov_deg!r}", f"pulse_rate_hz = {sensor.pulse_rate_hz!r}",
+                f"scan_rate_hz = {sensor.scan_rate_hz!r}", f"range_sigma_m = {sensor.range_sigma_m!r}", bore, lever]
+    chosen = [BANDS[k - 1] for k in getattr(sensor, "bands", ())] or list(BANDS)
+    names = ", ".join(f'"{b[0]}"' for b in chosen)
+    centres = ", ".join(f"{500.0 * (b[1] + b[2]):g}" for b in chosen)  # nm: (lo + hi) / 2 * 1000
+    return [
         f'kind = "{sensor.kind}"',
         f"pixels = {sensor.pixels}",
-        *([f"fov_deg = {sensor.fov_deg!r}"] if sensor.kind == "whiskbroom" else ['look_angles = "look_angles.csv"']),
+        *([f"fov_deg = {sensor.fov_deg!r}"] if sensor.kind == "whiskbroom" else [f'look_angles = "{look_angles}"']),
         f"line_rate_hz = {sensor.line_rate_hz!r}",
         *([f"per_pixel_timing = {'true' if sensor.pixel_timing else 'false'}"] if sensor.kind == "whiskbroom" else []),
-        f"boresight_deg = [{', '.join(repr(float(v)) for v in sensor.boresight_deg)}]",
-        f"lever_arm_m = [{', '.join(repr(float(v)) for v in sensor.lever_arm_m)}]",
+        bore,
+        lever,
         f"bands = [{names}]",
         f"wavelengths_nm = [{centres}]",
     ]
-    for s in strips:
-        lines += ["", "[[strips]]", f'id = "{s["id"]}"']
-        lines += [f'image = "{s["image"]}"'] if "image" in s else []
-        lines += [
-            f'trajectory = "{s["trajectory"]}"',
-            f"first_line_time = {s['first_line_time']!r}",
-            f"lines = {s['lines']}",
-        ]
-    return "\n".join(lines) + "\n"
+
+
+def _toml(value) -> str:
+    """A TOML value: a string, a number or a list of numbers."""
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return "[" + ", ".join(repr(float(v)) for v in value) + "]"
+    return repr(float(value))
 
 
 def write_look_angles(path: Path, table: np.ndarray) -> None:
