@@ -50,7 +50,9 @@ def gdal_version() -> str:
 
 def gref4hsi_peer() -> Peer:
     """gref4hsi 0.2.6 and the three packages its modules import without declaring them: GDAL's Python
-    bindings matching the system's GDAL, rasterio, and a Qt binding (PyQt5, run offscreen)."""
+    bindings matching the system's GDAL, rasterio, and a Qt binding (PyQt5, run offscreen). numpy is
+    installed first and held in the last step, so that GDAL's bindings are built against the numpy
+    they run with (numpy 2.2.6 here)."""
     return Peer(
         "gref4hsi",
         (("numpy<2.3", "setuptools", "wheel"),

@@ -395,7 +395,6 @@ def evaluate(m: dict, points_ecef_path: Path | None, gref_cube: Path | None, gre
     import numpy as np
     import rasterio
 
-    from scangeo.frames import ecef_to_geodetic
     from scangeo.io.project import Project
     from scangeo.truth.true_error import Truth
 
@@ -428,6 +427,9 @@ def evaluate(m: dict, points_ecef_path: Path | None, gref_cube: Path | None, gre
         return rms, int(ok.sum())
 
     # scangeo: its inverse map at every cell it filled
+    peer = (points_ecef_path, gref_cube, gref_composite, truth_of_cells, radiometry)
+    if not Path(m["scangeo_out"]).exists():
+        return evaluate_gref4hsi(m, truth, cube, *peer)
     with rasterio.open(Path(m["scangeo_out"]).with_suffix(".layers.tif")) as src:
         line_s, pixel_s, transform = src.read(1).astype(float), src.read(2).astype(float), src.transform
     with rasterio.open(m["scangeo_out"]) as ortho:
@@ -444,6 +446,20 @@ def evaluate(m: dict, points_ecef_path: Path | None, gref_cube: Path | None, gre
         }
         out["scangeo"]["band_rms"], out["scangeo"]["radiometry_cells"] = radiometry(
             lambda b: ortho.read(b + 1), rows, cols, lt, pt, seen)
+    out.update(evaluate_gref4hsi(m, truth, cube, *peer))
+    return out
+
+
+def evaluate_gref4hsi(m, truth, cube, points_ecef_path, gref_cube, gref_composite, truth_of_cells, radiometry):
+    """gref4hsi's geolocation (ray-traced points) and orthoimage against the truth (``evaluate``)."""
+    import numpy as np
+    import rasterio
+
+    from scangeo.frames import ecef_to_geodetic
+
+    g, terrain, frame = truth.geometries["01"], truth.terrain, truth.project.map_frame
+    lines, pixels, bands = m["lines"], m["pixels"], m["bands"]
+    out: dict = {}
     # gref4hsi: its ray-traced ground point of every image pixel
     if points_ecef_path is not None:
         pts = np.load(points_ecef_path).reshape(-1, 3)
