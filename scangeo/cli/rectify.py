@@ -36,7 +36,8 @@ def add_parser(subparsers, common) -> None:
     option_argument(p, "--glt", action=argparse.BooleanOptionalAction, option=f"{_OPTIONS}.glt",
                     help="also write the ENVI GLT of every strip")
     option_argument(p, "--mosaic", action=argparse.BooleanOptionalAction, option=f"{_OPTIONS}.mosaic",
-                    help="also write mosaic.tif of the strips rectified (closest to nadir wins)")
+                    help="also write mosaic.tif of the strips rectified (closest to nadir wins; a platform: "
+                         "mosaic-SENSOR.tif per sensor)")
     option_argument(p, "--occlusion", action=argparse.BooleanOptionalAction, option=f"{_OPTIONS}.occlusion",
                     help="make ground hidden by terrain nodata")
     option_argument(p, "--max-error", type=float, dest="max_error_px", metavar="PX", option=f"{_OPTIONS}.max_error_px",
@@ -83,5 +84,16 @@ def run(args: argparse.Namespace) -> int:
                   f"{s['inverse_map_max_error_px']:.3f} px, {s['seconds']:.1f} s)")
     if result.mosaic:
         print(f"mosaic: {result.mosaic}")
+    else:  # a platform's: one per sensor
+        for sensor, path in result.mosaics.items():
+            print(f"mosaic of sensor {sensor}: {path}")
+    for fid, path in result.stacks.items():
+        print(f"flight line {fid}: its sensors' bands stacked in {path}")
+    for sid, c in result.coregistration.items():
+        median, top = (f"{c[k]:.3f} m" if c[k] is not None else "-" for k in ("median_m", "max_m"))
+        print(f"strip {sid}: co-registration to strip {c['reference']} in {c['path']} (propagated 1-sigma "
+              f"relative displacement: median {median}, max {top})")
+    if result.stacks:
+        print(f"one grid for every sensor: {result.resolution:g} map units ({result.resolution_source})")
     print(f"{len(result.strips)} strips in {result.folder} ({result.seconds:.1f} s)")
     return 0

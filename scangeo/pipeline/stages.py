@@ -276,17 +276,23 @@ def _rectify(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], 
     # without points compare cannot run: the GPS/IMU as measured, unchecked
     variant = ctx.records["compare"]["summary"]["recommended"] if "compare" in ctx.records else "DG"
     result = rectify_project(ctx.root, variant, options=ctx.settings.rectify, workers=1, progress=progress)
-    rasters = [Path(s["path"]) for s in result.strips.values()] + ([result.mosaic] if result.mosaic else [])
+    rasters = [Path(s["path"]) for s in result.strips.values()] + list(result.mosaics.values())
     spans = {}
     for sid in result.strips:
         first_last = ctx.project.timing(sid).time_of_line(np.array([0.0, ctx.project.n_lines(sid) - 1.0]))
         spans[sid] = [round(float(t), 6) for t in first_last]
-    items = write_stac_items(ctx.root, variant, rasters, spans)
+    items = write_stac_items(ctx.root, variant, rasters, spans, result.coregistration)
     summary = {"variant": variant, "folder": relative_name(result.folder, ctx.root),
                "orthoimages": [relative_name(p, ctx.root) for p in rasters],
                "stac_items": [relative_name(p, ctx.root) for p in items],
                "strips": {sid: s["status"] for sid, s in result.strips.items()}}
-    return summary, [*rasters, *items]
+    # a platform's (several sensors): the VRT of each flight line and the co-registration layers
+    extra = [*result.stacks.values(), *(Path(c["path"]) for c in result.coregistration.values())]
+    if extra:
+        summary["stacks"] = {fid: relative_name(p, ctx.root) for fid, p in result.stacks.items()}
+        summary["coregistration"] = {sid: relative_name(Path(c["path"]), ctx.root)
+                                     for sid, c in result.coregistration.items()}
+    return summary, [*rasters, *items, *extra]
 
 
 # -- report ------------------------------------------------------------------------------------------------

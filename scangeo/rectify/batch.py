@@ -1,7 +1,10 @@
 """Rectify the strips of a project: in parallel, resumable, locally or on a Dask cluster.
 
 Outputs go to ``PROJECT/results/VARIANT/ortho/``: ``<strip>.tif`` (the orthoimage), and as asked
-``<strip>.layers.tif``, ``<strip>.glt`` (+ ``.hdr``), ``<strip>.igm`` (+ ``.hdr``), ``mosaic.tif``.
+``<strip>.layers.tif``, ``<strip>.glt`` (+ ``.hdr``), ``<strip>.igm`` (+ ``.hdr``), ``mosaic.tif``. A
+platform's strips (several sensors) are rectified onto one lattice at one resolution, with a mosaic per
+sensor, a VRT per flight line stacking its sensors' bands and, for an adjusted variant, each strip's
+co-registration layer (:mod:`scangeo.rectify.platform_products`).
 Every strip's outputs carry a fingerprint of their inputs and settings (``scangeo_fingerprint``
 tag: input paths relative to the project, sizes and content hashes, so a copied or moved project
 keeps its fingerprints and is not redone); the orthoimage is written last, atomically, so a strip
@@ -35,7 +38,9 @@ from scangeo.orientation import reuse
 from scangeo.orientation.file import Orientation, load_orientation, results_folder
 from scangeo.parallel import run_tasks
 from scangeo.progress import ProgressCallback, no_progress
+from scangeo.rectify import platform_products as platform
 from scangeo.rectify.core_geometry import CoreStripGeometry
+from scangeo.rectify.coregistration_layer import CoregistrationGrid, layer_path, read_coregistration
 from scangeo.rectify.geolocation import write_igm
 from scangeo.rectify.geometry import nadir_ground_pixel
 from scangeo.rectify.geotiff import BandInfo, remove_partials
@@ -60,6 +65,8 @@ class StripTask:
     output: str
     fingerprint: str
     threads: int = 0
+    #: the variant's coregistration.json when the strip has a reference in it (a platform's adjusted variant)
+    coregistration: str | None = None
 
 
 @dataclass
@@ -74,28 +81,47 @@ class BatchResult:
         Strip id -> ``status`` (``done``, with its file, grid, valid and hidden cells, inverse-map
         error and seconds; or ``skipped``: complete from an earlier run) and ``path``.
     mosaic : Path or None
-        ``mosaic.tif``; None without the mosaic.
+        ``mosaic.tif``; None without the mosaic, and for a platform (several sensors: ``mosaics``).
     seconds : float
         Wall-clock time.
+    mosaics : dict
+        Sensor id -> its mosaic (``mosaic-<sensor>.tif``; a one-sensor project: ``"" -> mosaic.tif``).
+    stacks : dict
+        Flight line id -> the VRT stacking the bands of its sensors' orthoimages (platforms only).
+    coregistration : dict
+        Strip id -> its co-registration layer's summary: ``reference``, ``flight_line``, ``median_m`` and
+        ``max_m`` (the propagated grid's, metres) and ``path`` (``<strip>.coregistration.tif``).
+    resolution : float
+        The cell size of the run, map units.
+    resolution_source : str
+        Where it comes from: ``options``, ``nadir pixel of strip ID``, or ``finest sensor ID``.
     """
 
     folder: Path
     strips: dict[str, dict] = field(default_factory=dict)
     mosaic: Path | None = None
     seconds: float = 0.0
+    mosaics: dict[str, Path] = field(default_factory=dict)
+    stacks: dict[str, Path] = field(default_factory=dict)
+    coregistration: dict[str, dict] = field(default_factory=dict)
+    resolution: float = 0.0
+    resolution_source: str = ""
 
 
 def output_folder(project: Project, variant: str) -> Path:
     return results_folder(project, variant) / "ortho"
 
 
-def fingerprint(project: Project, source: Orientation, strip_id: str, options: RectifyOptions) -> str:
+def fingerprint(project: Project, source: Orientation, strip_id: str, options: RectifyOptions,
+                coregistration: Path | None = None) -> str:
     """A hash of everything a strip's outputs depend on: the input files (paths relative to the project,
-    sizes and content hashes: the same for a copied or moved project), the settings and the version."""
+    sizes and content hashes: the same for a copied or moved project; the co-registration file when the
+    strip has a layer), the settings and the version."""
     s = project.strip(strip_id)
     files = [project.root / "project.toml", project.dtm_path, s.trajectory, s.image]
     files += [s.line_times] if s.line_times else []
     files += [source.path] if source.path is not None else []
+    files += [coregistration] if coregistration is not None else []
     data = {
         "version": __version__,
         "variant": source.variant,
@@ -166,7 +192,8 @@ def start_strip_task(task: StripTask, progress: ProgressCallback = no_progress,
             with rasterio.open(cfg.image) as src:
                 count = src.count
         if len(bands) != count:
-            log.warning("%s has %d bands, [sensor] bands names %d: using the image's", cfg.image, count, len(bands))
+            table = f"[[sensors]] id={cfg.sensor}" if platform.several_sensors(project) else "[sensor]"
+            log.warning("%s has %d bands, %s bands names %d: using the image's", cfg.image, count, table, len(bands))
             bands = None
     tags = {
         "variant": task.variant,
@@ -175,16 +202,31 @@ def start_strip_task(task: StripTask, progress: ProgressCallback = no_progress,
         "sigma0": "" if source.sigma0 is None else f"{source.sigma0:.6g}",
         "scangeo_fingerprint": task.fingerprint,
     }
+    if platform.several_sensors(project):
+        tags.update(sensor=cfg.sensor, flight_line=cfg.flight_line)
+    coregistration = None
+    if task.coregistration is not None:
+        entry = read_coregistration(Path(task.coregistration))[task.strip]
+        coregistration = CoregistrationGrid.from_entry(entry, geometry.lines, geometry.pixels,
+                                                       f"{task.coregistration} strip {task.strip}")
     # the mosaic needs each strip's view zenith layer; a strip rectified alone writes only the layers asked for
     options = task.options.replace(layers=task.options.strip_layers)
     return rectify_strip(geometry, cfg.image, output, options, tags=tags, bands=bands, progress=progress,
-                         finaliser=finaliser)
+                         finaliser=finaliser, coregistration=coregistration)
 
 
 def project_resolution(project: Project, source: Orientation, strip_ids: list[str]) -> float:
-    """The common resolution of a run: the nadir ground pixel of the first strip, two digits."""
+    """The common resolution of a run: the nadir ground pixel of the first strip, two digits; a platform's
+    (several sensors): the finest of its sensors' (:func:`scangeo.rectify.platform_products.finest_resolution`)."""
+    return _resolution(project, source, strip_ids)[0]
+
+
+def _resolution(project: Project, source: Orientation, strip_ids: list[str]) -> tuple[float, str]:
+    if platform.several_sensors(project):
+        resolution, sensor = platform.finest_resolution(project, source)
+        return resolution, f"finest sensor {sensor}"
     geometry = CoreStripGeometry(source.geometry(strip_ids[0]), project.dtm)
-    return nice_resolution(nadir_ground_pixel(geometry))
+    return nice_resolution(nadir_ground_pixel(geometry)), f"nadir pixel of strip {strip_ids[0]}"
 
 
 def rectify_project(
@@ -203,7 +245,8 @@ def rectify_project(
     project_path : the project folder (or its project.toml).
     variant : the variant whose orientation is used (``DG``: the GPS/IMU as measured).
     strips : strip ids (default: all strips with an image).
-    options : rectification settings; ``resolution=None`` means the first strip's nadir pixel.
+    options : rectification settings; ``resolution=None`` means the first strip's nadir pixel (a platform's:
+        the finest nadir pixel of its sensors).
     workers : strips rectified at once in local processes.
     scheduler : address of a Dask distributed scheduler to run the strips on instead.
     progress : ``callback(done, total, message)``; in strips (fractional within a strip when one
@@ -219,22 +262,30 @@ def rectify_project(
     if not ids:
         raise ProjectFileError(f"{project.root / 'project.toml'}: no strip has an image to rectify")
     source = load_orientation(project, variant)
+    resolution_source = "options"
     if options.resolution is None:
-        options = options.replace(resolution=project_resolution(project, source, ids))
+        resolution, resolution_source = _resolution(project, source, ids)
+        options = options.replace(resolution=resolution)
     folder = output_folder(project, variant)
     folder.mkdir(parents=True, exist_ok=True)
-    result = BatchResult(folder)
+    result = BatchResult(folder, resolution=float(options.resolution or 0.0), resolution_source=resolution_source)
+    co_file, co_entries = platform.coregistration_entries(project, source)
     tasks = []
     for sid in ids:
         out = folder / f"{sid}.tif"
-        for product in (out, out.with_name(f"{sid}.layers.tif"), out.with_suffix(".glt"), out.with_suffix(".igm")):
+        co = co_file if sid in co_entries else None
+        for product in (out, out.with_name(f"{sid}.layers.tif"), out.with_suffix(".glt"), out.with_suffix(".igm"),
+                        layer_path(out)):
             remove_partials(product)  # left by a killed run
-        fp = fingerprint(project, source, sid, options)
+        fp = fingerprint(project, source, sid, options, co)
+        if co is not None:
+            result.coregistration[sid] = {**_co_summary(co_entries[sid]), "path": layer_path(out)}
         if is_complete(out, fp):
             result.strips[sid] = {"strip": sid, "status": "skipped", "path": str(out)}
             log.info("strip %s: %s is complete, skipped", sid, out)
         else:
-            tasks.append(StripTask(str(project.root), variant, sid, options, str(out), fp))
+            tasks.append(StripTask(str(project.root), variant, sid, options, str(out), fp,
+                                   coregistration=None if co is None else str(co)))
     total = len(ids)
     done = len(ids) - len(tasks)
     progress(done, total, f"rectify {variant}")
@@ -253,9 +304,19 @@ def rectify_project(
         result.strips[s["strip"]] = s
     result.strips = {sid: result.strips[sid] for sid in ids}
     if options.mosaic:
-        result.mosaic = build_mosaic([folder / f"{sid}.tif" for sid in ids], folder / "mosaic.tif", options.geotiff)
+        for sensor, strips in platform.strips_by_sensor(project, ids).items():
+            result.mosaics[sensor] = build_mosaic([folder / f"{sid}.tif" for sid in strips],
+                                                  folder / platform.mosaic_name(project, sensor), options.geotiff)
+        if not platform.several_sensors(project):
+            result.mosaic = next(iter(result.mosaics.values()))
+    result.stacks = platform.write_flight_line_vrts(project, folder, ids, variant)
     result.seconds = time.perf_counter() - started
     return result
+
+
+def _co_summary(entry: dict) -> dict:
+    """The reference, flight line, median and largest sigma (m) of a co-registration entry."""
+    return {k: entry.get(k) for k in ("reference", "flight_line", "median_m", "max_m")}
 
 
 def _strip_progress(progress: ProgressCallback, before: int, strips: int, strip: str) -> ProgressCallback:

@@ -15,8 +15,9 @@ from scangeo.rectify.resample import RESAMPLING, in_image, line_window, remap_ba
 from scangeo.rectify.strip_run import StripRun, tile_slices
 
 
-def resample_tile(run: StripRun, w: Window, dst, lay, glt: GltWriter | None) -> None:
-    """Pass 2 of one tile: visible cells resampled, nodata elsewhere; its layers and GLT."""
+def resample_tile(run: StripRun, w: Window, dst, lay, glt: GltWriter | None, co=None) -> None:
+    """Pass 2 of one tile: visible cells resampled, nodata elsewhere; its layers, GLT and co-registration
+    layer (``co``, with ``run.coregistration``)."""
     g, src, work, result = run.geometry, run.src, run.work, run.result
     rs, cs = tile_slices(w)
     line = np.asarray(work["line"][rs, cs])
@@ -45,6 +46,9 @@ def resample_tile(run: StripRun, w: Window, dst, lay, glt: GltWriter | None) -> 
         lay.write(_layer_values(g, work, rs, cs, line, pixel, valid, run.layers), window=w)
     if glt is not None:
         glt.write(w, line, pixel, valid)
+    if co is not None and run.coregistration is not None:
+        values = run.coregistration.values(line, pixel)
+        co.write(np.where(valid, values, np.float32(np.nan))[None], window=w)
 
 
 def time_origin(geometry: MapStripGeometry) -> float:

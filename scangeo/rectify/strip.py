@@ -39,6 +39,8 @@ from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rectify.cell_map import map_cells
 from scangeo.rectify.cell_values import resample_tile, time_origin
 from scangeo.rectify.cog_writer import BACKLOG_BYTES, CogWriter
+from scangeo.rectify.coregistration_layer import BAND as COREGISTRATION_BAND
+from scangeo.rectify.coregistration_layer import CoregistrationGrid, layer_path
 from scangeo.rectify.geolocation import GltWriter
 from scangeo.rectify.geometry import MapStripGeometry
 from scangeo.rectify.geotiff import (
@@ -98,6 +100,8 @@ class Resampled:
     #: the image's blocks, encoded as they were written (then ``image`` is not written)
     cog: CogWriter | None = None
     bands: list[BandInfo] | None = None
+    #: the co-registration layer's working file (with ``run.coregistration``)
+    coregistration: Path | None = None
 
 
 class _Tee:
@@ -147,12 +151,16 @@ def resample(run: StripRun, bands: list[BandInfo], tags: Mapping[str, object] | 
                 levels = LevelTiles(out.image, profile, factors)
                 stack.callback(levels.close)
                 tiles, out.levels_made = _Tee(dst, levels), True
-        lay = None
+        lay = co = None
         if out.layers is not None:
             profile = working_profile(grid, len(layers), np.float32, math.nan)
             lay = stack.enter_context(rasterio.open(out.layers, "w", **profile))
+        if run.coregistration is not None:
+            out.coregistration = run.work_dir / "coregistration.tif"
+            co = stack.enter_context(rasterio.open(out.coregistration, "w",
+                                                   **working_profile(grid, 1, np.float32, math.nan)))
         for i, w in enumerate(windows):
-            resample_tile(run, w, tiles, lay, out.glt)
+            resample_tile(run, w, tiles, lay, out.glt, co)
             progress(len(windows) + i + 1, 2 * len(windows), f"resample {run.result.path.stem}")
     return out
 
@@ -201,6 +209,14 @@ def _write_side_outputs(run: StripRun, resampled: Resampled) -> None:
         finalise(resampled.layers, result.layers_path, options.geotiff, np.float32)
     if resampled.glt is not None:
         result.glt_path = resampled.glt.commit(output.with_suffix(".glt"))
+    co = run.coregistration
+    if resampled.coregistration is not None and co is not None:
+        with rasterio.open(resampled.coregistration, "r+") as dst:
+            describe(dst, [BandInfo(COREGISTRATION_BAND)],
+                     {**resampled.tags, "coregistration_reference": co.reference, "flight_line": co.flight_line,
+                      "unit": "m", "coregistration_grid": f"{co.sigma.shape[0]} x {co.sigma.shape[1]}"})
+        result.coregistration_path = layer_path(output)
+        finalise(resampled.coregistration, result.coregistration_path, options.geotiff, np.float32)
 
 
 @contextlib.contextmanager
@@ -240,6 +256,7 @@ def rectify_strip(
     bands: list[BandInfo] | None = None,
     progress: ProgressCallback = no_progress,
     finaliser: Finaliser | None = None,
+    coregistration: CoregistrationGrid | None = None,
 ) -> StripResult:
     """Rectify the strip image ``image`` onto ``grid`` and write the orthoimage ``output``.
 
@@ -261,6 +278,9 @@ def rectify_strip(
     progress : ``callback(done, total, message)``.
     finaliser : when given, the last step (:func:`write_outputs`) runs in its thread and this
         returns after pass 2; ``result.wait()`` waits for the outputs (and raises its error).
+    coregistration : the strip's relative displacement to its reference on a grid of its image; when given,
+        ``NAME.coregistration.tif`` beside the output holds it interpolated at every visible cell (metres,
+        float32, NaN nodata: :mod:`scangeo.rectify.coregistration_layer`).
     """
     started = time.perf_counter()
     options = options or RectifyOptions()
@@ -272,6 +292,7 @@ def rectify_strip(
     try:
         with rasterio.Env(GDAL_CACHEMAX=gdal_cache(options)), open_strip_image(image, geometry) as src:
             run = start_run(geometry, grid, options, src, output, work_dir)
+            run.coregistration = coregistration
             map_cells(run, progress)
             resampled = resample(run, bands or bands_of(src), tags, progress)
         run.work.close()  # pass 2's inputs are no longer needed: free them before the last step

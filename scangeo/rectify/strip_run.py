@@ -18,6 +18,7 @@ from rasterio.windows import Window
 
 from scangeo.errors import RectifyOptionsError
 from scangeo.rectify import occlusion
+from scangeo.rectify.coregistration_layer import CoregistrationGrid
 from scangeo.rectify.geometry import MapStripGeometry, footprint_bounds, nadir_ground_pixel
 from scangeo.rectify.inverse_map import InverseMapStats
 from scangeo.rectify.options import RectifyOptions
@@ -42,6 +43,8 @@ class StripResult:
     grid: OutputGrid
     layers_path: Path | None = None
     glt_path: Path | None = None
+    #: the co-registration layer (a platform's strip with a reference, :mod:`scangeo.rectify.coregistration_layer`)
+    coregistration_path: Path | None = None
     stats: InverseMapStats = field(default_factory=InverseMapStats)
     valid_cells: int = 0
     hidden_cells: int = 0
@@ -60,6 +63,7 @@ class StripResult:
 
     def summary(self) -> dict:
         self.wait()
+        extra = {} if self.coregistration_path is None else {"coregistration": str(self.coregistration_path)}
         return {
             "path": str(self.path),
             "grid": self.grid.to_dict(),
@@ -70,6 +74,7 @@ class StripResult:
             "inverse_map_max_error_px": self.stats.max_error_px,
             "inverse_map_method": self.inverse_map_method,
             "seconds": round(self.seconds, 3),
+            **extra,
         }
 
 
@@ -164,6 +169,8 @@ class StripRun:
     work: WorkArrays
     zbuf: occlusion.ZBuffer | None
     result: StripResult
+    #: the relative displacement to interpolate at the cells (None: no co-registration layer)
+    coregistration: CoregistrationGrid | None = None
     #: ``read(window)`` of the image's bands: raw for a plain ENVI cube, else GDAL (``raw_image``)
     reader: RawCube | GdalReader = field(init=False)
 

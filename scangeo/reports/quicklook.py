@@ -2,9 +2,10 @@
 check points on it (one figure).
 
 The mosaic (``results/NAME/ortho/mosaic.tif``, written by ``scangeo rectify --mosaic`` or the rectify
-stage of ``scangeo run``) is read decimated to at most :data:`SIZE` pixels on its longer side (its
-overviews serve when it has them), three bands evenly spread over its bands as red, green and blue
-(one band: grey), each stretched between its 2nd and 98th percentile; no-data is white.
+stage of ``scangeo run``; of a platform, the first sensor's ``mosaic-<sensor>.tif`` by name) is read
+decimated to at most :data:`SIZE` pixels on its longer side (its overviews serve when it has them),
+three bands evenly spread over its bands as red, green and blue (one band: grey), each stretched
+between its 2nd and 98th percentile; no-data is white.
 """
 from __future__ import annotations
 
@@ -21,7 +22,11 @@ SIZE = 1000
 
 
 def mosaic_path(results: Path, variant: str) -> Path:
-    return results / variant / "ortho" / "mosaic.tif"
+    """``results/NAME/ortho/mosaic.tif``; of a platform (a mosaic per sensor) the first ``mosaic-<sensor>.tif``."""
+    ortho = results / variant / "ortho"
+    single = ortho / "mosaic.tif"
+    per_sensor = sorted(ortho.glob("mosaic-*.tif")) if not single.exists() and ortho.is_dir() else []
+    return per_sensor[0] if per_sensor else single
 
 
 def _read(path: Path) -> tuple[np.ndarray, tuple[float, float, float, float]]:

@@ -16,7 +16,8 @@ variant's ``results/NAME/``), and writes one self-contained HTML file (figures e
    strip, the non-separable points and a sentence of interpretation (:mod:`scangeo.reports.reliability`).
 8. when ``scangeo match`` measured points: their map and counts (:mod:`scangeo.reports.matching`);
 9. a quicklook: the recommended variant's mosaic with the strips' footprints and the check points
-   (:mod:`scangeo.reports.quicklook`; a note when the mosaic is not there yet).
+   (:mod:`scangeo.reports.quicklook`; a note when the mosaic is not there yet);
+10. a platform's: the co-registration of its sensors per flight line (:mod:`scangeo.reports.coregistration_section`).
 
 The residual vectors of every variant also go to a GeoPackage (:mod:`scangeo.reports.geopackage`).
 """
@@ -38,6 +39,7 @@ from scangeo.orientation.file import read_orientation_file
 from scangeo.progress import ProgressCallback, no_progress
 from scangeo.reports import figures, html
 from scangeo.reports.calibration_section import calibration_section
+from scangeo.reports.coregistration_section import coregistration_section
 from scangeo.reports.corrections import (
     breaks_of,
     correction_series,
@@ -336,6 +338,9 @@ def write_report(
     chosen = comparison.recommended or comparison.best or comparison.reference  # the variant scangeo run rectifies
     sections.insert(2, quicklook_section(root / "results", chosen, {sid: f.footprint for sid, f in frames.items()},
                                          _check_points(root), any(s.image for s in project.strips)))
+    coregistration = coregistration_section(root / "results", chosen)  # a platform's sensors
+    if coregistration is not None:
+        sections.insert(3, coregistration)
     pixels = max(project.scanner_of(s.id).model.pixels for s in project.image_strips)
     calibration = calibration_section(root, comparison, pixels)  # estimates, tests, residuals
     if calibration is not None:

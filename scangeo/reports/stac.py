@@ -7,6 +7,13 @@ polygon and bbox (the grid's edges, densified, so a projected grid's curved edge
 properties: the project, the variant, the strip (absent for the mosaic), the orientation and sigma0
 from the GeoTIFF's tags. The project has no calendar date (its time base is seconds of a GPS week or
 day), so ``datetime`` is when the item was written and ``scangeo:time_span_s`` the strip's line times.
+
+A platform's orthoimages (several sensors) also name ``scangeo:sensor`` and ``scangeo:flight_line``; a
+strip with a co-registration layer (``NAME.coregistration.tif``, an adjusted variant:
+:mod:`scangeo.rectify.coregistration_layer`) has it as the asset ``coregistration`` and its summary as
+``scangeo:coregistration_reference`` (the strip it is registered to) and ``scangeo:coregistration_sigma_m``
+(``median`` and ``max`` of the propagated 1-sigma relative ground displacement, metres, over the grid of
+``coregistration.json``).
 """
 from __future__ import annotations
 
@@ -57,6 +64,7 @@ def stac_item(raster: Path, project_name: str, variant: str, properties: dict | 
              **({"scangeo:strip": strip} if strip else {}),
              **({"scangeo:orientation": tags["orientation"]} if tags.get("orientation") else {}),
              **({"scangeo:sigma0": float(tags["sigma0"])} if tags.get("sigma0") else {}),
+             **({f"scangeo:{k}": tags[k] for k in ("sensor", "flight_line") if tags.get(k)}),
              **(properties or {})}
     now = datetime.datetime.now(datetime.UTC).replace(microsecond=0)
     name = f"{project_name}-{variant}-{raster.stem}"
@@ -72,19 +80,31 @@ def stac_item(raster: Path, project_name: str, variant: str, properties: dict | 
     return item
 
 
-def write_stac_items(project_root: Path, variant: str, rasters: list[Path], time_spans: dict | None = None
-                     ) -> list[Path]:
+def write_stac_items(project_root: Path, variant: str, rasters: list[Path], time_spans: dict | None = None,
+                     coregistration: dict | None = None) -> list[Path]:
     """Write ``NAME.stac.json`` beside every raster (atomically); returns the item files.
 
     time_spans : per strip id, the first and last line time (seconds of the project's time base).
+    coregistration : per strip id, its co-registration layer's ``path``, ``reference``, ``median_m`` and
+        ``max_m`` (``BatchResult.coregistration``).
     """
     out = []
     for raster in rasters:
         raster = Path(raster)
-        extra = {}
+        extra: dict = {}
         if time_spans and raster.stem in time_spans:
             extra["scangeo:time_span_s"] = list(time_spans[raster.stem])
+        co = (coregistration or {}).get(raster.stem)
+        if co is not None:
+            extra["scangeo:coregistration_reference"] = co["reference"]
+            extra["scangeo:coregistration_sigma_m"] = {"median": co["median_m"], "max": co["max_m"]}
         item = stac_item(raster, Path(project_root).resolve().name, variant, extra)
+        if co is not None:
+            layer = Path(co["path"])
+            item.add_asset("coregistration", pystac.Asset(
+                f"./{layer.name}", media_type=pystac.MediaType.COG,
+                title=f"{variant} {raster.stem}: 1-sigma relative ground displacement to strip {co['reference']} (m)",
+                roles=["metadata"]))
         path = item_path(raster)
         write_text(path, json.dumps(item.to_dict(include_self_link=False), indent=1) + "\n")
         out.append(path)
