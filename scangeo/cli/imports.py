@@ -28,9 +28,9 @@ def add_parser(subparsers, common) -> None:
     q.add_argument("--sensor-model", default=None, metavar="FILE",
                    help="a HySpex sensor-model file (pixel vinkelx vinkely) instead of the status file's look "
                         "angles")
-    q.add_argument("--image", default=None, metavar="CUBE",
+    q.add_argument("--cube", default=None, metavar="CUBE",
                    help="the line's cube (ENVI: PARGE's .img with its .hdr), of the status file's pixels and lines")
-    q.add_argument("--dtm", default=None, metavar="FILE|HEIGHT",
+    q.add_argument("--dtm", default=None, metavar="FILE",
                    help="the DTM (orthometric heights), or a height in metres: a plane; default: a surface through "
                         "the GCPs' heights, labelled; without GCPs none (the project then needs one)")
     q.add_argument("--geoid", default=None, metavar="N|FILE",
@@ -60,17 +60,17 @@ def add_lcf_parser(sub, common) -> None:
     q.add_argument("--pixels-increase", choices=("right", "left"), default="right",
                    help="with --fov: pixel numbers grow to the right or the left of the flight direction "
                         "(default: %(default)s)")
-    q.add_argument("--dtm", default=None, metavar="FILE|HEIGHT",
+    q.add_argument("--dtm", default=None, metavar="FILE",
                    help="the DTM (orthometric heights), or a height in metres: a plane (over water: the sea "
                         "surface, 0); default: a surface through the GCPs' heights, else none")
     q.add_argument("--geoid", default=None, metavar="N|FILE", help="geoid undulation in metres, or a raster of it")
     q.add_argument("--altitude", choices=("auto", "ellipsoidal", "orthometric"), default="auto",
                    help="the datum of the .lcf's altitude (default: %(default)s, decided from the data)")
-    q.add_argument("--ground", default=None, metavar="CSV", help="ground.csv of GCPs (with --points)")
-    q.add_argument("--points", default=None, metavar="CSV",
+    q.add_argument("--ground", default=None, metavar="CSV", help="ground.csv of GCPs (with --measurements)")
+    q.add_argument("--measurements", default=None, metavar="CSV",
                    help="points.csv: the GCPs measured in the cube (strip: the line's id)")
     q.add_argument("--crs", default=None, help="the map CRS (default: the line's UTM zone)")
-    q.add_argument("--strip", default=None, metavar="ID", help="the line's id (default: the cube's name)")
+    q.add_argument("--strip", default=None, help="the line's id (default: the cube's name)")
     q.add_argument("--knot-spacing", type=float, default=None, metavar="S",
                    help="the spline's knot spacing in seconds (default: decided from the attitude)")
     q.set_defaults(func=run_lcf)
@@ -83,8 +83,8 @@ def run_lcf(args) -> int:
 
     r = import_lcf(args.cube, args.out, lcf=args.lcf, times=args.times, fov_deg=args.fov,
                    look_angles=args.look_angles, pixels_increase=args.pixels_increase, dtm=args.dtm,
-                   geoid=args.geoid, altitude=args.altitude, ground=args.ground, points=args.points, crs=args.crs,
-                   strip=args.strip, knot_spacing_s=args.knot_spacing, progress=progress_of(args))
+                   geoid=args.geoid, altitude=args.altitude, ground=args.ground, points=args.measurements,
+                   crs=args.crs, strip=args.strip, knot_spacing_s=args.knot_spacing, progress=progress_of(args))
     print(f"strip {r.strip}: {r.lines} lines at {r.line_rate_hz:.4f} Hz; {r.control} control and {r.check} check "
           "points")
     for d in r.record.decisions:
@@ -103,7 +103,7 @@ def run(args) -> int:
     from scangeo.importers.parge import import_parge
 
     r = import_parge(args.status, args.out, sensor_model=args.sensor_model, dtm=args.dtm, geoid=args.geoid,
-                     image=args.image, progress=progress_of(args))
+                     image=args.cube, progress=progress_of(args))
     print(f"strip {r.strip}: {r.control} control and {r.check} check GCPs; line rate {r.line_rate_hz:.4f} Hz "
           f"({r.line_rate_source})")
     print(f"PARGE's boresight in scangeo's convention: roll {r.boresight_deg[0]:.4f}, pitch {r.boresight_deg[1]:.4f}, "

@@ -344,7 +344,7 @@ def _dtm(st: ParGeStatus, dtm, record: ImportRecord) -> DtmChoice:
     if len(st.gcps):
         return DtmChoice("gcps", why=f"a surface through the {len(st.gcps)} GCPs' heights (not a DEM)")
     record.warn(f"{st.path.name}: no GCPs and no DTM given: the project has no DTM, and scangeo run stops at its "
-                "check; give the DTM (--dtm)")
+                "check; give the DTM (dtm: a raster or a height)")
     return DtmChoice("none", why="none: the line needs a DTM")
 
 

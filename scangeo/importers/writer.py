@@ -139,7 +139,7 @@ def check_out(out) -> Path:
 
 
 def given_dtm(dtm) -> DtmChoice:
-    """``--dtm``: a number is a plane at that orthometric height (m), anything else a raster's path."""
+    """The DTM given to an import: a number is a plane at that orthometric height (m), anything else a raster's path."""
     try:
         height = float(str(dtm))
     except ValueError:
@@ -260,7 +260,7 @@ def project_toml(lines: list[ImportedLine], plan: ProjectPlan) -> str:
     sensor = lines[0].sensor
     geoid = (f"geoid_undulation_m = {plan.geoid:.4f}" if isinstance(plan.geoid, float)
              else f"geoid = {json.dumps(str(plan.geoid))}")
-    dtm_comment = ("   # NOT WRITTEN: this line needs a DTM (give one to the import with --dtm, or put one here)"
+    dtm_comment = ("   # NOT WRITTEN: this line needs a DTM (give the import a DTM, or put one here)"
                    if plan.dtm.kind == "none" else f"   # {plan.dtm.why}" if plan.dtm.why else "")
     text = [f"# Imported by scangeo import {plan.tool}{': ' + plan.comment if plan.comment else ''}; "
             "decisions in import.json",

@@ -153,7 +153,8 @@ def _check(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], li
     if dtm is not None and not dtm.exists() and ctx.project.sensor.kind != "laser":
         raise InputFileError(f"{ctx.root}: the project has no DTM: project.toml [project] dtm names "
                              f"{relative_name(dtm, ctx.root)}, which does not exist. The line's rays need a DTM "
-                             "(over water a plane at the sea surface): put one there, or import again with --dtm")
+                             "(over water a plane at the sea surface): put one there, or import the line again "
+                             "with its DTM")
     summary = summarise_project(ctx.root)
     problems = [f"DTM: {summary['dtm']['error']}"] if "error" in summary.get("dtm", {}) else []
     problems += [f"strip {s['id']}: {s['error']}" for s in summary["strips"] if "error" in s]

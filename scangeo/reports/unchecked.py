@@ -30,8 +30,8 @@ def write_unchecked_report(project: Project, frames: dict, folder: Path) -> Path
     root = project.root
     sections = [html.Section("Recommendation and accuracy", "recommendation", [
         html.paragraph(f"Rectified: DG, {UNCHECKED}.", cls="warn"),
-        html.paragraph("Add GCPs (ground.csv and points.csv; for an imported line: import it again with --ground "
-                       "and --points) for an adjusted orthoimage and its check-point accuracy.")])]
+        html.paragraph("Add GCPs (ground.csv and points.csv; for an imported line: import it again with its "
+                       "ground.csv and points.csv) for an adjusted orthoimage and its check-point accuracy.")])]
     sections.append(quicklook_section(root / "results", "DG", {sid: f.footprint for sid, f in frames.items()},
                                       np.zeros((0, 2))))
     rows = []

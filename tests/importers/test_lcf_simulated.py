@@ -36,7 +36,7 @@ def both(tmp_path_factory):
     imported = root / "imported"
     assert main(["import", "lcf", str(files["cube"]), str(imported), "--look-angles", str(sim / "look_angles.csv"),
                  "--dtm", str(sim / "dtm.tif"), "--geoid", "30.5", "--altitude", "ellipsoidal",
-                 "--ground", str(sim / "ground.csv"), "--points", str(sim / "points.csv"), "--crs", "EPSG:32633",
+                 "--ground", str(sim / "ground.csv"), "--measurements", str(sim / "points.csv"), "--crs", "EPSG:32633",
                  "--strip", "01", "--knot-spacing", "0.2", "--no-progress"]) == 0
     for project in (sim, imported):
         assert main(["run", str(project), "--no-progress"]) == 0
