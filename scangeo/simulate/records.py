@@ -37,16 +37,21 @@ def _mean_errors(line: SimulatedFlightLine, plan_strip: StripPlan, line_rate: fl
             "mean_attitude_error_deg": np.degrees(line.errors.attitude_total[inside].mean(axis=0)).tolist()}
 
 
-def true_relative_mountings(config: SimulationConfig) -> list[dict]:
-    """Each configured relative mounting's true value: roll, pitch, heading of ``R_BS(reference)^T R_BS(sensor)``
-    (deg) and the lever-arm difference sensor minus reference (m, body frame)."""
+def true_relative_mountings(config: SimulationConfig, configured: bool = False) -> list[dict]:
+    """The true relative mountings: roll, pitch, heading of ``R_BS(reference)^T R_BS(sensor)`` (deg) and the
+    lever-arm difference sensor minus reference (m, body frame); of the configured pairs (``configured``), or
+    of every sensor to the first and then the configured pairs that are not among those."""
     sensors = {s.id: s for s in config.platform.sensors}
+    pairs = [(r.sensor, r.reference) for r in config.platform.relative_mountings]
+    if not configured:
+        first = config.platform.sensors[0].id
+        pairs = list(dict.fromkeys([(s, first) for s in sensors if s != first] + pairs))
     out = []
-    for r in config.platform.relative_mountings:
-        s, ref = sensors[r.sensor], sensors[r.reference]
+    for sensor, reference in pairs:
+        s, ref = sensors[sensor], sensors[reference]
         rel = relative_rotation(np.radians(np.add(s.boresight_deg, s.boresight_error_deg)),
                                 np.radians(np.add(ref.boresight_deg, ref.boresight_error_deg)))
-        out.append({"sensor": r.sensor, "reference": r.reference, "boresight_deg": np.degrees(rel).tolist(),
+        out.append({"sensor": sensor, "reference": reference, "boresight_deg": np.degrees(rel).tolist(),
                     "lever_arm_m": np.subtract(s.lever_arm_m, ref.lever_arm_m).tolist()})
     return out
 
@@ -55,7 +60,7 @@ def relative_mounting_priors(config: SimulationConfig, seed: int) -> list[dict]:
     """The ``[[relative_mountings]]`` of project.toml: the true relative mountings plus noise of their sigmas."""
     rng = rng_for(seed, "relative mountings")
     out = []
-    for r, true in zip(config.platform.relative_mountings, true_relative_mountings(config)):
+    for r, true in zip(config.platform.relative_mountings, true_relative_mountings(config, configured=True)):
         entry: dict = {"sensor": r.sensor, "reference": r.reference}
         sigma = np.array(r.boresight_sigma_deg)
         entry["boresight_deg"] = np.add(true["boresight_deg"], rng.standard_normal(3) * sigma)

@@ -50,10 +50,10 @@ def test_the_pair_loads_as_a_platform_of_two_pushbrooms(pair_block):
         assert fl.trajectory == project.root / "nav" / f"{fl.id}.csv"
         a, b = project.timing(f"vnir-{fl.id}"), project.timing(f"swir-{fl.id}")
         assert a.first_line_time == b.first_line_time
-        # 400 VNIR lines at 83.33 Hz, 200 SWIR lines at 41.67 Hz: the SWIR's last line within the VNIR's
-        assert (project.n_lines(f"vnir-{fl.id}"), project.n_lines(f"swir-{fl.id}")) == (400, 200)
-        assert a.first_line_time + 399 / a.line_rate - (b.first_line_time + 199 / b.line_rate) == pytest.approx(
-            1.0 / a.line_rate)  # one VNIR line: 399 = 2 x 199 + 1
+        # 800 VNIR lines at 83.33 Hz, 400 SWIR lines at 41.67 Hz: the SWIR's last line within the VNIR's
+        assert (project.n_lines(f"vnir-{fl.id}"), project.n_lines(f"swir-{fl.id}")) == (800, 400)
+        assert a.first_line_time + 799 / a.line_rate - (b.first_line_time + 399 / b.line_rate) == pytest.approx(
+            1.0 / a.line_rate)  # one VNIR line: 799 = 2 x 399 + 1
 
 
 def test_info_shows_the_platform_and_the_strips_sharing_each_flight_line(pair_block, capsys):
@@ -234,7 +234,7 @@ def test_a_preset_extends_another(tmp_path):
     mine = tmp_path / "mine.toml"
     mine.write_text('extends = "pushbroom_pair_quick"\n[flight]\nstrips = 2\n')
     config = load_preset(mine)
-    assert config.flight.strips == 2 and config.flight.lines == 400 and [s.id for s in config.platform.sensors] == [
+    assert config.flight.strips == 2 and config.flight.lines == 800 and [s.id for s in config.platform.sensors] == [
         "vnir", "swir"]
     loop = tmp_path / "loop.toml"
     loop.write_text(f'extends = "{loop}"\n')
