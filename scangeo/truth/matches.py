@@ -61,7 +61,8 @@ def match_errors(project_dir: str | Path, prefix: str = "M") -> MatchErrors:
             control.append([x[0] - known[pid][0], y[0] - known[pid][1]])
             continue
         for r in rows[1:]:
-            ln, px, st = truth.geometries[str(pts.strip[r])].ground_to_image(p_P)
+            # of a point the over-scanning mirror sees more than once, the sighting nearest the match
+            ln, px, st = truth.geometries[str(pts.strip[r])].nearest_sighting(p_P, pts.line[[r]], pts.pixel[[r]])
             if (st[0] & ~MULTIPLE) == 0:
                 ties.append([pts.line[r] - ln[0], pts.pixel[r] - px[0]])
                 ids.append(pid)
