@@ -52,6 +52,7 @@ from scangeo.reports.diagnosis_section import diagnosis_section
 from scangeo.reports.geopackage import write_geopackage
 from scangeo.reports.laser import write_laser_report
 from scangeo.reports.matching import match_section
+from scangeo.reports.platform_section import platform_section
 from scangeo.reports.quicklook import quicklook_section
 from scangeo.reports.reliability import reliability_section
 from scangeo.reports.residual_vectors import ResidualVectors, check_vectors
@@ -345,6 +346,9 @@ def write_report(
     calibration = calibration_section(root, comparison, pixels)  # estimates, tests, residuals
     if calibration is not None:
         sections.insert(3, calibration)
+    platform = platform_section(root / "results", chosen) if project.is_platform else None
+    if platform is not None:  # sensors' mountings, relative mountings, strips without control
+        sections.insert(3, platform)
     sections.append(_notes_section(project, comparison))
     shown = [n for n in dict.fromkeys([comparison.reference, comparison.best]) if n in names]
     sections.append(reliability_section(project.root / "results", shown))  # MDB and external reliability maps
