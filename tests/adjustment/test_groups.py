@@ -271,3 +271,32 @@ def test_measured_time_image_jacobian_matches_finite_differences(sensor):
                 AlongOffset()):
         cols = [j for j, (k, _) in enumerate(check.labels) if k == key]
         assert np.abs(check.analytic[:, cols]).max() > 0, key
+
+
+def test_relative_mounting_prior_jacobian_and_known_answer():
+    """The prior's rows: analytic derivatives against central differences at boresights of degrees (the real
+    HySpex pair's size), and its residual zero when the sensor's boresight is the reference's times the given
+    relative rotation, whatever the reference's."""
+    from scangeo.adjustment.mounting import RelativeMountingPrior, relative_rotation
+    from scangeo.io.project import RelativeMounting
+    from scangeo.rotation import matrix_to_rph, rph_to_matrix
+
+    rel = np.radians([-1.54, 0.48, -0.21])
+    prior = RelativeMounting("swir", "vnir", rel, np.radians([0.01, 0.01, 0.02]), np.array([0.0, 0.12, -0.03]),
+                             np.array([0.005, 0.005, 0.01]))
+    group = RelativeMountingPrior(prior)
+    rng = np.random.default_rng(5)
+    b_ref = np.radians([0.8, -0.3, 1.1])
+    exact = np.array(matrix_to_rph(rph_to_matrix(*b_ref) @ rph_to_matrix(*rel)))
+    on = {Boresight("swir"): exact, Boresight("vnir"): b_ref, LeverArm("swir"): np.array([0.1, 0.2, 0.3]),
+          LeverArm("vnir"): np.array([0.1, 0.08, 0.33])}
+    assert np.allclose(group.residuals(on), 0.0, atol=1e-12)
+    assert np.allclose(relative_rotation(exact, b_ref), rel, atol=1e-12)
+    off = {**on, Boresight("swir"): exact + rng.normal(0, 1e-3, 3), LeverArm("vnir"): np.array([0.0, 0.1, 0.3])}
+    check = check_jacobian(group, off, {Boresight("swir"): 1e-6, Boresight("vnir"): 1e-6, LeverArm("swir"): 1e-3,
+                                        LeverArm("vnir"): 1e-3})
+    assert check.max_relative_error < 1e-6, check.worst()
+    # a small extra rotation about the sensor frame's x axis: a roll residual of its sine
+    tilted = {**on, Boresight("swir"): np.array(matrix_to_rph(rph_to_matrix(*exact) @ rph_to_matrix(2e-4, 0, 0)))}
+    w = group.residuals(tilted)[:3] * prior.boresight_sigma
+    assert abs(w[0] - np.sin(2e-4)) < 1e-9 and np.all(np.abs(w[1:]) < 1e-9)
