@@ -131,8 +131,9 @@ def no_images(ctx: Context) -> str | None:
 
 
 def no_points(ctx: Context) -> str | None:
-    """Why the stages that adjust cannot run: no points.csv (a line imported without GCPs)."""
-    if (ctx.root / "points.csv").exists():
+    """Why the stages that adjust cannot run: no points.csv (a line imported without GCPs), and no matching
+    that would write one."""
+    if (ctx.root / "points.csv").exists() or nothing_to_match(ctx) is None:
         return None
     return "no points.csv: no GCPs and no tie points; the orthoimage is a direct georeferencing (DG), unchecked"
 
