@@ -43,6 +43,7 @@ import logging
 import math
 import os
 import struct
+import sys
 import threading
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -57,6 +58,7 @@ from rasterio.windows import Window
 
 from scangeo.atomic import commit
 from scangeo.errors import ScangeoError
+from scangeo.rectify import predictors
 from scangeo.rectify.overviews import halve
 
 log = logging.getLogger(__name__)
@@ -110,6 +112,7 @@ def gdal_in_tested_range(version: str | None = None) -> bool:
 
 
 _noted = False
+_LITTLE = sys.byteorder == "little"
 
 
 @dataclass(frozen=True)
@@ -335,16 +338,13 @@ class CogWriter:
     def encode(self, block: np.ndarray) -> bytes:
         """A block (bands, bs, bs) as the TIFF stores it: pixel-interleaved, differenced (integers:
         predictor 2; floats: predictor 3), deflated."""
-        t = block.transpose(1, 2, 0)
         if self.predictor and self.dtype.kind == "f":
-            d = floating_point_predictor(t)
+            d = predictors.floating_point(block)
         elif self.predictor:
-            d = np.empty(t.shape, self.dtype)
-            d[:, 0] = t[:, 0]
-            np.subtract(t[:, 1:], t[:, :-1], out=d[:, 1:])
+            d = predictors.horizontal(block)
         else:
-            d = np.ascontiguousarray(t)
-        if d.dtype.byteorder == ">":
+            d = np.ascontiguousarray(block.transpose(1, 2, 0))
+        if d.dtype.byteorder == ">" or (d.dtype.byteorder == "=" and not _LITTLE):  # the file is little-endian
             d = d.astype(d.dtype.newbyteorder("<"))
         if self.compress == "deflate":
             return isal_zlib.compress(d, LEVEL)
@@ -457,22 +457,6 @@ class CogWriter:
         if not self._spool.closed:
             self._spool.close()
         self._spool_path.unlink(missing_ok=True)
-
-
-def floating_point_predictor(rows: np.ndarray) -> np.ndarray:
-    """TIFF predictor 3 (Adobe's floating-point predictor, as libtiff's ``fpDiff``) of pixel-interleaved
-    rows ``(rows, cols, samples)`` of floats: each row's values split into byte planes, the most
-    significant byte of every value first, then each byte minus the byte ``samples`` before it
-    (modulo 256). Returns the bytes, ``(rows, cols * samples * itemsize)`` uint8."""
-    n_rows, cols, samples = rows.shape
-    size = rows.dtype.itemsize
-    values = np.ascontiguousarray(rows, dtype=rows.dtype.newbyteorder("<")).reshape(n_rows, cols * samples)
-    planes = values.view(np.uint8).reshape(n_rows, cols * samples, size)[:, :, ::-1]   # big-endian bytes
-    b = np.ascontiguousarray(planes.transpose(0, 2, 1)).reshape(n_rows, size * cols * samples)
-    out = np.empty_like(b)
-    out[:, :samples] = b[:, :samples]
-    np.subtract(b[:, samples:], b[:, :-samples], out=out[:, samples:])  # uint8: modulo 256
-    return out
 
 
 def _copy(src, dst, offset: int, n: int) -> None:
