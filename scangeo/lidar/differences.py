@@ -38,14 +38,18 @@ class Differences:
         return float(np.sqrt(np.mean(d**2))) if d.size else float("nan")
 
     def per_pair(self) -> dict[str, dict]:
+        """Per strip pair (sorted), its cells, rms and mean of ``dz``."""
+        if not self.dz.size:
+            return {}
+        pairs, code = np.unique(np.stack([self.a.astype(str), self.b.astype(str)], axis=1), axis=0,
+                                return_inverse=True)
+        code = code.reshape(-1)
+        order = np.argsort(code, kind="stable")  # each pair's rows in their order
+        ends = np.cumsum(np.bincount(code, minlength=len(pairs)))
         out = {}
-        for a, b in sorted(set(zip(self.a, self.b))):
-            sel = (self.a == a) & (self.b == b)
-            out[f"{a}-{b}"] = {
-                "cells": int(sel.sum()),
-                "rms": float(np.sqrt(np.mean(self.dz[sel] ** 2))),
-                "mean": float(np.mean(self.dz[sel])),
-            }
+        for (a, b), stop, count in zip(pairs, ends, np.bincount(code, minlength=len(pairs))):
+            d = self.dz[order[stop - count:stop]]
+            out[f"{a}-{b}"] = {"cells": int(count), "rms": float(np.sqrt(np.mean(d**2))), "mean": float(np.mean(d))}
         return out
 
 
