@@ -98,8 +98,10 @@ def remap_bands(
     work = data if dtype in _REMAP_DTYPES else data.astype(np.float64)
     out = np.empty((data.shape[0],) + line.shape, dtype=dtype)
     for b in range(data.shape[0]):
-        band = cv2.remap(work[b], map_x, map_y, flag, borderMode=cv2.BORDER_REPLICATE)
-        out[b] = band if band.dtype == dtype else _cast(band, dtype)
+        if work.dtype == dtype:  # straight into the output: no copy of every band
+            cv2.remap(work[b], map_x, map_y, flag, dst=out[b], borderMode=cv2.BORDER_REPLICATE)
+        else:
+            out[b] = _cast(cv2.remap(work[b], map_x, map_y, flag, borderMode=cv2.BORDER_REPLICATE), dtype)
     return out
 
 
