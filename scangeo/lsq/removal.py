@@ -45,6 +45,7 @@ import logging
 import numpy as np
 import scipy.sparse as sp
 
+from scangeo.blas import one_thread
 from scangeo.errors import AdjustmentError
 from scangeo.lsq.solver import Solution, Solver
 from scangeo.lsq.statistics import MIN_REDUNDANCY
@@ -133,11 +134,12 @@ class RemovalUpdate:
         self._V, self._VU, self._B = V, VU, B
         self._sign = np.concatenate([self._sign, -np.ones(rows.size), np.ones(R.shape[0])])
         S = -np.diag(self._sign) - 0.5 * (VU + VU.T)
-        smallest = float(np.min(np.abs(np.linalg.eigvalsh(S))))
-        if smallest < MIN_EIGENVALUE:
-            log.info("removal leaves unknowns undetermined (redundancy eigenvalue %.3g): refactorising", smallest)
-            return False
-        self._S_inv = np.linalg.inv(S)
+        with one_thread():  # k x k, k up to a few hundred: OpenBLAS's threads only cost (scangeo/blas.py)
+            smallest = float(np.min(np.abs(np.linalg.eigvalsh(S))))
+            if smallest < MIN_EIGENVALUE:
+                log.info("removal leaves unknowns undetermined (redundancy eigenvalue %.3g): refactorising", smallest)
+                return False
+            self._S_inv = np.linalg.inv(S)
         return self._solve()
 
     def _regularisation(self, A: sp.csr_matrix) -> sp.csr_matrix:

@@ -69,6 +69,7 @@ from scangeo.adjustment.diagnosis.patterns import (
     refine,
     residual_correlation,
 )
+from scangeo.blas import one_thread
 
 #: the criterion difference below which a competing attribution makes the chosen one ambiguous (module docstring)
 AMBIGUOUS_BIC = 10.0
@@ -219,6 +220,7 @@ def _problem(fit: Fit) -> list[int]:
     return [s for s, b in enumerate(fit.breaks) if b]
 
 
+@one_thread()  # the break selection's small designs (scangeo/blas.py)
 def attribution_checks(data: PatternData, fit: Fit, options: SelectionOptions | None = None,
                        threshold: float = AMBIGUOUS_BIC) -> list[AttributionCheck]:
     """Per problem strip of ``fit`` (a strip with breaks), its runner-ups and the plausible alternatives;
@@ -250,6 +252,7 @@ def attribution_checks(data: PatternData, fit: Fit, options: SelectionOptions | 
 NO_PROBLEM_STRIPS = 3
 
 
+@one_thread()  # the break selection's small designs (scangeo/blas.py)
 def no_problem_alternatives(data: PatternData, fit: Fit, options: SelectionOptions | None = None,
                             strips: int = NO_PROBLEM_STRIPS) -> list[Attribution]:
     """Per strip, the best model with breaks on it (one or two, on ``options.pair_candidates`` lines, then

@@ -38,6 +38,7 @@ from functools import partial
 import numpy as np
 
 from scangeo.adjustment.diagnosis.local_fit import MARGIN, BlockIndex, CurrentFit, StripProbe, strip_nodes
+from scangeo.blas import one_thread
 
 #: chi^2 quantile (1 degree of freedom, 95 %) for the profile-likelihood interval of a break.
 CHI2_95 = 3.841
@@ -176,6 +177,7 @@ def _serial_rho(resid: np.ndarray, strip: np.ndarray, line: np.ndarray) -> float
     return float(np.clip(num / den, 0.0, 0.9)) if den > 0 else 0.0
 
 
+@one_thread()  # designs of a few thousand rows x ~100 columns (scangeo/blas.py)
 def evaluate(data: PatternData, breaks, rho: dict[str, float] | None = None, degree: int = 1,
              constant=()) -> Fit:
     """Least-squares fit of the strip functions for ``breaks`` (``constant``: strips held constant), with its BIC."""
@@ -520,6 +522,7 @@ def _carried(data: PatternData, breaks, constant, s: int, t: int, keep: bool, rh
     return refine(data, best[1], rho, options, const, sweeps=SWEEPS_ALT, index=index), const
 
 
+@one_thread()  # designs of a few thousand rows x ~100 columns (scangeo/blas.py)
 def alternatives(data: PatternData, fit: Fit, options: SelectionOptions | None = None,
                  index: BlockIndex | None = None, kinds=("moved", "shared", "merged", "dropped")
                  ) -> list[Alternative]:
@@ -560,6 +563,7 @@ def _better_alternative(data: PatternData, fit: Fit, options: SelectionOptions, 
     return (min(found, key=lambda f: f.bic) if found else None), alts
 
 
+@one_thread()  # designs of a few thousand rows x ~100 columns (scangeo/blas.py)
 def select_breaks(data: PatternData, options: SelectionOptions = SelectionOptions()) -> Fit:
     """Greedy model growth by BIC, then pruning under serial correlation (module docstring).
 
@@ -679,6 +683,7 @@ def _window(data, strip_breaks, j, n, options, step_fraction=1.0 / 600) -> np.nd
     return np.arange(lo, hi + 1e-9, max(step_fraction * n, 1.0))
 
 
+@one_thread()  # designs of a few thousand rows x ~100 columns (scangeo/blas.py)
 def break_intervals(data: PatternData, fit: Fit, options: SelectionOptions = SelectionOptions()
                     ) -> list[BreakEstimate]:
     """95 % profile-likelihood interval of every break of ``fit`` (the others fixed).
