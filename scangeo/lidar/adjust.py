@@ -349,6 +349,14 @@ def find_patches(project: Project, options: LaserOptions, ground: Path | None = 
     return find_all(project, popt, prior, given, options.workers, callback, options.patch_search, options.scheduler)
 
 
+def tie_patches(project: Project, options: LaserOptions, found: dict[str, StripFound]) -> list[TiePatch]:
+    """The homologous patches of the strips' ``found`` patches (what :func:`build` ties them with; it
+    depends on the patches and the search settings, not on the variant)."""
+    _, popt, _ = _search_settings(project, options, _mode(project, options))
+    seeded = any(f.candidates is not None for f in found.values())
+    return homologous({s: f.patches for s, f in found.items()}, popt, name=seed_name(found) if seeded else grid_name)
+
+
 def build(
     project: Project,
     options: LaserOptions,
@@ -357,9 +365,11 @@ def build(
     callback: ProgressCallback = no_progress,
     found: dict[str, StripFound] | None = None,
     exclude: frozenset[tuple[str, str]] = frozenset(),
+    ties: list[TiePatch] | None = None,
 ) -> LaserBlock:
     """Find patches (or reuse ``found`` of an earlier set-up), set up the variant's unknowns and the
-    observation groups; ``exclude``: ``(strip, patch)`` observations left out (set aside by cleaning)."""
+    observation groups; ``exclude``: ``(strip, patch)`` observations left out (set aside by cleaning);
+    ``ties``: :func:`tie_patches` of ``found`` (the same for every variant: computed once by the caller)."""
     if variant.strategy in ("P", "S", "SE") and any(m.breaks_lines for m in variant.strips):
         raise LidarError(f"variant {variant.name}: breaks_lines of a laser strip (it has no lines): give breaks_times")
     mode = _mode(project, options)
@@ -369,7 +379,8 @@ def build(
         found = find_all(project, popt, prior, given, options.workers, callback, options.patch_search,
                          options.scheduler)
     seeded = any(f.candidates is not None for f in found.values())
-    ties = homologous({s: f.patches for s, f in found.items()}, popt, name=seed_name(found) if seeded else grid_name)
+    if ties is None:
+        ties = tie_patches(project, options, found)
     notes = _search_notes(found, ties, options, seeded)
     strips = {s.id: s for s in project.strips}
     samplers = {sid: _sampler(project, strips[sid], f) for sid, f in found.items()} if mode == "trajectory" else {}
@@ -445,5 +456,5 @@ def anchor_points(block: LaserBlock, strip: str, values) -> np.ndarray:
 
 
 __all__ = ["LaserOptions", "LaserBlock", "anchor_points", "build", "corrector", "find_patches", "nominal_calibration",
-           "run",
+           "run", "tie_patches",
            "strip_trajectory", "Polar"]

@@ -88,6 +88,7 @@ class RemovalUpdate:
         self._VU: np.ndarray = np.zeros((0, 0))             # V N^-1 V^T
         self._B: np.ndarray = np.zeros((self._tested.size, 0))  # J_tested N^-1 V^T
         self._S_inv: np.ndarray = np.zeros((0, 0))
+        self._h: np.ndarray | None = None                   # the leverages of this state (leverages())
         # per column, the active rows that observe it (an orphaned unknown gets a pseudo-observation)
         nonzero = self._Js.data != 0
         self._observers = np.bincount(self._Js.indices[nonzero], minlength=solver.layout.n)
@@ -130,6 +131,7 @@ class RemovalUpdate:
             B[:, k_old + a:k_old + b] = self._J_tested @ U
             del rhs, U
         VU[k_old:, :k_old] = VU[:k_old, k_old:].T
+        self._h = None
         self.removed = np.concatenate([self.removed, rows])
         self._V, self._VU, self._B = V, VU, B
         self._sign = np.concatenate([self._sign, -np.ones(rows.size), np.ones(R.shape[0])])
@@ -199,11 +201,15 @@ class RemovalUpdate:
 
     # -- tests ----------------------------------------------------------------------------------
     def leverages(self) -> np.ndarray:
-        """``h'_i = j_i N'^-1 j_i^T`` of every tested row of the stack (NaN for the others)."""
-        B = self._B
-        h = np.full(self._residuals.size, np.nan)
-        h[self._tested] = self._h0 + np.einsum("ik,ik->i", B @ self._S_inv, B)
-        return h
+        """``h'_i = j_i N'^-1 j_i^T`` of every tested row of the stack (NaN for the others); computed
+        once per state (the w-tests and each unit's separability test of a round read the same), read-only."""
+        if self._h is None:
+            B = self._B
+            h = np.full(self._residuals.size, np.nan)
+            h[self._tested] = self._h0 + np.einsum("ik,ik->i", B @ self._S_inv, B)
+            h.setflags(write=False)
+            self._h = h
+        return self._h
 
     def coupling_correction(self, rows_a: np.ndarray, rows_b: np.ndarray) -> np.ndarray:
         """``j_b (N'^-1 - N^-1) j_a^T = B_b S^-1 B_a^T`` for tested (global) rows: what the removals since

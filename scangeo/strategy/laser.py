@@ -25,9 +25,10 @@ from scangeo.adjustment.variants import Variant, laser_variant, laser_variants
 from scangeo.atomic import write_csv, write_text
 from scangeo.errors import InputFileError, ScangeoError
 from scangeo.io.project import Project
-from scangeo.lidar.adjust import LaserBlock, build, find_patches, run
+from scangeo.lidar.adjust import LaserBlock, build, find_patches, run, tie_patches
 from scangeo.lidar.evaluation import Evaluation, apply, evaluate
 from scangeo.lidar.options import LaserOptions
+from scangeo.lidar.patches import TiePatch
 from scangeo.lidar.result import LaserResult, laser_result
 from scangeo.lidar.search import StripFound
 from scangeo.lsq.engine import Adjustment
@@ -88,16 +89,18 @@ class AdjustedVariant:
 
 def adjust_laser_variant(project: Project, variant: Variant, found: dict[str, StripFound] | None = None,
                          exclude: frozenset[tuple[str, str]] = frozenset(), out: Path | None = None,
-                         callback: ProgressCallback = no_progress, **overrides) -> AdjustedVariant:
+                         callback: ProgressCallback = no_progress, ties: list[TiePatch] | None = None,
+                         **overrides) -> AdjustedVariant:
     """Set up, adjust and evaluate one variant; ``out``: the corrected strips written there as LAZ.
 
     ``found`` : the patches of an earlier search (None: search the strips now).
     ``exclude`` : ``(strip, patch)`` observations left out (:func:`clean_laser`).
+    ``ties`` : the tie patches of ``found`` with these settings (``lidar.adjust.tie_patches``; None: found here).
     ``overrides`` : replace ``[adjustment]`` settings (None: keep).
     """
     options = laser_options(project, **overrides)
     block = build(project, options, variant, ground_file(project), scaled(callback, 0.0, 0.4), found=found,
-                  exclude=exclude)
+                  exclude=exclude, ties=ties)
     adjustment = run(block, scaled(callback, 0.4, 0.7))
     after = apply(block, adjustment.parameters.values(), out, scaled(callback, 0.7, 1.0))
     evaluation = evaluate(block, adjustment, after)
@@ -228,6 +231,7 @@ def compare_laser(project: Project | Path | str, variants: dict[str, Variant] | 
     errors: dict[str, str] = {}
     done: dict[Variant, str] = {}
     one_mission = len({s.mission for s in project.strips}) == 1
+    ties: list[TiePatch] | None = None
     n = len(variants)
     for k, (name, variant) in enumerate(variants.items()):
         sub = scaled(callback, k / n, (k + 1) / n)
@@ -243,7 +247,9 @@ def compare_laser(project: Project | Path | str, variants: dict[str, Variant] | 
         try:
             if found is None:
                 found = find_patches(project, laser_options(project), ground_file(project), scaled(sub, 0.0, 0.5))
-            results[name] = adjust_laser_variant(project, variant, found, exclude, callback=sub).result
+            if ties is None:  # the same tie patches for every variant (33 CPU s on the montafon block)
+                ties = tie_patches(project, laser_options(project), found)
+            results[name] = adjust_laser_variant(project, variant, found, exclude, callback=sub, ties=ties).result
         except InputFileError:
             raise  # a defect of the project's files fails every variant alike
         except ScangeoError as exc:

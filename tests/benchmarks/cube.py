@@ -68,22 +68,30 @@ def band_of(base: np.ndarray, band: int, bands: int) -> np.ndarray:
     return base * np.float32(0.4 + 0.6 * band / bands) + np.float32(3.0 * band)
 
 
-def write_envi(path: Path, lines: int, pixels: int, bands: int, interleave: str, chunk: int = 64) -> None:
+def write_envi(path: Path, lines: int, pixels: int, bands: int, interleave: str, chunk: int = 64,
+               noise: float = 0.0) -> None:
     """An ENVI cube (raw little-endian float32 + ``.hdr``) written a band (BSQ) or a chunk of lines
     (BIL) at a time: memory is the spatial pattern (lines x pixels) and one such piece, whatever the
-    number of bands."""
+    number of bands. ``noise``: a relative Gaussian sensor noise on every value (seeded; 0: none)."""
     from scangeo.atomic import atomic_path, write_text
 
     base = spatial_pattern(lines, pixels)
+    rng = np.random.default_rng(43)
+
+    def noisy(values: np.ndarray) -> np.ndarray:
+        if not noise:
+            return values
+        return (values * (1.0 + noise * rng.standard_normal(values.shape, dtype=np.float32))).astype(np.float32)
+
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         if interleave == "bsq":
             for b in range(bands):
-                f.write(band_of(base, b, bands).tobytes())
+                f.write(noisy(band_of(base, b, bands)).tobytes())
         elif interleave == "bil":
             for l0 in range(0, lines, chunk):
                 part = base[l0:l0 + chunk]
                 block = np.stack([band_of(part, b, bands) for b in range(bands)], axis=1)
-                f.write(block.tobytes())  # (lines, bands, pixels): line-interleaved
+                f.write(noisy(block).tobytes())  # (lines, bands, pixels): line-interleaved
         else:
             raise ValueError(interleave)
     names = ",\n ".join(f"band {b + 1}" for b in range(bands))

@@ -14,7 +14,7 @@ Then the outputs of the first run of each: every file under ``results/`` but the
 the HTML report after its timings are taken out; printed: the files that differ and how much.
 
 Run: python tests/benchmarks/run_revisions.py --baseline REV [--preset vienna2000 | --project DIR]
-[--reps 2] [--load 0] [--cache DIR] [--from STAGE] [-- EXTRA RUN ARGUMENTS]
+[--reps 2] [--load 0] [--cache DIR] [--with-results] [-- EXTRA RUN ARGUMENTS, e.g. --from compare --until compare]
 """
 from __future__ import annotations
 
@@ -71,9 +71,10 @@ def simulated(cache: Path, preset: str, code: Path) -> Path:
     return root
 
 
-def fresh(source: Path, target: Path) -> Path:
+def fresh(source: Path, target: Path, with_results: bool = False) -> Path:
     shutil.rmtree(target, ignore_errors=True)
-    shutil.copytree(source, target, ignore=shutil.ignore_patterns("results", "truth"))
+    skip = ("truth",) if with_results else ("results", "truth")
+    shutil.copytree(source, target, ignore=shutil.ignore_patterns(*skip))
     return target
 
 
@@ -168,6 +169,8 @@ def main() -> None:
     ap.add_argument("--project", type=Path, help="a project folder instead of --preset (copied, never changed)")
     ap.add_argument("--reps", type=int, default=2)
     ap.add_argument("--load", type=int, default=0, help="busy-loop processes beside the runs")
+    ap.add_argument("--with-results", action="store_true", help="copy the project's results/ too (to run from a "
+                    "later stage: -- --from compare --until compare)")
     ap.add_argument("--cache", type=Path, default=Path("/tmp/scangeo-bench-revisions"))
     ap.add_argument("extra", nargs="*", help="more arguments of `scangeo run` (after --)")
     args = ap.parse_args()
@@ -188,7 +191,7 @@ def main() -> None:
     try:
         for rep in range(args.reps):
             for k, (name, code) in enumerate(routes.items()):
-                copy = fresh(source, args.cache / "runs" / f"{k}-{rep}")
+                copy = fresh(source, args.cache / "runs" / f"{k}-{rep}", args.with_results)
                 load = os.getloadavg()[0]
                 c, w = run(code, copy, args.extra)
                 cpu[name].append(c)
