@@ -55,6 +55,14 @@ def small_block(tmp_path_factory) -> Path:
     return root
 
 
+@pytest.fixture(scope="session")
+def platform_block(tmp_path_factory, small_block) -> Path:
+    """``small_block`` written as a platform of two sensors (``as_platform(second="copy")``): read-only."""
+    root = copy_project(small_block, tmp_path_factory.mktemp("session") / "platform", truth=True)
+    as_platform(root, second="copy")
+    return root
+
+
 def copy_project(source: Path, target: Path, truth: bool = False) -> Path:
     """A writable copy of a project folder (without truth/ unless asked)."""
     ignore = None if truth else shutil.ignore_patterns("truth")

@@ -171,6 +171,39 @@ def test_adjust(bad, small_block, tmp_path, capsys):
     run_bad(["adjust", "{p}", "--no-progress"], bad, small_block, tmp_path, capsys)
 
 
+#: Defects of a platform's project.toml (``platform_block``: sensors a and b, flight lines L01 and L02).
+PLATFORM = [
+    case("platform-unknown-sensor",
+         replace(PT, 'sensor = "b"\nflight_line = "L01"', 'sensor = "c"\nflight_line = "L01"'),
+         PT, "[strips[1]]", "sensor 'c' is not a sensor of the project"),
+    case("platform-unknown-flight-line", replace(PT, 'flight_line = "L02"', 'flight_line = "L9"'), PT,
+         "flight_line 'L9' is not a [[flight_lines]] id"),
+    case("platform-strip-without-sensor", replace(PT, 'sensor = "b"\nflight_line = "L01"', 'flight_line = "L01"'),
+         PT, "[strips[1]]", "missing sensor"),
+    case("platform-prior-without-sigma", lambda r: (r / PT).write_text(
+        (r / PT).read_text() + '[[relative_mountings]]\nsensor = "b"\nreference = "a"\nboresight_deg = [0, 0, 0]\n'),
+         PT, "[relative_mountings[0].boresight_sigma_deg]", "missing"),
+    case("platform-prior-to-itself", lambda r: (r / PT).write_text(
+        (r / PT).read_text() + '[[relative_mountings]]\nsensor = "b"\nreference = "b"\nboresight_deg = [0, 0, 0]\n'
+        'boresight_sigma_deg = [0.1, 0.1, 0.1]\n'), PT, "[relative_mountings[0].reference]"),
+    case("platform-flight-line-without-strips", lambda r: (r / PT).write_text(
+        (r / PT).read_text().replace("[[strips]]", '[[flight_lines]]\nid = "L7"\ntrajectory = "nav/01.csv"\n\n'
+                                                   "[[strips]]", 1)), PT, "flight line 'L7' has no strip"),
+    case("platform-strips-apart-in-time",
+         replace(PT, 'id = "b01"\nimage = "images/01.tif"\nfirst_line_time = 300000.0',
+                 'id = "b01"\nimage = "images/01.tif"\nfirst_line_time = 303600.0'), PT,
+         "strip 01", "strip b01", "do not overlap in time"),
+    case("platform-sensor-and-sensors", lambda r: (r / PT).write_text(
+        (r / PT).read_text().replace("[[sensors]]", '[sensor]\nkind = "whiskbroom"\n\n[[sensors]]', 1)), PT,
+         "expected one [sensor] table or [[sensors]] entries, not both"),
+]
+
+
+@pytest.mark.parametrize("bad", PLATFORM)
+def test_adjust_a_platform(bad, platform_block, tmp_path, capsys):
+    run_bad(["adjust", "{p}", "--variant", "SE", "--no-progress"], bad, platform_block, tmp_path, capsys)
+
+
 #: Defects of the strip images, read by rectify.
 IMAGES = [
     case("image-wrong-width", raster("images/02.tif", PIXELS - 10, LINES), "images/02.tif", "width"),
