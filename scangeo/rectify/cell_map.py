@@ -96,7 +96,7 @@ def _map_tile(run: StripRun, w: Window, track: tuple[np.ndarray, ...], facing: f
     if run.zbuf is not None:
         rng_eff = np.where(occlusion.folded(line, pixel, facing), np.inf, rng)
         run.zbuf.add(line, pixel, rng_eff)
-        work["tolerance"][rs, cs] = occlusion.range_tolerance(rng)
+        work["tolerance"][rs, cs] = occlusion.range_tolerance(rng, line, pixel)
     else:
         rng_eff = rng
     work["line"][rs, cs] = line

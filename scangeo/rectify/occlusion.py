@@ -8,9 +8,9 @@ Two tests, both from the inverse map of the output grid:
 2. **Z-buffer** over the image: every output cell writes its range to the sensor into the image
    pixels its footprint covers (bounding box of the cell's image-space parallelogram), keeping the
    smallest; a cell is visible when its range is within a tolerance of the smallest range at its
-   own pixel. The tolerance is the range change across two cells (plus 0.5 m), so neighbours on
-   the same visible surface never hide each other; ground in the shadow of a ridge is farther by
-   the distance to the ridge and is hidden.
+   own pixel. The tolerance is the range change across two cells, or across two image pixels where a
+   pixel spans several cells (plus 0.5 m), so neighbours on the same visible surface never hide each
+   other; ground in the shadow of a ridge is farther by the distance to the ridge and is hidden.
 
 The z-buffer covers the whole image (lines x pixels float32, 29 MB for a 10,000-line Daedalus
 strip) and is filled from every tile before any tile is resampled, so occluders in a neighbouring
@@ -109,12 +109,24 @@ def footprint_half_extents(line: np.ndarray, pixel: np.ndarray) -> tuple[np.ndar
     return 0.5 * _steps(line), 0.5 * _steps(pixel)
 
 
-def range_tolerance(rng: np.ndarray) -> np.ndarray:
-    """Range tolerance per cell, metres: the range change across two cells plus 0.5 m.
+def range_tolerance(rng: np.ndarray, line: np.ndarray | None = None, pixel: np.ndarray | None = None) -> np.ndarray:
+    """Range tolerance per cell, metres: the range change across two cells, or across two image pixels
+    where a pixel spans more than a cell (given ``line`` and ``pixel``), plus 0.5 m.
 
-    From the smaller one-sided steps: a cell beside a cliff is compared with its own surface.
+    From the smaller one-sided steps: a cell beside a cliff is compared with its own surface. The
+    z-buffer keeps the smallest range of all the cells in a pixel; where cells are smaller than the
+    pixels (an output finer than the image: the coarser sensor of a platform on the finest sensor's
+    grid), the cells of one pixel on a slope differ in range by the pixel's range change, which the
+    tolerance must cover or visible ground is hidden. The number of cells a pixel spans is
+    ``1 / min(line step, pixel step)`` per cell (at most :data:`MAX_HALF_EXTENT`; at least 1).
     """
-    return (2.0 * _steps(rng) + RANGE_TOLERANCE_M).astype(np.float32)
+    steps = 2.0 * _steps(rng)
+    if line is not None and pixel is not None:
+        image_step = np.minimum(_steps(line), _steps(pixel))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            per_pixel = np.where(image_step > 0, 1.0 / image_step, 1.0)
+        steps = steps * np.clip(per_pixel, 1.0, MAX_HALF_EXTENT)
+    return (steps + RANGE_TOLERANCE_M).astype(np.float32)
 
 
 @numba.njit(cache=True)
