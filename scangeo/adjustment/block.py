@@ -487,10 +487,10 @@ def _observation_groups(setup: _Setup) -> list[ObservationGroup]:
     project, v, points, ground, roles = setup.project, setup.variant, setup.points, setup.ground, setup.roles
     groups: list[ObservationGroup] = []
     sig_gps = np.concatenate([v.gps_sigma_m, np.radians(v.imu_sigma_deg)])
-    if v.strategy != "DG":
-        for fid, line in setup.lines.items():
-            groups.append(GpsImuSamples(fid, line.spline, line.epochs, line.gpsimu, sig_gps, setup.models))
-    for sid, s in setup.strips.items():
+    for sid, s in setup.strips.items():  # a flight line's GPS/IMU before its first strip's measurements
+        line = s.line
+        if v.strategy != "DG" and sid == next(x for x in line.strips if x in setup.strips):
+            groups.append(GpsImuSamples(line.id, line.spline, line.epochs, line.gpsimu, sig_gps, setup.models))
         sel = setup.measured_in(sid)
         if sel.size == 0:
             setup.notes.append(f"strip {sid} has no image measurement in the adjustment"
