@@ -260,8 +260,9 @@ def _with_breaks(strips, fit: Fit) -> list[str]:
     return [s for s, b in zip(strips, fit.breaks) if b]
 
 
-def adopted_note(search: Fit, adopted: list[Attribution], strips) -> str:
-    """The note of a diagnosis whose search's model an alternative replaced (:func:`choose_model`)."""
+def adopted_note(search: Fit, adopted: list[Attribution], strips, final: Fit | None = None) -> str:
+    """The note of a diagnosis whose search's model an alternative replaced (:func:`choose_model`); ``final``:
+    the model the search's last steps made of it, named when its problem strips differ."""
     own = _with_breaks(strips, search)
 
     def why(a: Attribution) -> str:
@@ -271,8 +272,11 @@ def adopted_note(search: Fit, adopted: list[Attribution], strips) -> str:
         return f"more than {AMBIGUOUS_BIC:g} below it by the split model"
 
     steps = "; then by ".join(f"{a.describe()} ({why(a)})" for a in adopted)
+    last = _with_breaks(strips, final) if final is not None else list(adopted[-1].strips)
+    moved = "" if last == [s for s in adopted[-1].strips if adopted[-1].breaks[s]] else (
+        f"; the search's last steps then moved it to {'problem strips ' + ', '.join(last) if last else 'none'}")
     return (f"the search's own model ({'problem strips ' + ', '.join(own) if own else 'no problem strip'}) is "
-            f"replaced by {steps} (docs/adjustment.md, \"Adoption\")")
+            f"replaced by {steps}{moved} (docs/adjustment.md, \"Adoption\")")
 
 
 def _across_axes(result: VariantResult) -> dict[str, np.ndarray]:
@@ -498,7 +502,7 @@ def diagnose(project_root, *, dtm_height_points=("*",), image_channels: bool = F
         fit, checks, adopted = choose_model(root, data, search, options, refine, dtm_height_points,
                                             lambda m: callback(2, steps, m))
         if adopted:
-            notes.append(adopted_note(search, adopted, data.strips))
+            notes.append(adopted_note(search, adopted, data.strips, fit))
         null = evaluate(data, [[] for _ in data.strips], fit.rho, options.degree, range(len(data.strips)))
         callback(2, steps, "diagnosis: break intervals")
         breaks = break_intervals(data, fit, options)

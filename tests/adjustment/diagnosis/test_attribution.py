@@ -264,7 +264,11 @@ def test_an_adopted_model_is_what_the_diagnosis_and_the_run_summary_name():
     assert "PROBLEM STRIP" in summary_lines(d)[2]
     note = adopted_note(none, [a], d.strips)
     assert note.startswith("the search's own model (no problem strip) is replaced by a problem strip 02") and \
-        f"more than {ADOPT_BIC:g} below the model it replaces by the BIC" in note
+        f"more than {ADOPT_BIC:g} below the model it replaces by the BIC" in note and "moved it" not in note
+    # the adopted alternative put the drift on strip 03, the search's move step then on strip 02
+    on03 = Attribution("breaks", "03", None, {"03": (2380.0, 4900.0)}, 40.0, -38.3, fit=chosen)
+    assert "; the search's last steps then moved it to problem strips 02 (" in adopted_note(none, [on03], d.strips,
+                                                                                           chosen)
     stage = {"diagnose": {"problem_strips": {"02": [2240, 4772]}, "search_problem_strips": []}}
     result = SimpleNamespace(stages=[], summary_of=lambda name: stage.get(name, {}), manifest="m", seconds=1.0)
     first = [line for line in run_summary(result) if line.startswith("problem strips")]
