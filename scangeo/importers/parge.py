@@ -151,12 +151,9 @@ def import_parge(status, out, *, sensor_model=None, dtm=None, geoid: float | str
     if st.placeholder_gcps:
         record.note(f"gcparr holds {st.placeholder_gcps} row{'s' if st.placeholder_gcps > 1 else ''} of zeros: "
                     "PARGE's empty list, not GCPs (left out)")
-    times = st.start_seconds + np.arange(st.lines) / rate
     convergence = _convergence(st)
-    roll = -st.roll
-    heading = st.heading + convergence
-    stream = GpsImuStream(times, np.radians(st.lat), np.radians(st.lon), st.altitude, roll, st.pitch, heading,
-                          source=str(st.path))
+    stream = line_stream(st, rate, convergence)
+    roll, heading = stream.roll, stream.heading
     dtm_choice = _dtm(st, dtm, record)
     sensor = ImportedSensor(st.camera, along, across, rate, measurement_time="line", source=f"from {look_source}")
     line = ImportedLine(strip, stream, st.lines, sensor, first_line_time=st.start_seconds,
@@ -222,6 +219,22 @@ CONVENTIONS = {
     "heights": "trajectory h = gpsarr altitude; GCP and DTM heights as PARGE's DEM; N = PARGE's height "
                "offset unless a geoid is given",
 }
+
+
+def line_stream(st: ParGeStatus, rate: float, convergence: np.ndarray,
+                offsets_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> GpsImuStream:
+    """The line's navigation in scangeo's conventions (module docstring), one record a line at ``rate``.
+
+    ``offsets_deg``: PARGE's offsets (roll, pitch, heading; PARGE's signs, deg) added back to the
+    attitude arrays first: with the offsets the arrays hold, the GNSS/INS's own attitude (a
+    platform's trajectory, :mod:`scangeo.importers.parge_platform`)."""
+    times = st.start_seconds + np.arange(st.lines) / rate
+    roll, pitch, heading = st.roll, st.pitch, st.heading
+    if any(offsets_deg):
+        o = np.radians(offsets_deg)
+        roll, pitch, heading = roll + o[0], pitch + o[1], heading + o[2]
+    return GpsImuStream(times, np.radians(st.lat), np.radians(st.lon), st.altitude, -roll, pitch,
+                        heading + convergence, source=str(st.path))
 
 
 def _strip_id(st: ParGeStatus) -> str:
@@ -513,24 +526,8 @@ def _default_hypothesis(hypotheses: list[OffsetHypothesis]) -> OffsetHypothesis:
     return hypotheses[-1]
 
 
-def _variants_toml(st: ParGeStatus, chosen: OffsetHypothesis) -> str:
-    bs = ", ".join(f"{v:.4f}" for v in chosen.boresight_deg)
-    if not st.gcps.used.any():
-        return f"""# Written by scangeo import parge ({st.path.name}); edit freely: scangeo run keeps it.
-# PARGE's boresight in scangeo's convention is [sensor] boresight_deg = [{bs}] (project.toml).
-# The line has no used GCPs: nothing can be calibrated, and the orthoimage is a direct georeferencing.
-
-[defaults]
-strategy = "DG"
-
-[variants.PARGE]
-description = "PARGE's boresight held fixed (direct georeferencing: no control)"
-snooping = false
-"""
-    return f"""# Written by scangeo import parge ({st.path.name}); edit freely: scangeo run keeps it.
-# PARGE's boresight in scangeo's convention is [sensor] boresight_deg = [{bs}] (project.toml).
-
-[defaults]
+#: variants.toml after its comments, of a line with used GCPs (the platform's says "the lines")
+VARIANTS_BODY = """[defaults]
 strategy = "DG"                     # GPS/IMU as measured: a single line has no tie points to adjust it with
 gps_sigma_m = [0.05, 0.05, 0.10]
 imu_sigma_deg = [0.003, 0.003, 0.005]
@@ -552,4 +549,24 @@ test_calibration = ["across_offset", "across_scale", "along_offset", "time_offse
 """
 
 
-__all__ = ["CONVENTIONS", "ImportResult", "OffsetHypothesis", "VARIANTS", "import_parge"]
+def _variants_toml(st: ParGeStatus, chosen: OffsetHypothesis) -> str:
+    bs = ", ".join(f"{v:.4f}" for v in chosen.boresight_deg)
+    if not st.gcps.used.any():
+        return f"""# Written by scangeo import parge ({st.path.name}); edit freely: scangeo run keeps it.
+# PARGE's boresight in scangeo's convention is [sensor] boresight_deg = [{bs}] (project.toml).
+# The line has no used GCPs: nothing can be calibrated, and the orthoimage is a direct georeferencing.
+
+[defaults]
+strategy = "DG"
+
+[variants.PARGE]
+description = "PARGE's boresight held fixed (direct georeferencing: no control)"
+snooping = false
+"""
+    return f"""# Written by scangeo import parge ({st.path.name}); edit freely: scangeo run keeps it.
+# PARGE's boresight in scangeo's convention is [sensor] boresight_deg = [{bs}] (project.toml).
+
+{VARIANTS_BODY}"""
+
+
+__all__ = ["CONVENTIONS", "ImportResult", "OffsetHypothesis", "VARIANTS", "import_parge", "line_stream"]

@@ -13,8 +13,12 @@ Every importer has the same shape (docs/architecture.md, "Importers"):
    offsets), then the project is written again;
 4. **record** the decisions, warnings and notes in ``OUT/import.json``.
 
-The writer takes several lines so that a multi-line import fits it; today they must share one sensor
-(a project of several sensors on one platform is not written yet).
+The writer takes several lines. Without flight lines in the plan they share one sensor and each has
+its own trajectory (a one-sensor project: ``[sensor]``, strips with ``trajectory``). With
+``ProjectPlan.flight_lines`` the project is a platform (docs/formats.md, "A platform"): every sensor
+of the lines is a ``[[sensors]]`` entry, every flight line a ``[[flight_lines]]`` entry with its
+trajectory, every line a strip naming its sensor and flight line, and the plan's relative mountings
+``[[relative_mountings]]``.
 """
 from __future__ import annotations
 
@@ -30,6 +34,7 @@ from scangeo.errors import ArgumentError, MissingFileError, ProjectFileError
 from scangeo.importers.record import ImportRecord
 from scangeo.importers.stand_in_dtm import write_gcp_dtm, write_plane_dtm
 from scangeo.io.points import GroundPoints, ImagePoints
+from scangeo.io.project_schema import RelativeMountingKeys
 from scangeo.trajectory.readers import write_trajectory_csv
 from scangeo.trajectory.stream import GpsImuStream
 
@@ -44,6 +49,7 @@ class ImportedSensor:
     Parameters
     ----------
     name : the camera (for messages and comments).
+    id : the sensor's id in a platform project (``[[sensors]]``); ignored in a one-sensor project.
     along, across : (pixels,) float arrays, radians: each pixel's along-track (positive forward) and
         across-track (positive to the right of the flight direction) look angle.
     line_rate_hz : lines per second.
@@ -61,6 +67,7 @@ class ImportedSensor:
     bands: tuple[str, ...] = ()
     wavelengths_nm: tuple[float, ...] = ()
     source: str = ""
+    id: str = ""
 
     @property
     def pixels(self) -> int:
@@ -82,7 +89,9 @@ class ImportedLine:
     ``stream``: the navigation (time base of the project, ellipsoidal heights, NED attitudes);
     ``first_line_time`` or ``line_times`` (s, the same time base); ``image``: the cube (absolute path)
     or None; ``image_shape``: its lines, samples, bands and numpy data type, when the line keeps
-    fewer lines than the cube has (the project then reads the first ``lines`` through a VRT).
+    fewer lines than the cube has (the project then reads the first ``lines`` through a VRT);
+    ``flight_line``: in a platform project, the flight line it was recorded on (its ``stream`` is then
+    not written: the flight line's trajectory is).
     """
 
     strip: str
@@ -94,6 +103,7 @@ class ImportedLine:
     image: Path | None = None
     control: Control | None = None
     image_shape: tuple[int, int, int, str] | None = None
+    flight_line: str | None = None
 
 
 @dataclass(frozen=True)
@@ -114,7 +124,9 @@ class ProjectPlan:
     ``crs``: the map CRS (text for project.toml); ``crs_wkt``: the same for rasters; ``geoid``: N in
     metres or a raster's path; ``origin``: latitude, longitude (deg), ellipsoidal height (m);
     ``box``: map xmin, ymin, xmax, ymax that a stand-in DTM must cover; ``variants``: the text of
-    variants.toml (None: none, ``scangeo run`` writes its own).
+    variants.toml (None: none, ``scangeo run`` writes its own); ``flight_lines``: a platform's
+    flight lines, each its id and trajectory (empty: a one-sensor project); ``relative_mountings``:
+    a platform's priors (``[[relative_mountings]]``).
     """
 
     crs: str
@@ -128,6 +140,8 @@ class ProjectPlan:
     comment: str = ""
     variants: str | None = None
     extra_files: dict[str, str] = field(default_factory=dict)
+    flight_lines: tuple[tuple[str, GpsImuStream], ...] = ()
+    relative_mountings: tuple[RelativeMountingKeys, ...] = ()
 
 
 def check_out(out) -> Path:
@@ -162,7 +176,8 @@ def write_project(out, lines: Sequence[ImportedLine], plan: ProjectPlan, record:
     Parameters
     ----------
     out : the project folder (must not exist or be empty: :func:`check_out`).
-    lines : the lines, sharing one sensor.
+    lines : the lines: sharing one sensor, or (a platform: ``plan.flight_lines``) each naming its
+        flight line, their sensors told apart by their ids.
     plan : the rest of the project.
     record : the import's record, written last as ``import.json``.
     refine : ``refine(staged_folder, lines, plan) -> (lines, plan)``: decisions that need the staged
@@ -177,7 +192,10 @@ def write_project(out, lines: Sequence[ImportedLine], plan: ProjectPlan, record:
     lines = list(lines)
     if not lines:
         raise ArgumentError("lines: expected at least one imported line")
-    _one_sensor(lines)
+    if plan.flight_lines:
+        _platform(lines, plan)
+    else:
+        _one_sensor(lines)
     out.parent.mkdir(parents=True, exist_ok=True)
     with atomic_directory(out) as tmp:
         _write_files(tmp, lines, plan)
@@ -202,18 +220,63 @@ def _one_sensor(lines: list[ImportedLine]) -> None:
         raise ArgumentError(f"lines: the strip id {sorted(i for i in ids if ids.count(i) > 1)[0]!r} appears twice")
 
 
+def _platform(lines: list[ImportedLine], plan: ProjectPlan) -> None:
+    """A platform's lines: each on a flight line of the plan, one sensor per id, unique strip ids."""
+    flight_lines = [f for f, _ in plan.flight_lines]
+    if len(set(flight_lines)) != len(flight_lines):
+        twice = sorted(f for f in flight_lines if flight_lines.count(f) > 1)[0]
+        raise ArgumentError(f"plan.flight_lines: the id {twice!r} appears twice")
+    sensors: dict[str, ImportedSensor] = {}
+    for line in lines:
+        if line.flight_line not in flight_lines:
+            raise ArgumentError(f"line {line.strip}: flight line {line.flight_line!r} is not one of the plan's "
+                                f"({', '.join(flight_lines)})")
+        if not line.sensor.id:
+            raise ArgumentError(f"line {line.strip}: a platform's sensor needs an id")
+        first = sensors.setdefault(line.sensor.id, line.sensor)
+        if first is not line.sensor and first != line.sensor:
+            raise ArgumentError(f"line {line.strip}: sensor {line.sensor.id!r} differs from the one of an earlier line "
+                                "of that id")
+    ids = [line.strip for line in lines]
+    if len(set(ids)) != len(ids):
+        raise ArgumentError(f"lines: the strip id {sorted(i for i in ids if ids.count(i) > 1)[0]!r} appears twice")
+    for prior in plan.relative_mountings:
+        for name in (prior.sensor, prior.reference):
+            if name not in sensors:
+                raise ArgumentError(f"relative mounting {prior.sensor}:{prior.reference}: unknown sensor {name!r} "
+                                    f"(sensors: {', '.join(sensors)})")
+
+
+def platform_sensors(lines: Sequence[ImportedLine]) -> dict[str, ImportedSensor]:
+    """The sensors of a platform's lines by id, in the order the lines name them."""
+    sensors: dict[str, ImportedSensor] = {}
+    for line in lines:
+        sensors.setdefault(line.sensor.id, line.sensor)
+    return sensors
+
+
+def _look_angles_csv(path: Path, sensor: ImportedSensor) -> None:
+    write_csv(path, ["pixel", "along_deg", "across_deg"],
+              ([j, f"{np.degrees(a):.10f}", f"{np.degrees(c):.10f}"]
+               for j, (a, c) in enumerate(zip(sensor.along, sensor.across))))
+
+
 def _write_files(tmp: Path, lines: list[ImportedLine], plan: ProjectPlan, dtm: bool = True) -> None:
     (tmp / "nav").mkdir(exist_ok=True)
     (tmp / "sensor").mkdir(exist_ok=True)
-    sensor = lines[0].sensor
-    write_csv(tmp / "sensor" / "look_angles.csv", ["pixel", "along_deg", "across_deg"],
-              ([j, f"{np.degrees(a):.10f}", f"{np.degrees(c):.10f}"]
-               for j, (a, c) in enumerate(zip(sensor.along, sensor.across))))
+    if plan.flight_lines:
+        for sensor_id, sensor in platform_sensors(lines).items():
+            _look_angles_csv(tmp / "sensor" / f"{sensor_id}.csv", sensor)
+        for flight_line, stream in plan.flight_lines:
+            write_trajectory_csv(tmp / "nav" / f"{flight_line}.csv", stream)
+    else:
+        _look_angles_csv(tmp / "sensor" / "look_angles.csv", lines[0].sensor)
     for line in lines:
         if _cut(line):
             (tmp / "images").mkdir(exist_ok=True)
             write_text(tmp / "images" / f"{line.strip}.vrt", first_lines_vrt(line))
-        write_trajectory_csv(tmp / "nav" / f"{line.strip}.csv", line.stream)
+        if not plan.flight_lines:
+            write_trajectory_csv(tmp / "nav" / f"{line.strip}.csv", line.stream)
         if line.line_times is not None:
             write_csv(tmp / "nav" / f"{line.strip}_lines.csv", ["line", "time"],
                       ([k, f"{t:.6f}"] for k, t in enumerate(line.line_times)))
@@ -232,12 +295,37 @@ def _write_control(tmp: Path, lines: list[ImportedLine]) -> None:
     if not with_control:
         return
     ground = with_control[0].ground
+    others = [c.ground for c in with_control[1:] if c.ground is not ground]
+    if others:  # several lines' own GCPs (a platform's cameras): one list, each point once
+        ground = _merged_ground([ground, *others])
     points = [c.points for c in with_control]
     ground.write(tmp / "ground.csv")
     ImagePoints(np.concatenate([p.point for p in points]), np.concatenate([p.strip for p in points]),
                 np.concatenate([p.line for p in points]), np.concatenate([p.pixel for p in points]),
                 np.concatenate([p.sigma_px for p in points]),
                 np.arange(sum(len(p.point) for p in points))).write(tmp / "points.csv")
+
+
+def _merged_ground(grounds: list[GroundPoints]) -> GroundPoints:
+    """Several ground lists as one; a point id in two lists must have the same coordinates and role."""
+    seen: dict[str, tuple[int, int]] = {}
+    keep: list[tuple[int, int]] = []
+    for g_index, g in enumerate(grounds):
+        for k, point in enumerate(g.point):
+            if point in seen:
+                a, b = seen[point]
+                first = grounds[a]
+                if not (np.allclose(first.xyz[b], g.xyz[k]) and first.role[b] == g.role[k]):
+                    raise ArgumentError(f"ground point {point!r}: two lines give it other coordinates or roles")
+                continue
+            seen[point] = (g_index, k)
+            keep.append((g_index, k))
+
+    def column(name: str) -> np.ndarray:
+        return np.array([getattr(grounds[g], name)[k] for g, k in keep], dtype=getattr(grounds[0], name).dtype)
+
+    return GroundPoints(column("point"), np.array([grounds[g].xyz[k] for g, k in keep]).reshape(-1, 3),
+                        column("sigma_xy"), column("sigma_z"), column("role"), np.arange(len(keep)))
 
 
 def dtm_name(choice: DtmChoice) -> str:
@@ -256,8 +344,7 @@ def _write_dtm(tmp: Path, lines: list[ImportedLine], plan: ProjectPlan) -> None:
 
 
 def project_toml(lines: list[ImportedLine], plan: ProjectPlan) -> str:
-    """The text of project.toml of the imported lines."""
-    sensor = lines[0].sensor
+    """The text of project.toml of the imported lines (a platform's when the plan has flight lines)."""
     geoid = (f"geoid_undulation_m = {plan.geoid:.4f}" if isinstance(plan.geoid, float)
              else f"geoid = {json.dumps(str(plan.geoid))}")
     dtm_comment = ("   # NOT WRITTEN: this line needs a DTM (give the import a DTM, or put one here)"
@@ -269,23 +356,29 @@ def project_toml(lines: list[ImportedLine], plan: ProjectPlan) -> str:
             f"dtm = {json.dumps(dtm_name(plan.dtm))}{dtm_comment}",
             geoid,
             f"origin = [{plan.origin[0]:.9f}, {plan.origin[1]:.9f}, {plan.origin[2]:.3f}]",
-            f"knot_spacing_s = {plan.knot_spacing_s!r}",
-            "",
-            "[sensor]",
-            'kind = "pushbroom"',
-            f"pixels = {sensor.pixels}",
-            f"line_rate_hz = {sensor.line_rate_hz!r}",
-            f'look_angles = "sensor/look_angles.csv"   # {sensor.source}' if sensor.source else
-            'look_angles = "sensor/look_angles.csv"',
-            f'measurement_time = "{sensor.measurement_time}"',
-            f"boresight_deg = [{', '.join(f'{v:.6f}' for v in sensor.boresight_deg)}]",
-            f"lever_arm_m = [{', '.join(f'{v:.4f}' for v in sensor.lever_arm_m)}]"]
-    if sensor.bands:
-        text.append(f"bands = [{', '.join(json.dumps(b) for b in sensor.bands)}]")
-    if sensor.wavelengths_nm:
-        text.append(f"wavelengths_nm = [{', '.join(f'{w:g}' for w in sensor.wavelengths_nm)}]")
+            f"knot_spacing_s = {plan.knot_spacing_s!r}"]
+    if plan.flight_lines:
+        for sensor in platform_sensors(lines).values():
+            text += ["", "[[sensors]]", f"id = {json.dumps(sensor.id)}",
+                     *_sensor_keys(sensor, f"sensor/{sensor.id}.csv")]
+        for prior in plan.relative_mountings:
+            text += ["", "[[relative_mountings]]", f"sensor = {json.dumps(prior.sensor)}",
+                     f"reference = {json.dumps(prior.reference)}"]
+            for key in ("boresight_deg", "boresight_sigma_deg", "lever_arm_m", "lever_arm_sigma_m"):
+                value = getattr(prior, key)
+                if value is not None:
+                    text.append(f"{key} = [{', '.join(f'{v:.6g}' for v in value)}]")
+        for flight_line, _ in plan.flight_lines:
+            text += ["", "[[flight_lines]]", f"id = {json.dumps(flight_line)}",
+                     f'trajectory = "nav/{flight_line}.csv"']
+    else:
+        text += ["", "[sensor]", *_sensor_keys(lines[0].sensor, "sensor/look_angles.csv")]
     for line in lines:
-        text += ["", "[[strips]]", f"id = {json.dumps(line.strip)}", f'trajectory = "nav/{line.strip}.csv"']
+        text += ["", "[[strips]]", f"id = {json.dumps(line.strip)}"]
+        if plan.flight_lines:
+            text += [f"sensor = {json.dumps(line.sensor.id)}", f"flight_line = {json.dumps(line.flight_line)}"]
+        else:
+            text.append(f'trajectory = "nav/{line.strip}.csv"')
         if line.line_times is not None:
             text.append(f'line_times = "nav/{line.strip}_lines.csv"')
         else:
@@ -296,6 +389,22 @@ def project_toml(lines: list[ImportedLine], plan: ProjectPlan) -> str:
             text.append(f"image = {json.dumps(str(line.image))}")
         text.append(f"lines = {line.lines}")
     return "\n".join(text) + "\n"
+
+
+def _sensor_keys(sensor: ImportedSensor, look_angles: str) -> list[str]:
+    """A pushbroom's keys of ``[sensor]`` or of a ``[[sensors]]`` entry (after its id)."""
+    text = ['kind = "pushbroom"',
+            f"pixels = {sensor.pixels}",
+            f"line_rate_hz = {sensor.line_rate_hz!r}",
+            f'look_angles = "{look_angles}"   # {sensor.source}' if sensor.source else f'look_angles = "{look_angles}"',
+            f'measurement_time = "{sensor.measurement_time}"',
+            f"boresight_deg = [{', '.join(f'{v:.6f}' for v in sensor.boresight_deg)}]",
+            f"lever_arm_m = [{', '.join(f'{v:.4f}' for v in sensor.lever_arm_m)}]"]
+    if sensor.bands:
+        text.append(f"bands = [{', '.join(json.dumps(b) for b in sensor.bands)}]")
+    if sensor.wavelengths_nm:
+        text.append(f"wavelengths_nm = [{', '.join(f'{w:g}' for w in sensor.wavelengths_nm)}]")
+    return text
 
 
 def _cut(line: ImportedLine) -> bool:
@@ -335,4 +444,4 @@ def with_boresight(lines: list[ImportedLine], boresight_deg: tuple[float, float,
 
 
 __all__ = ["Control", "DtmChoice", "ImportedLine", "ImportedSensor", "MISSING_DTM", "ProjectPlan", "check_out",
-           "dtm_name", "given_dtm", "project_toml", "with_boresight", "write_project"]
+           "dtm_name", "given_dtm", "platform_sensors", "project_toml", "with_boresight", "write_project"]
