@@ -40,7 +40,8 @@ class RectifyOptions:
     Parameters
     ----------
     resolution : float or None
-        Output cell size, map units; None: the nadir ground pixel (two significant digits).
+        Output cell size, map units; None: the nadir ground pixel (two significant digits; of a platform's
+        strips, the finest of its sensors').
     bounds : tuple of 4 float or None
         (xmin, ymin, xmax, ymax) of the output, map CRS; None: the strip's footprint.
     resampling : str
@@ -75,7 +76,8 @@ class RectifyOptions:
     schema_error: ClassVar[type[Exception]] = RectifyOptionsError
 
     resolution: float | None = setting(None, gt=0, rule=_FINITE, unit="map unit", default_doc="nadir ground pixel",
-                                       doc="output cell size (default: the nadir ground pixel, two significant digits)")
+                                       doc="output cell size (default: the nadir ground pixel, two significant digits; "
+                                           "a platform's: the finest sensor's)")
     bounds: tuple[float, float, float, float] | None = setting(
         None, unit="map unit", default_doc="strip footprint", doc="xmin, ymin, xmax, ymax of the output")
     resampling: str = setting("bilinear", choices=tuple(RESAMPLING), doc="resampling of the image")
