@@ -206,7 +206,7 @@ def _write_side_outputs(run: StripRun, resampled: Resampled) -> None:
             if "time" in run.layers:
                 layer_tags["time_origin_s"] = repr(time_origin(run.geometry))
             describe(lay, [BandInfo(n) for n in run.layers], layer_tags)
-        finalise(resampled.layers, result.layers_path, options.geotiff, np.float32)
+        finalise(resampled.layers, result.layers_path, options.geotiff.lossless(), np.float32)
     if resampled.glt is not None:
         result.glt_path = resampled.glt.commit(output.with_suffix(".glt"))
     co = run.coregistration
@@ -216,7 +216,7 @@ def _write_side_outputs(run: StripRun, resampled: Resampled) -> None:
                      {**resampled.tags, "coregistration_reference": co.reference, "flight_line": co.flight_line,
                       "unit": "m", "coregistration_grid": f"{co.sigma.shape[0]} x {co.sigma.shape[1]}"})
         result.coregistration_path = layer_path(output)
-        finalise(resampled.coregistration, result.coregistration_path, options.geotiff, np.float32)
+        finalise(resampled.coregistration, result.coregistration_path, options.geotiff.lossless(), np.float32)
 
 
 @contextlib.contextmanager

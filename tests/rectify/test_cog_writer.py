@@ -237,3 +237,30 @@ def test_blocks_of_a_cube_of_many_bands_stay_small():
     cube = profile.for_image(182, np.float32)
     assert cube.blocksize == 128 and 182 * 128 * 128 * 4 <= 16 * 2**20
     assert GeoTiffProfile(blocksize=256).for_image(4000, np.float64).blocksize == 64  # never below 64
+
+
+def test_lossy_lerc_is_named_lossy_and_keeps_its_error(tmp_path):
+    """compress = "lerc-lossy" needs its max error and keeps every value within it; never the default."""
+    from rio_cogeo.cogeo import cog_validate
+
+    from scangeo.errors import RectifyOptionsError
+
+    assert GeoTiffProfile().compress == "deflate" and GeoTiffProfile().lossy_max_error is None
+    with pytest.raises(RectifyOptionsError, match="lossy_max_error"):
+        GeoTiffProfile(compress="lerc-lossy")
+    with pytest.raises(RectifyOptionsError, match="lerc-lossy"):
+        GeoTiffProfile(lossy_max_error=0.01)
+    profile = GeoTiffProfile(compress="lerc-lossy", lossy_max_error=0.05, blocksize=256, overviews=True)
+    assert not profile.scangeo_writes(np.float32)  # GDAL's driver writes LERC
+    assert profile.lossless().compress == "deflate"
+    data = image((3, 700, 600), np.float32)
+    out = by_gdal(tmp_path, data, 0.0, profile, [BandInfo(f"b{i}") for i in range(3)], {})
+    valid, errors, _ = cog_validate(str(out), strict=True)
+    assert valid, errors
+    with rasterio.open(out) as src:
+        back = src.read()
+        assert src.compression is not None and src.compression.name.lower() == "lerc"
+    worst = float(np.max(np.abs(back.astype(np.float64) - data)))
+    ulp = float(np.spacing(np.abs(data).max()))  # LERC's bound, then the float32 rounding of its result
+    assert 0.0 < worst <= 0.05 + ulp  # lossy, within the bound
+    assert out.stat().st_size < 0.8 * data.nbytes
