@@ -84,6 +84,9 @@ from scangeo.progress import ProgressCallback, no_progress
 from scangeo.rotation import matrix_to_rph, rph_to_matrix, small_rotation, unwrap_heading
 from scangeo.trajectory.stream import GpsImuStream
 
+#: the WGS84 semi-major axis (m): centimetre position differences as angles
+_EARTH_M = 6378137.0
+
 
 @dataclass(frozen=True)
 class SensorMounting:
@@ -200,7 +203,7 @@ def import_parge_platform(statuses, out, *, sensor_models=None, cubes=None, dtm=
     geoid_value, geoid_text = _platform_geoid(groups, lines, geoid, record)
     imported = [_imported_line(line, mountings[line.sensor]) for line in _ordered(groups)]
     references = [g[0] for g in groups]
-    streams = tuple((ref.flight_line, _ins(ref)) for ref in references)
+    streams = tuple((group[0].flight_line, _trajectory(group, agreements, record)) for group in groups)
     _check_priors(relative_mountings, mountings)
     first = references[0]
     plan = ProjectPlan(crs=_crs_text(first.st.crs_wkt), crs_wkt=first.st.crs_wkt, geoid=geoid_value,
@@ -385,6 +388,37 @@ def _flight_lines(lines: list[_Line], thresholds: AgreementThresholds, record: I
     return groups, agreements
 
 
+def _trajectory(group: list[_Line], agreements: dict[str, NavigationAgreement], record: ImportRecord) -> GpsImuStream:
+    """The flight line's trajectory: its reference line's INS, extended by the records of the other lines'
+    INS (on the reference's time base, their constant differences taken off) before and after it."""
+    ins = _ins(group[0])
+    columns = ("time", "lat", "lon", "h", "roll", "pitch", "heading")
+    parts = [{c: np.asarray(getattr(ins, c)) for c in columns}]
+    parts[0]["heading"] = unwrap_heading(parts[0]["heading"])
+    for line in group[1:]:
+        a = agreements[line.st.path.name]
+        other = _ins(line)
+        t = np.asarray(other.time) + line.time_offset_s
+        outside = (t < ins.time[0]) | (t > ins.time[-1])
+        if not outside.any():
+            continue
+        c = np.radians(a.attitude_constant_shifted_deg)
+        north, east, up = a.position_mean_neu_shifted_m
+        heading = unwrap_heading(np.asarray(other.heading))
+        heading += np.round((parts[0]["heading"][0] - heading[0]) / (2 * np.pi)) * 2 * np.pi
+        parts.append({"time": t[outside], "lat": np.asarray(other.lat)[outside] - north / _EARTH_M,
+                      "lon": np.asarray(other.lon)[outside] - east / (_EARTH_M * np.cos(np.mean(ins.lat))),
+                      "h": np.asarray(other.h)[outside] - up, "roll": np.asarray(other.roll)[outside] - c[0],
+                      "pitch": np.asarray(other.pitch)[outside] - c[1], "heading": heading[outside] - c[2]})
+        record.note(f"flight line {line.flight_line}: {int(outside.sum())} record(s) of {line.strip}'s INS before or "
+                    f"after {group[0].strip}'s ({t[outside].min():.4f}-{t[outside].max():.4f} s)")
+    if len(parts) == 1:
+        return ins
+    merged = {c: np.concatenate([p[c] for p in parts]) for c in columns}
+    order = np.argsort(merged["time"], kind="stable")
+    return GpsImuStream(**{c: v[order] for c, v in merged.items()}, source=ins.source)
+
+
 def _starttime_step(st: ParGeStatus) -> float:
     """The step of a float32 at the line's STARTTIME (hours), in seconds."""
     return float(np.spacing(np.float32(st.start_hours)) * 3600.0)
@@ -500,21 +534,42 @@ def _check_priors(priors, mountings: dict[str, SensorMounting]) -> None:
             raise ArgumentError(f"relative mounting {prior.sensor}:{prior.reference}: a sensor relative to itself")
 
 
-def parge_offsets_relative_mounting(reference_offsets_deg, sensor_offsets_deg) -> tuple[float, float, float]:
+def parge_offsets_relative_mounting(reference_offsets_deg, sensor_offsets_deg,
+                                    attitudes: GpsImuStream | None = None) -> tuple[float, float, float]:
     """The relative mounting ``R_BS(reference)^T R_BS(sensor)`` (roll, pitch, heading, deg; scangeo's
     convention) that two cameras' PARGE offsets (roll, pitch, heading; PARGE's signs, deg:
-    ``aux[0..3].OFFSET``) say in level flight.
+    ``aux[0..3].OFFSET``, or a boresight result of the history) say.
 
     PARGE's attitude arrays are the INS's angles less the offsets (roll positive with the left wing
-    down); in level flight, taking ``(r, p, h)`` off the angles is the body rotation
-    ``Rz(-h) Ry(-p) Rx(r)`` in scangeo's convention (module docstring)."""
+    down: scangeo's roll gains PARGE's roll offset, its pitch and heading lose theirs). In level
+    flight that is the body rotation ``Rz(-h) Ry(-p) Rx(r)``; over the INS attitudes of
+    ``attitudes`` (a flight line, scangeo's convention), the constant rotation closest to it."""
     def mounting(o):
         o = np.radians(np.asarray(o, float))
-        return rph_to_matrix(o[0], -o[1], -o[2])
+        if attitudes is None:
+            return rph_to_matrix(o[0], -o[1], -o[2])
+        x = _angles(attitudes)
+        R_x = rph_to_matrix(x[:, 0], x[:, 1], x[:, 2])
+        R_c = rph_to_matrix(x[:, 0] + o[0], x[:, 1] - o[1], x[:, 2] - o[2])
+        return mean_rotation(np.einsum("nji,njk->nik", R_x, R_c))
 
-    R = mounting(reference_offsets_deg).T @ mounting(sensor_offsets_deg)
+    return _triple_deg(mounting(reference_offsets_deg).T @ mounting(sensor_offsets_deg))
+
+
+def _triple_deg(R: np.ndarray) -> tuple[float, float, float]:
     rph = np.degrees(matrix_to_rph(R))
     return float(rph[0]), float(rph[1]), float(rph[2])
+
+
+def _stored(line: _Line) -> tuple[float, float, float]:
+    """PARGE's stored offsets of the line (roll, pitch, heading; PARGE's signs, deg)."""
+    return tuple(float(np.degrees(line.st.offsets[k])) for k in ("roll", "pitch", "heading"))  # type: ignore[return-value]
+
+
+def _crossbore(line: _Line) -> tuple[float, float, float] | None:
+    """The last boresight result of PARGE's history (deg), or None."""
+    results = [e.degrees for e in line.st.events if e.kind == "crossbore"]
+    return tuple(results[-1]) if results else None  # type: ignore[return-value]
 
 
 def parse_relative_mounting(text: str) -> RelativeMountingKeys:
@@ -551,18 +606,21 @@ def _record(record: ImportRecord, lines: list[_Line], groups, agreements, mounti
     sensors = {}
     for sensor_id, m in mountings.items():
         sensors[sensor_id] = asdict(m)
-    stored = {line.sensor: tuple(float(np.degrees(line.st.offsets[k])) for k in ("roll", "pitch", "heading"))
-              for line in lines}
     pairs = {}
     ids = list(mountings)
+    by_sensor = {line.sensor: line for line in reversed(lines)}  # each sensor's first line
     for i, ref in enumerate(ids):
         for sensor in ids[i + 1:]:
             Mr, Ms = (small_rotation(np.radians(mountings[s].boresight_deg)) for s in (ref, sensor))
-            imported = np.degrees(matrix_to_rph(Mr.T @ Ms))
+            a, b = by_sensor[ref], by_sensor[sensor]
+            ins = _ins(next(g[0] for g in groups if a in g))
             pairs[f"{sensor}:{ref}"] = {
-                "imported_deg": [float(v) for v in imported],
-                "parge_stored_offsets_deg": parge_offsets_relative_mounting(stored[ref], stored[sensor]),
-                "parge_stored_offsets_difference_deg": [stored[ref][k] - stored[sensor][k] for k in range(3)]}
+                "imported_deg": _triple_deg(Mr.T @ Ms),
+                "parge_stored_offsets_deg": parge_offsets_relative_mounting(_stored(a), _stored(b)),
+                "parge_stored_offsets_on_the_line_deg": parge_offsets_relative_mounting(_stored(a), _stored(b), ins),
+                "parge_stored_offsets_difference_deg": [x - y for x, y in zip(_stored(a), _stored(b))],
+                "parge_boresight_results_deg": (parge_offsets_relative_mounting(_crossbore(a), _crossbore(b))
+                                                if _crossbore(a) and _crossbore(b) else None)}
     record.extra.update(
         platform=True, geoid=geoid_text, thresholds=asdict(thresholds),
         lines={line.strip: {"status": str(line.st.path), "camera": line.st.camera, "sensor": line.sensor,
