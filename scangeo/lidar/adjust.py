@@ -27,7 +27,6 @@ from pathlib import Path
 import numpy as np
 import pyproj
 
-from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex
 from scangeo.adjustment.priors import (
     ANGLE_REGULARISATION_RAD,
     LEVER_ARM_REGULARISATION_M,
@@ -41,8 +40,7 @@ from scangeo.errors import LidarError
 from scangeo.io.project import LaserSensor, Project, StripConfig
 from scangeo.lidar.control import GivenPatches, read_patch_ground
 from scangeo.lidar.georeference import Calibration, Polar, TrajectorySampler, georeference, recover
-from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors
-from scangeo.lidar.keys import RangeOffset
+from scangeo.lidar.groups import ControlPatchPoints, PatchFrames, StripAnchors, laser_calibration_keys
 from scangeo.lidar.options import LaserOptions
 from scangeo.lidar.patches import PatchOptions, TiePatch, grid_name, homologous
 from scangeo.lidar.planes import ANCHORS, anchors
@@ -77,6 +75,12 @@ class LaserBlock:
     reference: np.ndarray  # work frame origin in map coordinates (points mode)
     anchors: dict[str, dict]  # strip -> arrays of its anchors (all patches, check included)
     notes: list[str] = field(default_factory=list)
+    sensor: str = ""  # the laser's id (its calibration keys); "": the one sensor of a laser project
+    lines: dict[str, str] = field(default_factory=dict)  # strip -> the id its GPS/IMU models serve (its flight line)
+
+    def line(self, strip: str) -> str:
+        """The id the GPS/IMU models serve ``strip`` under: its flight line on a platform, else the strip."""
+        return self.lines.get(strip, strip)
 
     def to_work(self, xyz: np.ndarray) -> np.ndarray:
         if self.mode == "trajectory":
@@ -285,11 +289,12 @@ def _parameters(block: LaserBlock, unit: float) -> Parameters:
     params = Parameters()
     _priors(params, block.models, variant, unit, mode)
     cal = set(variant.calibrate) if mode == "trajectory" else set()
+    bore, lever, offset, index = laser_calibration_keys(block.sensor)
     add_calibration(params, [
-        ("boresight", Boresight(), nominal.boresight, ("roll", "pitch", "heading"), ANGLE_REGULARISATION_RAD),
-        ("lever_arm", LeverArm(), nominal.lever_arm, ("x", "y", "z"), LEVER_ARM_REGULARISATION_M),
-        ("range_offset", RangeOffset(), [nominal.range_offset], ("dr",), RANGE_OFFSET_REGULARISATION_M),
-        ("index_error", ScanIndex(), [nominal.scan_index], ("index",), ANGLE_REGULARISATION_RAD),
+        ("boresight", bore, nominal.boresight, ("roll", "pitch", "heading"), ANGLE_REGULARISATION_RAD),
+        ("lever_arm", lever, nominal.lever_arm, ("x", "y", "z"), LEVER_ARM_REGULARISATION_M),
+        ("range_offset", offset, [nominal.range_offset], ("dr",), RANGE_OFFSET_REGULARISATION_M),
+        ("index_error", index, [nominal.scan_index], ("index",), ANGLE_REGULARISATION_RAD),
     ], cal)
     for key, kind in zip(block.frames.keys, block.kinds):
         if kind == "check":
@@ -311,7 +316,8 @@ def _groups(block: LaserBlock, ids: list[str], unit: float,
         patch, work, t, sig = adata["patch"][use], adata["work"][use], adata["time"][use], adata["sigma"][use]
         sampler = block.samplers.get(sid)
         polar = recover(work, t, sampler, block.nominal, solve_time=True) if sampler is not None else None
-        groups.append(StripAnchors(sid, patch, patch, sig, block.frames, block.models, work, t, polar, sampler))
+        groups.append(StripAnchors(sid, patch, patch, sig, block.frames, block.models, work, t, polar, sampler,
+                                   block.lines.get(sid), block.sensor))
     if given is None:
         block.notes.append("no ground.csv: no control patches; the datum comes from the GPS/IMU and the priors alone")
         return groups
@@ -366,10 +372,16 @@ def build(
     found: dict[str, StripFound] | None = None,
     exclude: frozenset[tuple[str, str]] = frozenset(),
     ties: list[TiePatch] | None = None,
+    models: ModelSet | None = None,
+    lines: dict[str, str] | None = None,
 ) -> LaserBlock:
     """Find patches (or reuse ``found`` of an earlier set-up), set up the variant's unknowns and the
     observation groups; ``exclude``: ``(strip, patch)`` observations left out (set aside by cleaning);
-    ``ties``: :func:`tie_patches` of ``found`` (the same for every variant: computed once by the caller)."""
+    ``ties``: :func:`tie_patches` of ``found`` (the same for every variant: computed once by the caller).
+
+    ``models`` and ``lines``: the GPS/IMU models of another block and the id each strip is served under
+    (the laser strips of a platform: the image block's models of their flight lines,
+    :mod:`scangeo.lidar.joint`); None: the variant's models of the laser strips."""
     if variant.strategy in ("P", "S", "SE") and any(m.breaks_lines for m in variant.strips):
         raise LidarError(f"variant {variant.name}: breaks_lines of a laser strip (it has no lines): give breaks_times")
     mode = _mode(project, options)
@@ -389,10 +401,12 @@ def build(
     reference = np.round(np.median(all_xyz, axis=0), -1 if unit == 1.0 else 0)
     empty = PatchFrames.from_points([], np.zeros((0, 3)), np.zeros((0, 3)))
     block = LaserBlock(project, options, variant, mode, found, ties, given, empty, kinds, ModelSet([]), Parameters(),
-                       [], samplers, nominal_calibration(project.laser), reference, {}, notes)
+                       [], samplers, nominal_calibration(project.laser), reference, {}, notes, project.laser.id,
+                       dict(lines or {}))
     _anchors(block, members, prior)
     block.frames = _frames(ids, block.anchors)
-    block.models = _models(found, variant, mode, {st.id: st.mission for st in project.strips})
+    block.models = models if models is not None else _models(found, variant, mode,
+                                                             {st.id: st.mission for st in project.strips})
     block.parameters = _parameters(block, unit)
     block.groups = _groups(block, ids, unit, exclude)
     for note in notes:
@@ -407,32 +421,30 @@ def run(block: LaserBlock, callback: ProgressCallback = no_progress) -> Adjustme
                   snooping_options(v), callback)
 
 
-def calibration_of(values) -> Calibration:
-    return Calibration(
-        np.asarray(values[Boresight()], float),
-        np.asarray(values[LeverArm()], float),
-        float(values[RangeOffset()][0]),
-        float(values[ScanIndex()][0]),
-    )
+def calibration_of(values, sensor: str = "") -> Calibration:
+    """The laser calibration of ``sensor`` (its id; ``""``: the one sensor of a laser project) in ``values``."""
+    bore, lever, offset, index = laser_calibration_keys(sensor)
+    return Calibration(np.asarray(values[bore], float), np.asarray(values[lever], float), float(values[offset][0]),
+                       float(values[index][0]))
 
 
 def corrector(block: LaserBlock, strip: str, values):
     """A function ``(xyz_map, t) -> corrected xyz_map`` of the strip's returns for the given unknowns."""
     coefficients = {m.key: np.asarray(values[m.key], float) for m in block.models}
     if block.mode == "trajectory":
-        sampler, cal = block.samplers[strip], calibration_of(values)
+        sampler, cal = block.samplers[strip], calibration_of(values, block.sensor)
 
         def correct(xyz: np.ndarray, t: np.ndarray) -> np.ndarray:
             sampler.check_covers(t, f"strip {strip}")
             p = block.to_work(xyz)
             polar = recover(p, t, sampler, block.nominal)
             pos, ang = sampler.at(t)
-            c = block.models.correction(strip, t, pos, coefficients)
+            c = block.models.correction(block.line(strip), t, pos, coefficients)
             return block.to_map(georeference(pos + c[:, :3], ang + c[:, 3:], polar, cal))
     else:
 
         def correct(xyz: np.ndarray, t: np.ndarray) -> np.ndarray:
-            c = block.models.correction(strip, t, xyz, coefficients)
+            c = block.models.correction(block.line(strip), t, xyz, coefficients)
             return xyz + c[:, :3]
 
     return correct
@@ -449,9 +461,9 @@ def anchor_points(block: LaserBlock, strip: str, values) -> np.ndarray:
                 a["work"], a["time"], block.samplers[strip], block.nominal, solve_time=True
             )
         pos, ang = block.samplers[strip].at(polar.time)
-        c = block.models.correction(strip, polar.time, pos, coefficients)
-        return georeference(pos + c[:, :3], ang + c[:, 3:], polar, calibration_of(values))
-    c = block.models.correction(strip, a["time"], a["work"], coefficients)
+        c = block.models.correction(block.line(strip), polar.time, pos, coefficients)
+        return georeference(pos + c[:, :3], ang + c[:, 3:], polar, calibration_of(values, block.sensor))
+    c = block.models.correction(block.line(strip), a["time"], a["work"], coefficients)
     return a["work"] + c[:, :3]
 
 

@@ -29,7 +29,13 @@ from scangeo.lsq.observations import Linearisation, ObservationGroup
 from scangeo.lsq.parameters import JacobianPart
 from scangeo.orientation.models import ModelSet
 
-CALIBRATION_KEYS = (Boresight(), LeverArm(), RangeOffset(), ScanIndex())
+
+def laser_calibration_keys(sensor: str = "") -> tuple[Boresight, LeverArm, RangeOffset, ScanIndex]:
+    """The calibration blocks of a laser scanner (``sensor`` its id; ``""``: the one sensor of a laser project)."""
+    return Boresight(sensor), LeverArm(sensor), RangeOffset(sensor), ScanIndex(sensor)
+
+
+CALIBRATION_KEYS = laser_calibration_keys()
 
 #: The four anchors of a patch in a strip (``+a, -a`` along its first principal axis, ``+b, -b`` along
 #: the second; ``planes.anchors``) enter as three orthonormal combinations of their normal distances:
@@ -123,6 +129,8 @@ class StripAnchors(ObservationGroup):
     points : (k, 3) anchor points in the work frame (used directly without a trajectory).
     polar, sampler, nominal : with a trajectory: the anchors' original observations, the strip's GPS/IMU
         and the nominal calibration (the observations were recovered with it).
+    line : the id the GPS/IMU models serve the strip under: its flight line on a platform (None: the strip).
+    sensor : the laser's id, of its calibration keys (``""``: the one sensor of a laser project).
     """
 
     def __init__(
@@ -137,9 +145,12 @@ class StripAnchors(ObservationGroup):
         times: np.ndarray,
         polar: Polar | None = None,
         sampler: TrajectorySampler | None = None,
+        line: str | None = None,
+        sensor: str = "",
     ) -> None:
         self.name = f"anchors {strip}"
         self.strip = strip
+        self.calibration_keys = laser_calibration_keys(sensor)
         self.frames = frames
         self._anchor_sigma = np.asarray(sigma, float)
         self._k = self._anchor_sigma.size
@@ -161,13 +172,13 @@ class StripAnchors(ObservationGroup):
             times = polar.time
         else:
             self.pos0 = self.points
-        self._design = models.design(strip, np.asarray(times, float), self.pos0)
+        self._design = models.design(strip if line is None else line, np.asarray(times, float), self.pos0)
         self._keys = [k for k, _, _ in self._design]
 
     def keys(self):
         keys: list[Key] = list(self._keys)
         if self.trajectory:
-            keys += CALIBRATION_KEYS
+            keys += self.calibration_keys
         return list(dict.fromkeys(keys + list(self._plane_keys)))
 
     def _corrections(self, values) -> np.ndarray:
@@ -180,12 +191,9 @@ class StripAnchors(ObservationGroup):
         c = self._corrections(values)
         d = None
         if self.polar is not None:
-            cal = Calibration(
-                np.asarray(values[Boresight()], float),
-                np.asarray(values[LeverArm()], float),
-                float(values[RangeOffset()][0]),
-                float(values[ScanIndex()][0]),
-            )
+            bore, lever, offset, index = self.calibration_keys
+            cal = Calibration(np.asarray(values[bore], float), np.asarray(values[lever], float),
+                              float(values[offset][0]), float(values[index][0]))
             if jacobian:
                 d = derivatives(self.pos0 + c[:, :3], self.ang0 + c[:, 3:], self.polar, cal)
                 p = d.points
@@ -217,10 +225,11 @@ class StripAnchors(ObservationGroup):
             )
         if d is not None:
             cal_key: Key
-            for cal_key, M in ((Boresight(), d.boresight), (LeverArm(), d.lever_arm)):
+            bore, lever, offset, index = self.calibration_keys
+            for cal_key, M in ((bore, d.boresight), (lever, d.lever_arm)):
                 J = np.einsum("ni,nik->nk", n, M) * w[:, None]
                 parts.append(JacobianPart([cal_key], np.repeat(rows, 3), np.tile(np.arange(3), k), J.ravel()))
-            for cal_key, v in ((RangeOffset(), d.range), (ScanIndex(), d.index)):
+            for cal_key, v in ((offset, d.range), (index, d.index)):
                 parts.append(JacobianPart([cal_key], rows, np.zeros(k, np.int64), np.einsum("ni,ni->n", n, v) * w))
         parts.append(
             JacobianPart(

@@ -16,7 +16,10 @@ class Plane(Key):
 
 @dataclass(frozen=True, slots=True)
 class RangeOffset(Key):
-    """Laser range offset (metres): true range = measured + offset."""
+    """Laser range offset (metres): true range = measured + offset; ``sensor`` the laser's id on a platform
+    (``""``: the one sensor of a laser project)."""
+
+    sensor: str = ""
 
 
 @dataclass(frozen=True, slots=True)

@@ -17,6 +17,7 @@ import numpy as np
 from scangeo.adjustment.keys import Boresight, LeverArm, ScanIndex
 from scangeo.lidar.adjust import LaserBlock
 from scangeo.lidar.evaluation import Evaluation, block_unit
+from scangeo.lidar.groups import laser_calibration_keys
 from scangeo.lidar.keys import Plane, RangeOffset
 from scangeo.lsq.engine import Adjustment
 from scangeo.lsq.keys import Key
@@ -271,7 +272,7 @@ def _patch_map(block: LaserBlock) -> list[dict]:
 def laser_result(block: LaserBlock, result: Adjustment, evaluation: Evaluation | None) -> LaserResult:
     """The typed result of an adjusted laser block (its variant's name included)."""
     st = result.statistics
-    keys = [m.key for m in block.models] + [Boresight(), LeverArm(), RangeOffset(), ScanIndex()]
+    keys = [m.key for m in block.models] + list(laser_calibration_keys(block.sensor))
     planes = [Plane(i) for i, kind in zip(block.frames.ids, block.kinds) if kind != "check"]
     mdb = rejected_mdb(result)
     v = block.variant
