@@ -100,7 +100,8 @@ def record_laser(root: Path, strip_id: str, cfg: PlatformSensorConfig, line: Sim
 def write_patches(root: Path, cfg: PlatformSensorConfig, plan: FlightPlan, control_lines: tuple[int, ...],
                   terrain: Terrain, scene, rng: np.random.Generator) -> int:
     """``patches.csv``: the laser's control patches in the zones of the flight lines ``control_lines``
-    (0-based; empty: all) and its check patches over every flight line, on open ground inside the imaged
+    (0-based; empty: all; none for a laser that ``measures_control`` false) and its check patches over every
+    flight line, on open ground inside the imaged
     part of the strips. Returns the number of patches written."""
     half_zone = plan.spacing_m / 2.0
     y_lo = min(plan.strips[0].y_start, plan.strips[0].y_end) + 3.0 * SURVEY_HALF[0]
@@ -109,8 +110,8 @@ def write_patches(root: Path, cfg: PlatformSensorConfig, plan: FlightPlan, contr
     rows: list[str] = []
     corners = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]]) * SURVEY_HALF
     ring = 8.0 * np.array([[np.cos(a), np.sin(a)] for a in np.linspace(0, 2 * np.pi, 13)])
-    plans = [("C", "control", cfg.control_patches, controlled), ("K", "check", cfg.check_patches,
-                                                                list(range(len(plan.strips))))]
+    plans = [("C", "control", cfg.control_patches if cfg.measures_control else 0, controlled),
+             ("K", "check", cfg.check_patches, list(range(len(plan.strips))))]
     number = 0
     for prefix, role, count, lines in plans:
         for i in range(count if lines else 0):

@@ -240,3 +240,16 @@ def test_a_preset_extends_another(tmp_path):
     loop.write_text(f'extends = "{loop}"\n')
     with pytest.raises(ProjectFileError, match=r"\[extends\].*extends itself"):
         load_preset(loop)
+
+
+def test_simulate_and_info_on_a_laser_and_a_pushbroom(tmp_path, capsys):
+    out = tmp_path / "platform"
+    assert main(["simulate", str(out), "--preset", "platform_quick", "--no-images", "--set", "flight.strips=1",
+                 "--set", "flight.lines=100", "--set", "platform.control_flight_lines=[]"]) == 0
+    text = capsys.readouterr().out
+    # a pulse every 1/40,000 s over the 0.99 s of the imager's 100 lines
+    assert ("flight lines: 01, each recorded by nis (pushbroom, 100 lines x 480 pixels), lidar (laser, 39601 returns"
+            in text)
+    assert main(["info", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "nis-01, lidar-01" in text and "kind           laser" in text
