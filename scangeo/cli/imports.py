@@ -123,7 +123,8 @@ def run(args) -> int:
     if len(statuses) > 1:
         return _run_platform(args, statuses, out)
     if args.relative_mounting:
-        raise ArgumentError("relative_mounting: a prior between sensors needs several status files")
+        raise ArgumentError("{relative_mounting}: a prior between sensors needs several status files",
+                            relative_mounting=args.relative_mounting[0])
     from scangeo.importers.parge import import_parge
 
     r = import_parge(statuses[0], out, sensor_model=_one(args.sensor_model, "sensor_model"), dtm=args.dtm,
@@ -147,7 +148,7 @@ def _one(values, name: str):
     if not values:
         return None
     if len(values) > 1:
-        raise ArgumentError(f"{name}: given {len(values)} times for one status file")
+        raise ArgumentError(f"{{{name}}}: given {len(values)} times for one status file", **{name: values[-1]})
     return None if values[0] == "-" else values[0]
 
 

@@ -44,7 +44,7 @@ import numpy as np
 import pyproj
 from scipy.interpolate import CubicSpline
 
-from scangeo.errors import ArgumentError
+from scangeo.errors import ArgumentError, ImportFileError
 from scangeo.importers.navigation_agreement import (
     AgreementThresholds,
     NavigationAgreement,
@@ -164,8 +164,10 @@ def import_parge_platform(statuses, out, *, sensor_models=None, cubes=None, dtm=
 
     Raises
     ------
-    ArgumentError : fewer than two status files, the same file twice, per-file lists of another
-        length, lines of different flights (naming both files), a prior naming an unknown sensor.
+    ArgumentError : fewer than two status files, per-file lists of another length, a prior naming an
+        unknown sensor.
+    ImportFileError : a status file given twice; lines of different flights, or of one camera with
+        other look angles or line rates, or twice on one stretch (naming both files).
     ParGeFileError, ImportFileError : as ``import_parge`` (naming the file).
     ProjectFileError : ``out`` exists and is not empty.
     """
@@ -231,7 +233,8 @@ def _per_file(values, n: int, name: str) -> list:
         return [None] * n
     values = list(values)
     if len(values) != n:
-        raise ArgumentError(f"{name}: {len(values)} given for {n} status files (one per status file, None for none)")
+        raise ArgumentError(f"{{{name}}}: {len(values)} given for {n} status files (one per status file, None for "
+                            "none)", **{name: values})
     return values
 
 
@@ -240,7 +243,7 @@ def _no_twice(paths: list[Path]) -> None:
     for p in paths:
         key = p.resolve()
         if key in seen:
-            raise ArgumentError(f"statuses: {p} is given twice")
+            raise ImportFileError(f"{p}: given twice (each status file once)")
         seen[key] = p
 
 
@@ -259,7 +262,7 @@ def _one_flight(a: ParGeStatus, b: ParGeStatus) -> None:
     distance = _distance_km(a, b)
     if distance > 1.0:
         differs.append(f"{distance:.0f} km apart")
-    raise ArgumentError(f"{a.path} and {b.path} are of different flights ({'; '.join(differs)}): one import takes "
+    raise ImportFileError(f"{a.path} and {b.path} are of different flights ({'; '.join(differs)}): one import takes "
                         "the lines of one flight")
 
 
@@ -302,10 +305,10 @@ def _same_camera(a: _Line, b: _Line) -> None:
     sa, sb = _sensor(a), _sensor(b)
     if sa.pixels != sb.pixels or not (np.allclose(sa.across, sb.across, atol=1e-9, rtol=0)
                                       and np.allclose(sa.along, sb.along, atol=1e-9, rtol=0)):
-        raise ArgumentError(f"{a.st.path} and {b.st.path}: one camera ({a.st.camera}) with other look angles "
+        raise ImportFileError(f"{a.st.path} and {b.st.path}: one camera ({a.st.camera}) with other look angles "
                             "(another sensor model?)")
     if not math.isclose(sa.line_rate_hz, sb.line_rate_hz, rel_tol=1e-9):
-        raise ArgumentError(f"{a.st.path} and {b.st.path}: one camera ({a.st.camera}) at other line rates "
+        raise ImportFileError(f"{a.st.path} and {b.st.path}: one camera ({a.st.camera}) at other line rates "
                             f"({sa.line_rate_hz:g} and {sb.line_rate_hz:g} Hz)")
 
 
@@ -346,6 +349,8 @@ def _flight_lines(lines: list[_Line], thresholds: AgreementThresholds, record: I
                 group.append(line)
                 line.time_offset_s = a.time_offset_s
                 agreements[line.st.path.name] = a
+                record.extra.setdefault("arrays", {})[line.st.path.name] = asdict(
+                    compare_navigation(_camera(ref), _camera(line), thresholds))
                 break
             refused.append((ref, a, why))
         else:
@@ -372,7 +377,7 @@ def _flight_lines(lines: list[_Line], thresholds: AgreementThresholds, record: I
     for line in lines:
         if ids.count(line.strip) > 1:
             twins = [o.st.path.name for o in lines if o.strip == line.strip]
-            raise ArgumentError(f"{' and '.join(twins)}: one camera ({line.st.camera}) twice on one stretch of "
+            raise ImportFileError(f"{' and '.join(twins)}: one camera ({line.st.camera}) twice on one stretch of "
                                 "navigation (the same line imported twice?)")
     for group in groups:
         for line in group[1:]:
@@ -528,10 +533,12 @@ def _check_priors(priors, mountings: dict[str, SensorMounting]) -> None:
     for prior in priors:
         for name in (prior.sensor, prior.reference):
             if name not in mountings:
-                raise ArgumentError(f"relative mounting {prior.sensor}:{prior.reference}: unknown sensor {name!r} "
-                                    f"(the import's sensors: {', '.join(mountings)})")
+                raise ArgumentError("{relative_mountings}: " + _plain(f"the prior of {prior.sensor} relative to "
+                                    f"{prior.reference} names an unknown sensor {name!r} (the import's sensors: "
+                                    f"{', '.join(mountings)})"), relative_mountings=_spelled(prior))
         if prior.sensor == prior.reference:
-            raise ArgumentError(f"relative mounting {prior.sensor}:{prior.reference}: a sensor relative to itself")
+            raise ArgumentError("{relative_mountings}: " + _plain(f"a prior of {prior.sensor} relative to itself"),
+                                relative_mountings=_spelled(prior))
 
 
 def parge_offsets_relative_mounting(reference_offsets_deg, sensor_offsets_deg,
@@ -554,6 +561,18 @@ def parge_offsets_relative_mounting(reference_offsets_deg, sensor_offsets_deg,
         return mean_rotation(np.einsum("nji,njk->nik", R_x, R_c))
 
     return _triple_deg(mounting(reference_offsets_deg).T @ mounting(sensor_offsets_deg))
+
+
+def _plain(text: str) -> str:
+    """Text for an :class:`ArgumentError` message (whose braces name arguments)."""
+    return text.replace("{", "{{").replace("}", "}}")
+
+
+def _spelled(prior: RelativeMountingKeys) -> str:
+    """A prior as ``parse_relative_mounting`` reads it."""
+    angles = ",".join(f"{v:g}" for v in prior.boresight_deg or ())
+    sigmas = ",".join(f"{v:g}" for v in prior.boresight_sigma_deg or ())
+    return f"{prior.sensor}:{prior.reference}:{angles}:{sigmas}"
 
 
 def _triple_deg(R: np.ndarray) -> tuple[float, float, float]:
@@ -579,19 +598,23 @@ def parse_relative_mounting(text: str) -> RelativeMountingKeys:
     ``[[relative_mountings]]``); one sigma serves all three angles."""
     parts = text.split(":")
     expected = "expected SENSOR:REFERENCE:ROLL,PITCH,HEADING:SIGMA[,SIGMA,SIGMA] (degrees)"
+
+    def error(why: str) -> ArgumentError:
+        return ArgumentError("{relative_mounting}: " + _plain(why), relative_mounting=text)
+
     if len(parts) != 4 or not parts[0] or not parts[1]:
-        raise ArgumentError(f"relative mounting {text!r}: {expected}")
+        raise error(expected)
     try:
         angles = [float(v) for v in parts[2].split(",")]
         sigmas = [float(v) for v in parts[3].split(",")] if parts[3] else []
     except ValueError:
-        raise ArgumentError(f"relative mounting {text!r}: not numbers; {expected}") from None
+        raise error(f"not numbers; {expected}") from None
     if not sigmas:
-        raise ArgumentError(f"relative mounting {text!r}: no sigma (a prior needs its sigma); {expected}")
+        raise error(f"no sigma (a prior needs its sigma); {expected}")
     if len(angles) != 3 or len(sigmas) not in (1, 3):
-        raise ArgumentError(f"relative mounting {text!r}: {len(angles)} angles and {len(sigmas)} sigmas; {expected}")
+        raise error(f"{len(angles)} angles and {len(sigmas)} sigmas; {expected}")
     if not all(math.isfinite(v) for v in angles + sigmas) or min(sigmas) <= 0:
-        raise ArgumentError(f"relative mounting {text!r}: the sigmas must be positive and every value finite")
+        raise error("the sigmas must be positive and every value finite")
     return RelativeMountingKeys(sensor=parts[0], reference=parts[1], boresight_deg=tuple(angles),  # type: ignore[arg-type]
                                 boresight_sigma_deg=tuple(sigmas * 3 if len(sigmas) == 1 else sigmas))  # type: ignore[arg-type]
 
@@ -632,9 +655,11 @@ def _record(record: ImportRecord, lines: list[_Line], groups, agreements, mounti
                             "control": int(line.st.gcps.used.sum()), "check": int((~line.st.gcps.used).sum())}
                for line in lines},
         flight_lines={g[0].flight_line: {"reference": g[0].strip, "strips": [m.strip for m in g],
-                                         "agreement": {m.strip: asdict(agreements[m.st.path.name]) for m in g[1:]}}
+                                         "agreement": {m.strip: asdict(agreements[m.st.path.name]) for m in g[1:]},
+                                         "arrays": {m.strip: record.extra["arrays"][m.st.path.name] for m in g[1:]}}
                       for g in groups},
         sensors=sensors, relative_mountings=pairs)
+    record.extra.pop("arrays", None)
 
 
 def _variants_toml(lines: list[_Line], mountings: dict[str, SensorMounting]) -> str:

@@ -59,3 +59,20 @@ def check_rms(adjusted) -> dict[str, tuple[float, float, float, int]]:
         out[strip] = (c["rms_along_lines"], c["rms_across_px"], math.hypot(c["rms_along_lines"], c["rms_across_px"]),
                       c["n"])
     return out
+
+
+def subset_rms(adjusted, strip: str, points) -> tuple[float, float, float, int]:
+    """Check-point rms (along lines, across pixels, both, n) of one strip over the given point ids."""
+    c = adjusted.result.checks
+    wanted = set(points)
+    ok = (c.strip == strip) & (c.status == 0) & np.array([str(p) in wanted for p in c.point], bool)
+    along, across = float(np.sqrt(np.mean(c.line[ok] ** 2))), float(np.sqrt(np.mean(c.pixel[ok] ** 2)))
+    return along, across, math.hypot(along, across), int(ok.sum())
+
+
+def relative_deg(adjusted, sensor: str, reference: str):
+    """The adjusted relative mounting of ``sensor`` to ``reference``: (roll, pitch, heading) and sigmas, deg."""
+    for e in adjusted.result.relative_mountings():
+        if (e.sensor, e.reference) == (sensor, reference):
+            return np.degrees(e.boresight), np.degrees(e.boresight_sigma)
+    raise KeyError((sensor, reference))
