@@ -681,6 +681,11 @@ class Project:
         flight_line : str
             The flight line's id.
 
+        Returns
+        -------
+        None
+            It raises where the strips do not overlap.
+
         Raises
         ------
         ProjectFileError

@@ -109,7 +109,13 @@ class Orientation:
 
     @property
     def is_platform(self) -> bool:
-        """Whether the orientation has several sensors (schema ``scangeo.orientation/2``)."""
+        """Whether the orientation is a platform's.
+
+        Returns
+        -------
+        bool
+            True for several sensors, or one with an id (schema ``scangeo.orientation/2``).
+        """
         return len(self.sensors) != 1 or next(iter(self.sensors)) != ""
 
     def _one(self) -> SensorSetup:
@@ -121,12 +127,34 @@ class Orientation:
 
     @property
     def sensor(self) -> SensorModel:
-        """The sensor model of a one-sensor orientation (with its calibration)."""
+        """The sensor model of a one-sensor orientation.
+
+        Returns
+        -------
+        SensorModel
+            The whiskbroom or pushbroom model with its calibration.
+
+        Raises
+        ------
+        OrientationFileError
+            A platform's orientation (its strips' sensors: :meth:`sensor_of`).
+        """
         return self._one().model
 
     @property
     def mounting(self) -> Mounting:
-        """The mounting of a one-sensor orientation."""
+        """The mounting of a one-sensor orientation.
+
+        Returns
+        -------
+        Mounting
+            Lever arm (metres, body frame), boresight (radians), time offset (seconds).
+
+        Raises
+        ------
+        OrientationFileError
+            A platform's orientation (its strips' sensors: :meth:`sensor_of`).
+        """
         return self._one().mounting
 
     def sensor_of(self, strip_id: str) -> SensorSetup:
