@@ -155,6 +155,8 @@ def compute_reliability(solution: Solution, statistics: Statistics, probes: Sequ
         ext_p.append(np.where(obs, np.inf, np.nan))
         ext_o.append(np.where(obs, np.inf, np.nan))
     out = Reliability(list(groups), red, mdb, lam, ext_p, ext_o, alpha0, beta)
+    if not groups:  # nothing was observed (direct georeferencing evaluated at check points only)
+        return out
     if not external:
         out.ext_point_m = [np.full(g.n_rows, np.nan) for g in groups]
         out.ext_orientation_m = [np.full(g.n_rows, np.nan) for g in groups]

@@ -347,7 +347,7 @@ class Solver:
         if final is not None:
             system, factor = final
             system.residuals = np.concatenate(
-                [np.where(a, g.residuals(values), 0.0) for g, a in zip(self.groups, active)]
+                [np.where(a, g.residuals(values), 0.0) for g, a in zip(self.groups, active)] or [np.zeros(0)]
             )
         else:
             system, factor = self.factorize(values, active)

@@ -403,3 +403,25 @@ def test_a_model_per_mission_for_images(small, tmp_path):
     for k, sid in enumerate(strips):
         expected[f"mission {'AB'[k % 2]}"] = expected.get(f"mission {'AB'[k % 2]}", ()) + (sid,)
     assert {m.id: m.strips for m in models} == expected and len(expected) == 2
+
+
+def test_direct_georeferencing_with_check_points_only_is_evaluated(small, tmp_path):
+    """DG on a project whose every point is a check point: nothing to adjust (no observation group at all),
+    and the check points measure the GPS/IMU as flown; its results folder is written."""
+    from scangeo.adjustment.outputs import write_results
+
+    root = tmp_path / "checks"
+    shutil.copytree(small, root)
+    variant = Variant("DGC", "DG", roles=(("*", "check"),), snooping=False)
+    result = run_variant(root, variant)
+    assert not result.adjustment.solution.groups
+    rms = result.rms_per_strip()
+    assert all(e["control"]["n"] == 0 and e["check"]["n"] > 0 for e in rms.values())
+    dg = run_variant(root, Variant("DG", "DG", snooping=False))   # the same orientation, its checks a subset
+    mine = {(p, s): (a, b) for p, s, a, b in zip(result.checks.point, result.checks.strip, result.checks.line,
+                                                 result.checks.pixel)}
+    theirs = list(zip(dg.checks.point, dg.checks.strip, dg.checks.line, dg.checks.pixel))
+    assert theirs and len(mine) > len(theirs)
+    assert all(np.allclose(mine[(p, s)], (a, b), atol=1e-9) for p, s, a, b in theirs)
+    folder = write_results(result)
+    assert (folder / "report.json").exists() and (folder / "orientation.json").exists()
