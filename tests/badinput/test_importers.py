@@ -18,13 +18,15 @@ from tests.conftest import SHARED_DATA
 from tests.importers.sensor_files import synthetic_line, write_cube
 
 SWIR = SHARED_DATA / "hyspex" / "20200522_Husky_SWIR_boresight_IFSAR.gcs"
+VNIR = SHARED_DATA / "hyspex" / "20200522_Husky_VNIR_boresight_IFSAR.gcs"
 VNIR_MODEL = SHARED_DATA / "hyspex" / "sensormodel_VNIR_1800_sn0812_FOVexp_180deg_rotated.txt"
 
 
 @pytest.fixture(scope="module")
 def sources(tmp_path_factory):
     """lcf: line.bil (+ .bil.hdr, 60 x 300 x 2 uint16), line.lcf, line.bil.times, look.csv; PARGE (when the shared
-    data are there): status.gcs, cube.img + cube.hdr (384 x 2177 x 1 float32), vnir_model.txt."""
+    data are there): status.gcs, cube.img + cube.hdr (384 x 2177 x 1 float32), vnir_model.txt, and the VNIR line of
+    the same flight, vnir.gcs."""
     root = tmp_path_factory.mktemp("import_sources")
     synthetic_line(root)
     (root / "look.csv").write_text("pixel,along_deg,across_deg\n" + "".join(f"{j},0,{-15 + j * 0.5}\n"
@@ -32,6 +34,7 @@ def sources(tmp_path_factory):
     if SWIR.exists():
         shutil.copy(SWIR, root / "status.gcs")
         shutil.copy(VNIR_MODEL, root / "vnir_model.txt")
+        shutil.copy(VNIR, root / "vnir.gcs")
         write_cube(root / "cube.img", np.zeros((2177, 384, 1), np.float32), interleave="bsq", header="cube.hdr")
     return root
 
@@ -128,6 +131,24 @@ PARGE_CASES = [
     case("parge-dtm-missing", lambda r: None, "none.tif", "no such DTM", args=(*PARGE_ARGS, "--dtm", "{p}/none.tif")),
     case("parge-geoid-missing", lambda r: None, "none.tif", "no such geoid raster",
          args=(*PARGE_ARGS, "--geoid", "{p}/none.tif")),
+    case("parge-prior-one-line", lambda r: None, "--relative-mounting swir:vnir:-1.5,-0.5,0.2:0.03",
+         "needs several status files", args=(*PARGE_ARGS, "--relative-mounting", "swir:vnir:-1.5,-0.5,0.2:0.03")),
+    # several lines: one platform
+    case("parge-platform-other-day", lambda r: _rename(r / "vnir.gcs", b"2020-05-22", b"2020-05-23"), "vnir.gcs and",
+         "status.gcs are of different flights (other days: 2020-05-23 and 2020-05-22",
+         args=("{p}/vnir.gcs", *PARGE_ARGS)),
+    case("parge-platform-twice", lambda r: None, "status.gcs: given twice",
+         args=("{p}/status.gcs", *PARGE_ARGS)),
+    case("parge-platform-prior-without-sigma", lambda r: None, "--relative-mounting swir:vnir:-1.5,-0.5,0.2:",
+         "no sigma (a prior needs its sigma)",
+         args=("{p}/vnir.gcs", *PARGE_ARGS, "--relative-mounting", "swir:vnir:-1.5,-0.5,0.2:")),
+    case("parge-platform-prior-unknown-sensor", lambda r: None, "nir:vnir", "names an unknown sensor 'nir'",
+         "the import's sensors: vnir, swir",
+         args=("{p}/vnir.gcs", *PARGE_ARGS, "--relative-mounting", "nir:vnir:-1.5,-0.5,0.2:0.03")),
+    case("parge-platform-cubes", lambda r: None, "cubes", "1 given for 2 status files",
+         args=("{p}/vnir.gcs", *PARGE_ARGS, "--cube", "{p}/cube.img")),
+    case("parge-platform-status-truncated", truncate("vnir.gcs", 0.4), "vnir.gcs", "truncated or damaged",
+         args=("{p}/vnir.gcs", *PARGE_ARGS)),
 ]
 
 
