@@ -367,7 +367,7 @@ def project_toml(lines: list[ImportedLine], plan: ProjectPlan) -> str:
             for key in ("boresight_deg", "boresight_sigma_deg", "lever_arm_m", "lever_arm_sigma_m"):
                 value = getattr(prior, key)
                 if value is not None:
-                    text.append(f"{key} = [{', '.join(f'{v:.6g}' for v in value)}]")
+                    text.append(f"{key} = [{', '.join(f'{v:.9g}' for v in value)}]")
         for flight_line, _ in plan.flight_lines:
             text += ["", "[[flight_lines]]", f"id = {json.dumps(flight_line)}",
                      f'trajectory = "nav/{flight_line}.csv"']
