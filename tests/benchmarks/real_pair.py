@@ -81,21 +81,23 @@ def platform_import(statuses: dict[str, Path], work: Path) -> None:
     print("== the platform import")
     for fl, strips in r.flight_lines.items():
         print(f"  flight line {fl}: {', '.join(strips)}")
-    a = next(iter(r.agreements.values()))
-    mean = a.position_mean_neu_m
-    print(f"  swir's navigation against vnir's at the SWIR's {a.common_records} line times: positions within "
-          f"{a.position_max_m:.3f} m (mean north {mean[0]:+.3f}, east {mean[1]:+.3f}, up {mean[2]:+.4f} m)")
-    print(f"    attitude arrays: constant {np.round(a.attitude_constant_deg, 4)} deg, rms beyond "
-          f"{np.round(a.attitude_rms_deg, 4)} deg")
-    print(f"    time offset {1e3 * a.time_offset_s:+.3f} ms; then positions within {a.position_max_shifted_m:.3f} m "
-          f"(mean {np.round(a.position_mean_neu_shifted_m, 4)} m)")
     Project.load(root)  # the project reads
     rec = json.loads((root / "import.json").read_text())
-    ag = rec["flight_lines"]["L1"]["agreement"]["swir-L1"]
-    print(f"    INS (PARGE's stored offsets added back), after the time offset: constant "
-          f"{np.round(ag['attitude_constant_shifted_deg'], 6)} deg, rms beyond "
-          f"{np.round(ag['attitude_rms_shifted_deg'], 4)} deg; body rotation departs "
-          f"{ag['rotation_departure_deg'][0]:.4f} deg rms")
+    arrays = rec["flight_lines"]["L1"]["arrays"]["swir-L1"]
+    ins = rec["flight_lines"]["L1"]["agreement"]["swir-L1"]
+    mean = arrays["position_mean_neu_m"]
+    print(f"  swir's navigation against vnir's at the SWIR's {arrays['common_records']} line times (swir minus vnir):")
+    print(f"    positions within {arrays['position_max_m']:.3f} m (mean north {mean[0]:+.3f}, east {mean[1]:+.3f}, up "
+          f"{mean[2]:+.4f} m); after the time offset {1e3 * ins['time_offset_s']:+.3f} ms within "
+          f"{ins['position_max_shifted_m']:.3f} m (mean {np.round(ins['position_mean_neu_shifted_m'], 4)} m)")
+    print(f"    attitude arrays as given: constant {np.round(arrays['attitude_constant_deg'], 4)} deg, rms beyond "
+          f"{np.round(arrays['attitude_rms_deg'], 4)} deg; after the time offset rms "
+          f"{np.round(arrays['attitude_rms_shifted_deg'], 4)} deg; body rotation departs "
+          f"{np.round(arrays['rotation_departure_deg'], 4)} deg (rms, largest) from its constant")
+    print(f"    INS copies (PARGE's stored offsets added back), after the time offset: constant "
+          f"{np.round(ins['attitude_constant_shifted_deg'], 6)} deg, rms beyond "
+          f"{np.round(ins['attitude_rms_shifted_deg'], 4)} deg; body rotation departs "
+          f"{np.round(ins['rotation_departure_deg'], 4)} deg")
     for s, m in r.sensors.items():
         print(f"  {s}: boresight on the INS {np.round(m.boresight_deg, 4)} deg (single line "
               f"{np.round(m.single_line_boresight_deg, 4)} on its arrays); its single-line attitude departs "
