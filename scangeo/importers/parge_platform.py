@@ -42,21 +42,13 @@ from pathlib import Path
 
 import numpy as np
 import pyproj
-from scipy.interpolate import CubicSpline
 
 from scangeo.errors import ArgumentError, ImportFileError
-from scangeo.importers.navigation_agreement import (
-    AgreementThresholds,
-    NavigationAgreement,
-    compare_navigation,
-    mean_rotation,
-    rotation_angles_deg,
-)
+from scangeo.importers.navigation_agreement import AgreementThresholds, NavigationAgreement
 from scangeo.importers.parge import (
     VARIANTS_BODY,
     ImportResult,
     _control,
-    _convergence,
     _crs_text,
     _footprint,
     _geoid,
@@ -64,7 +56,21 @@ from scangeo.importers.parge import (
     _names,
     _origin,
     import_parge,
-    line_stream,
+)
+from scangeo.importers.parge_flight_lines import (
+    PlatformLine,
+    SensorMounting,
+    boresight_result,
+    camera_stream,
+    flight_line_trajectory,
+    group_flight_lines,
+    held_offsets,
+    ins_stream,
+    ordered,
+    parge_offsets_relative_mounting,
+    sensor_mountings,
+    stored_offsets,
+    triple_deg,
 )
 from scangeo.importers.parge_status import ParGeStatus
 from scangeo.importers.record import ImportRecord
@@ -81,25 +87,7 @@ from scangeo.importers.writer import (
 from scangeo.io.points import ImagePoints
 from scangeo.io.project_schema import RelativeMountingKeys
 from scangeo.progress import ProgressCallback, no_progress
-from scangeo.rotation import matrix_to_rph, rph_to_matrix, small_rotation, unwrap_heading
-from scangeo.trajectory.stream import GpsImuStream
-
-#: the WGS84 semi-major axis (m): centimetre position differences as angles
-_EARTH_M = 6378137.0
-
-
-@dataclass(frozen=True)
-class SensorMounting:
-    """A sensor's mounting on its flight line's INS: ``boresight_deg`` (scangeo's convention), from
-    ``strip``; ``departure_deg``: rms and largest angle between the constant mounting and the
-    single-line attitude over the strip's lines; ``single_line_boresight_deg``: the single-line import's."""
-
-    sensor: str
-    camera: str
-    strip: str
-    boresight_deg: tuple[float, float, float]
-    departure_deg: tuple[float, float]
-    single_line_boresight_deg: tuple[float, float, float]
+from scangeo.rotation import small_rotation
 
 
 @dataclass
@@ -118,21 +106,6 @@ class PlatformImportResult:
     lines: dict[str, ImportResult]
     notes: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
-
-
-@dataclass
-class _Line:
-    """One status file on its way into the platform."""
-
-    st: ParGeStatus
-    result: ImportResult
-    record: dict
-    sensor_model: str | Path | None
-    cube: str | Path | None
-    sensor: str = ""
-    strip: str = ""
-    flight_line: str = ""
-    time_offset_s: float = 0.0
 
 
 def import_parge_platform(statuses, out, *, sensor_models=None, cubes=None, dtm=None,
@@ -181,7 +154,7 @@ def import_parge_platform(statuses, out, *, sensor_models=None, cubes=None, dtm=
     _no_twice(paths)
     record = ImportRecord("parge")
     total = len(paths) + 3
-    lines: list[_Line] = []
+    lines: list[PlatformLine] = []
     with tempfile.TemporaryDirectory(prefix="scangeo-parge-lines-") as scratch:
         for k, path in enumerate(paths):
             progress(k, total, f"import: line {k + 1} of {len(paths)} ({path.name})")
@@ -193,19 +166,19 @@ def import_parge_platform(statuses, out, *, sensor_models=None, cubes=None, dtm=
             result = import_parge(path, folder, sensor_model=sensor_models[k], dtm=0.0 if dtm is None else dtm,
                                   geoid=geoid, image=cubes[k])
             single = json.loads((folder / "import.json").read_text())
-            lines.append(_Line(st, result, single, sensor_models[k], cubes[k]))
+            lines.append(PlatformLine(st, result, single, sensor_models[k], cubes[k]))
     for line in lines:
         record.source(f"status {line.st.path.name}", line.st.path)
         record.sources.update({f"{line.st.path.name} {role}": p for role, p in line.record["sources"].items()
                                if role != "status"})
     progress(len(paths), total, "import: sensors and flight lines")
     _name_sensors(lines)
-    groups, agreements = _flight_lines(lines, thresholds, record)
-    mountings = _mountings(groups, lines)
+    groups, agreements = group_flight_lines(lines, thresholds, record)
+    mountings = sensor_mountings(groups, lines)
     geoid_value, geoid_text = _platform_geoid(groups, lines, geoid, record)
-    imported = [_imported_line(line, mountings[line.sensor]) for line in _ordered(groups)]
+    imported = [_imported_line(line, mountings[line.sensor]) for line in ordered(groups)]
     references = [g[0] for g in groups]
-    streams = tuple((group[0].flight_line, _trajectory(group, agreements, record)) for group in groups)
+    streams = tuple((group[0].flight_line, flight_line_trajectory(group, agreements, record)) for group in groups)
     _check_priors(relative_mountings, mountings)
     first = references[0]
     plan = ProjectPlan(crs=_crs_text(first.st.crs_wkt), crs_wkt=first.st.crs_wkt, geoid=geoid_value,
@@ -279,9 +252,9 @@ def _distance_km(a: ParGeStatus, b: ParGeStatus) -> float:
     return float(np.min(d)) / 1000.0
 
 
-def _name_sensors(lines: list[_Line]) -> None:
+def _name_sensors(lines: list[PlatformLine]) -> None:
     """Sensor ids (by camera) and strip ids (sensor-flight line later): a camera's family, else its ID."""
-    cameras: dict[str, list[_Line]] = {}
+    cameras: dict[str, list[PlatformLine]] = {}
     for line in lines:
         cameras.setdefault(line.st.camera, []).append(line)
     families = {camera: sorted(_names(camera)[0] or _names(group[0].st.image_name)[0])
@@ -298,10 +271,10 @@ def _name_sensors(lines: list[_Line]) -> None:
         for line in group:
             line.sensor = name
             if line is not first:
-                _same_camera(first, line)
+                _samecamera_stream(first, line)
 
 
-def _same_camera(a: _Line, b: _Line) -> None:
+def _samecamera_stream(a: PlatformLine, b: PlatformLine) -> None:
     sa, sb = _sensor(a), _sensor(b)
     if sa.pixels != sb.pixels or not (np.allclose(sa.across, sb.across, atol=1e-9, rtol=0)
                                       and np.allclose(sa.along, sb.along, atol=1e-9, rtol=0)):
@@ -316,157 +289,7 @@ def _safe(text: str) -> str:
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in text) or "camera"
 
 
-def _ins(line: _Line) -> GpsImuStream:
-    """The line's navigation with every stored offset of PARGE added back: the INS's own attitude."""
-    st = line.st
-    stored = tuple(float(np.degrees(st.offsets[k])) for k in ("roll", "pitch", "heading"))
-    return line_stream(st, line.result.line_rate_hz, _convergence(st), stored)  # type: ignore[arg-type]
-
-
-def _camera(line: _Line) -> GpsImuStream:
-    """The line's navigation as its single-line import writes it (the arrays)."""
-    return line_stream(line.st, line.result.line_rate_hz, _convergence(line.st))
-
-
-def _held(line: _Line) -> tuple[float, float, float]:
-    """The offsets the single-line import found held by the arrays (PARGE's signs, deg)."""
-    total = np.degrees([line.st.offsets[k] for k in ("roll", "pitch", "heading")])
-    return tuple(float(v) for v in total - np.array(line.result.offsets.remainder_deg))  # type: ignore[return-value]
-
-
-def _flight_lines(lines: list[_Line], thresholds: AgreementThresholds, record: ImportRecord):
-    """Group the lines into flight lines: each joins the first flight line whose reference it agrees with."""
-    order = sorted(lines, key=lambda line: -line.result.line_rate_hz)  # stable: the given order among equals
-    groups: list[list[_Line]] = []
-    agreements: dict[str, NavigationAgreement] = {}
-    for line in order:
-        refused = []
-        for group in groups:
-            ref = group[0]
-            a = compare_navigation(_ins(ref), _ins(line), thresholds)
-            ok, why = a.agrees(thresholds)
-            if ok:
-                group.append(line)
-                line.time_offset_s = a.time_offset_s
-                agreements[line.st.path.name] = a
-                record.extra.setdefault("arrays", {})[line.st.path.name] = asdict(
-                    compare_navigation(_camera(ref), _camera(line), thresholds))
-                break
-            refused.append((ref, a, why))
-        else:
-            groups.append([line])
-            for ref, a, why in refused:
-                text = (f"{line.st.path.name} and {ref.st.path.name}: not one stretch of one GNSS/INS ("
-                        f"{'; '.join(why)}): separate flight lines")
-                if a.overlap > 0:
-                    record.warn(text)
-                else:
-                    record.note(text)
-                record.extra.setdefault("separate", []).append(
-                    {"line": line.st.path.name, "reference": ref.st.path.name, "why": why, "figures": asdict(a)})
-    groups.sort(key=lambda g: g[0].st.start_seconds)
-    for k, group in enumerate(groups, 1):
-        for line in group:
-            line.flight_line = f"L{k}"
-    strips_per_sensor: dict[str, int] = {}
-    for line in lines:
-        strips_per_sensor[line.sensor] = strips_per_sensor.get(line.sensor, 0) + 1
-    for line in lines:
-        line.strip = f"{line.sensor}-{line.flight_line}"
-    ids = [line.strip for line in lines]
-    for line in lines:
-        if ids.count(line.strip) > 1:
-            twins = [o.st.path.name for o in lines if o.strip == line.strip]
-            raise ImportFileError(f"{' and '.join(twins)}: one camera ({line.st.camera}) twice on one stretch of "
-                                "navigation (the same line imported twice?)")
-    for group in groups:
-        for line in group[1:]:
-            a = agreements[line.st.path.name]
-            record.decide(f"{line.strip}.flight_line", f"flight line {line.flight_line}, with {group[0].strip}",
-                          "the two lines' navigation is one stretch of one GNSS/INS (navigation_agreement)",
-                          {"agreement": asdict(a), "thresholds": asdict(thresholds)})
-            record.decide(f"{line.strip}.time_offset",
-                          f"line times moved by {1e3 * a.time_offset_s:+.3f} ms onto {group[0].strip}'s navigation",
-                          "the shift of the line's times that makes its INS attitudes agree best with the flight "
-                          "line's (PARGE's STARTTIME is a float32 of hours)",
-                          {"time_offset_s": a.time_offset_s, "starttime_step_s": _starttime_step(line.st)})
-    return groups, agreements
-
-
-def _trajectory(group: list[_Line], agreements: dict[str, NavigationAgreement], record: ImportRecord) -> GpsImuStream:
-    """The flight line's trajectory: its reference line's INS, extended by the records of the other lines'
-    INS (on the reference's time base, their constant differences taken off) before and after it."""
-    ins = _ins(group[0])
-    columns = ("time", "lat", "lon", "h", "roll", "pitch", "heading")
-    parts = [{c: np.asarray(getattr(ins, c)) for c in columns}]
-    parts[0]["heading"] = unwrap_heading(parts[0]["heading"])
-    for line in group[1:]:
-        a = agreements[line.st.path.name]
-        other = _ins(line)
-        t = np.asarray(other.time) + line.time_offset_s
-        outside = (t < ins.time[0]) | (t > ins.time[-1])
-        if not outside.any():
-            continue
-        c = np.radians(a.attitude_constant_shifted_deg)
-        north, east, up = a.position_mean_neu_shifted_m
-        heading = unwrap_heading(np.asarray(other.heading))
-        heading += np.round((parts[0]["heading"][0] - heading[0]) / (2 * np.pi)) * 2 * np.pi
-        parts.append({"time": t[outside], "lat": np.asarray(other.lat)[outside] - north / _EARTH_M,
-                      "lon": np.asarray(other.lon)[outside] - east / (_EARTH_M * np.cos(np.mean(ins.lat))),
-                      "h": np.asarray(other.h)[outside] - up, "roll": np.asarray(other.roll)[outside] - c[0],
-                      "pitch": np.asarray(other.pitch)[outside] - c[1], "heading": heading[outside] - c[2]})
-        record.note(f"flight line {line.flight_line}: {int(outside.sum())} record(s) of {line.strip}'s INS before or "
-                    f"after {group[0].strip}'s ({t[outside].min():.4f}-{t[outside].max():.4f} s)")
-    if len(parts) == 1:
-        return ins
-    merged = {c: np.concatenate([p[c] for p in parts]) for c in columns}
-    order = np.argsort(merged["time"], kind="stable")
-    return GpsImuStream(**{c: v[order] for c, v in merged.items()}, source=ins.source)
-
-
-def _starttime_step(st: ParGeStatus) -> float:
-    """The step of a float32 at the line's STARTTIME (hours), in seconds."""
-    return float(np.spacing(np.float32(st.start_hours)) * 3600.0)
-
-
-def _ordered(groups: list[list[_Line]]) -> list[_Line]:
-    return [line for group in groups for line in group]
-
-
-def _angles(s: GpsImuStream) -> np.ndarray:
-    return np.column_stack([s.roll, s.pitch, unwrap_heading(np.asarray(s.heading))])
-
-
-def _mountings(groups: list[list[_Line]], lines: list[_Line]) -> dict[str, SensorMounting]:
-    """Each sensor's constant mounting on its (first) flight line's INS (module docstring)."""
-    out: dict[str, SensorMounting] = {}
-    for group in groups:
-        ins = _ins(group[0])
-        spline = CubicSpline(ins.time, _angles(ins), axis=0)
-        for line in group:
-            if line.sensor in out:
-                continue
-            cam = _camera(line)
-            t = np.asarray(cam.time) + line.time_offset_s
-            inside = (t >= ins.time[0]) & (t <= ins.time[-1])
-            x = spline(t[inside])
-            R_x = rph_to_matrix(x[:, 0], x[:, 1], x[:, 2])
-            c = _angles(cam)[inside]
-            R_c = rph_to_matrix(c[:, 0], c[:, 1], c[:, 2])
-            single = line.result.boresight_deg
-            R_single = np.einsum("nij,jk->nik", R_c, small_rotation(np.radians(single)))
-            relative = np.einsum("nji,njk->nik", R_x, R_single)
-            M = mean_rotation(relative)
-            angle = rotation_angles_deg(np.einsum("ji,njk->nik", M, relative))
-            rph = np.degrees(matrix_to_rph(M))
-            out[line.sensor] = SensorMounting(line.sensor, line.st.camera, line.strip,
-                                              (float(rph[0]), float(rph[1]), float(rph[2])),
-                                              (float(np.sqrt(np.mean(angle**2))), float(angle.max())),
-                                              tuple(float(v) for v in single))  # type: ignore[arg-type]
-    return out
-
-
-def _platform_geoid(groups, lines: list[_Line], geoid, record: ImportRecord) -> tuple[float | str, str]:
+def _platform_geoid(groups, lines: list[PlatformLine], geoid, record: ImportRecord) -> tuple[float | str, str]:
     """One undulation for the platform: the given one, else the first reference line's PARGE height offset."""
     ref = groups[0][0]
     value, text = _geoid(ref.st, geoid, record.notes)
@@ -487,16 +310,16 @@ def _platform_geoid(groups, lines: list[_Line], geoid, record: ImportRecord) -> 
     return value, text
 
 
-def _sensor(line: _Line) -> ImportedSensor:
+def _sensor(line: PlatformLine) -> ImportedSensor:
     across, along, source = _look_angles(line.st, line.sensor_model)
     return ImportedSensor(line.st.camera, along, across, line.result.line_rate_hz, measurement_time="line",
                           source=f"{line.st.camera} from {source}", id=line.sensor)
 
 
-def _imported_line(line: _Line, mounting: SensorMounting) -> ImportedLine:
+def _imported_line(line: PlatformLine, mounting: SensorMounting) -> ImportedLine:
     st = line.st
     sensor = replace(_sensor(line), boresight_deg=mounting.boresight_deg)
-    return ImportedLine(line.strip, _camera(line), st.lines, sensor,
+    return ImportedLine(line.strip, camera_stream(line), st.lines, sensor,
                         first_line_time=st.start_seconds + line.time_offset_s,
                         image=Path(line.cube).resolve() if line.cube is not None else None,
                         control=_prefixed(_control(st, line.strip), line.sensor), flight_line=line.flight_line)
@@ -512,7 +335,7 @@ def _prefixed(control: Control | None, prefix: str) -> Control | None:
                    ImagePoints(ids, p.strip, p.line, p.pixel, p.sigma_px, p.file_line))
 
 
-def _platform_dtm(lines: list[_Line], dtm, record: ImportRecord) -> DtmChoice:
+def _platform_dtm(lines: list[PlatformLine], dtm, record: ImportRecord) -> DtmChoice:
     """The given DTM, else a surface through every line's GCPs' heights, else none (a warning)."""
     if dtm is not None:
         return given_dtm(dtm)
@@ -524,7 +347,7 @@ def _platform_dtm(lines: list[_Line], dtm, record: ImportRecord) -> DtmChoice:
     return DtmChoice("none", why="none: the lines need a DTM")
 
 
-def _union_box(lines: list[_Line]) -> tuple[float, float, float, float]:
+def _union_box(lines: list[PlatformLine]) -> tuple[float, float, float, float]:
     boxes = np.array([_footprint(line.st, *_look_angles(line.st, line.sensor_model)[:2]) for line in lines])
     return (float(boxes[:, 0].min()), float(boxes[:, 1].min()), float(boxes[:, 2].max()), float(boxes[:, 3].max()))
 
@@ -541,28 +364,6 @@ def _check_priors(priors, mountings: dict[str, SensorMounting]) -> None:
                                 relative_mountings=_spelled(prior))
 
 
-def parge_offsets_relative_mounting(reference_offsets_deg, sensor_offsets_deg,
-                                    attitudes: GpsImuStream | None = None) -> tuple[float, float, float]:
-    """The relative mounting ``R_BS(reference)^T R_BS(sensor)`` (roll, pitch, heading, deg; scangeo's
-    convention) that two cameras' PARGE offsets (roll, pitch, heading; PARGE's signs, deg:
-    ``aux[0..3].OFFSET``, or a boresight result of the history) say.
-
-    PARGE's attitude arrays are the INS's angles less the offsets (roll positive with the left wing
-    down: scangeo's roll gains PARGE's roll offset, its pitch and heading lose theirs). In level
-    flight that is the body rotation ``Rz(-h) Ry(-p) Rx(r)``; over the INS attitudes of
-    ``attitudes`` (a flight line, scangeo's convention), the constant rotation closest to it."""
-    def mounting(o):
-        o = np.radians(np.asarray(o, float))
-        if attitudes is None:
-            return rph_to_matrix(o[0], -o[1], -o[2])
-        x = _angles(attitudes)
-        R_x = rph_to_matrix(x[:, 0], x[:, 1], x[:, 2])
-        R_c = rph_to_matrix(x[:, 0] + o[0], x[:, 1] - o[1], x[:, 2] - o[2])
-        return mean_rotation(np.einsum("nji,njk->nik", R_x, R_c))
-
-    return _triple_deg(mounting(reference_offsets_deg).T @ mounting(sensor_offsets_deg))
-
-
 def _plain(text: str) -> str:
     """Text for an :class:`ArgumentError` message (whose braces name arguments)."""
     return text.replace("{", "{{").replace("}", "}}")
@@ -573,22 +374,6 @@ def _spelled(prior: RelativeMountingKeys) -> str:
     angles = ",".join(f"{v:g}" for v in prior.boresight_deg or ())
     sigmas = ",".join(f"{v:g}" for v in prior.boresight_sigma_deg or ())
     return f"{prior.sensor}:{prior.reference}:{angles}:{sigmas}"
-
-
-def _triple_deg(R: np.ndarray) -> tuple[float, float, float]:
-    rph = np.degrees(matrix_to_rph(R))
-    return float(rph[0]), float(rph[1]), float(rph[2])
-
-
-def _stored(line: _Line) -> tuple[float, float, float]:
-    """PARGE's stored offsets of the line (roll, pitch, heading; PARGE's signs, deg)."""
-    return tuple(float(np.degrees(line.st.offsets[k])) for k in ("roll", "pitch", "heading"))  # type: ignore[return-value]
-
-
-def _crossbore(line: _Line) -> tuple[float, float, float] | None:
-    """The last boresight result of PARGE's history (deg), or None."""
-    results = [e.degrees for e in line.st.events if e.kind == "crossbore"]
-    return tuple(results[-1]) if results else None  # type: ignore[return-value]
 
 
 def parse_relative_mounting(text: str) -> RelativeMountingKeys:
@@ -619,7 +404,7 @@ def parse_relative_mounting(text: str) -> RelativeMountingKeys:
                                 boresight_sigma_deg=tuple(sigmas * 3 if len(sigmas) == 1 else sigmas))  # type: ignore[arg-type]
 
 
-def _record(record: ImportRecord, lines: list[_Line], groups, agreements, mountings, thresholds,
+def _record(record: ImportRecord, lines: list[PlatformLine], groups, agreements, mountings, thresholds,
             geoid_text: str) -> None:
     for line in lines:
         for d in line.record["decisions"]:
@@ -636,21 +421,22 @@ def _record(record: ImportRecord, lines: list[_Line], groups, agreements, mounti
         for sensor in ids[i + 1:]:
             Mr, Ms = (small_rotation(np.radians(mountings[s].boresight_deg)) for s in (ref, sensor))
             a, b = by_sensor[ref], by_sensor[sensor]
-            ins = _ins(next(g[0] for g in groups if a in g))
+            ins = ins_stream(next(g[0] for g in groups if a in g))
+            sa, sb, ra, rb = stored_offsets(a), stored_offsets(b), boresight_result(a), boresight_result(b)
             pairs[f"{sensor}:{ref}"] = {
-                "imported_deg": _triple_deg(Mr.T @ Ms),
-                "parge_stored_offsets_deg": parge_offsets_relative_mounting(_stored(a), _stored(b)),
-                "parge_stored_offsets_on_the_line_deg": parge_offsets_relative_mounting(_stored(a), _stored(b), ins),
-                "parge_stored_offsets_difference_deg": [x - y for x, y in zip(_stored(a), _stored(b))],
-                "parge_boresight_results_deg": (parge_offsets_relative_mounting(_crossbore(a), _crossbore(b))
-                                                if _crossbore(a) and _crossbore(b) else None)}
+                "imported_deg": triple_deg(Mr.T @ Ms),
+                "parge_stored_offsets_deg": parge_offsets_relative_mounting(sa, sb),
+                "parge_stored_offsets_on_the_line_deg": parge_offsets_relative_mounting(sa, sb, ins),
+                "parge_stored_offsets_difference_deg": [x - y for x, y in zip(sa, sb)],
+                "parge_boresight_results_deg": parge_offsets_relative_mounting(ra, rb) if ra and rb else None}
     record.extra.update(
         platform=True, geoid=geoid_text, thresholds=asdict(thresholds),
         lines={line.strip: {"status": str(line.st.path), "camera": line.st.camera, "sensor": line.sensor,
                             "flight_line": line.flight_line, "first_line_time": line.st.start_seconds
                             + line.time_offset_s, "time_offset_s": line.time_offset_s,
                             "line_rate_hz": line.result.line_rate_hz, "offsets": asdict(line.result.offsets),
-                            "offsets_held_deg": _held(line), "hypotheses": [asdict(h) for h in line.result.hypotheses],
+                            "offsets_held_deg": held_offsets(line),
+                            "hypotheses": [asdict(h) for h in line.result.hypotheses],
                             "parge_offsets": line.st.offsets, "history": [asdict(e) for e in line.st.events],
                             "control": int(line.st.gcps.used.sum()), "check": int((~line.st.gcps.used).sum())}
                for line in lines},
@@ -662,7 +448,7 @@ def _record(record: ImportRecord, lines: list[_Line], groups, agreements, mounti
     record.extra.pop("arrays", None)
 
 
-def _variants_toml(lines: list[_Line], mountings: dict[str, SensorMounting]) -> str:
+def _variants_toml(lines: list[PlatformLine], mountings: dict[str, SensorMounting]) -> str:
     bs = "; ".join(f"{s} [{', '.join(f'{v:.4f}' for v in m.boresight_deg)}]" for s, m in mountings.items())
     names = ", ".join(line.st.path.name for line in lines)
     body = VARIANTS_BODY.replace("a single line has no", "the lines have no").replace(
@@ -675,4 +461,4 @@ def _variants_toml(lines: list[_Line], mountings: dict[str, SensorMounting]) -> 
 
 
 __all__ = ["PlatformImportResult", "SensorMounting", "import_parge_platform", "parge_offsets_relative_mounting",
-           "parse_relative_mounting"]
+           "parse_relative_mounting"]  # SensorMounting and the offsets' relative mounting: parge_flight_lines
