@@ -97,6 +97,8 @@ class Fit:
     residuals: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
     #: the other attributions of its problem strips (:func:`alternatives`), when :func:`select_breaks` made it
     alternatives: list[Alternative] = field(repr=False, default_factory=list)
+    #: the least residual degrees of freedom it leaves a channel (rows less rank; None: not computed)
+    redundancy: int | None = None
 
 
 @dataclass
@@ -185,6 +187,7 @@ def evaluate(data: PatternData, breaks, rho: dict[str, float] | None = None, deg
     coef = np.zeros(A.shape[1])
     resid = data.value.copy()
     deviance, k, rss, neff = 0.0, 0, {}, {}
+    redundancy: int | None = None
     for c, name in enumerate(data.channels):
         rows = data.channel == c
         if not rows.any():
@@ -197,6 +200,7 @@ def evaluate(data: PatternData, breaks, rho: dict[str, float] | None = None, deg
         resid[rows] = r
         n = int(rows.sum())
         rss[name] = float(r @ r)
+        redundancy = n - int(rank) if redundancy is None else min(redundancy, n - int(rank))
         p = rho.get(name, 0.0) if rho is not None else 0.0
         neff[name] = n * (1.0 - p) / (1.0 + p)
         deviance += neff[name] * np.log(max(rss[name], 1e-300) / n)
@@ -205,7 +209,7 @@ def evaluate(data: PatternData, breaks, rho: dict[str, float] | None = None, deg
     k += nb
     n_total = sum(neff.values())
     return Fit(tuple(tuple(float(v) for v in b) for b in breaks), deviance + k * np.log(max(n_total, 2.0)),
-               deviance, k, rss, neff, dict(rho or {}), tuple(sorted(constant)), coef, resid)
+               deviance, k, rss, neff, dict(rho or {}), tuple(sorted(constant)), coef, resid, redundancy=redundancy)
 
 
 def residual_correlation(data: PatternData, fit: Fit) -> dict[str, float]:
