@@ -133,6 +133,7 @@ def report_dict(result: VariantResult) -> dict:
         ],
         "notes": list(result.notes),
         **({"platform": platform_summary(result)} if result.block.project.is_platform else {}),
+        **result.sections,
     }
 
 

@@ -72,6 +72,9 @@ class VariantResult:
         Wall-clock time.
     notes : list of str
         Remarks (did not converge, check points outside their strips, ...).
+    sections : dict
+        Further keys of ``report.json`` from observations beyond the image block's (a platform's laser
+        strips adjusted with it: ``laser``); JSON-able, metres and degrees.
     """
 
     block: Block
@@ -79,6 +82,7 @@ class VariantResult:
     checks: CheckResiduals
     seconds: float
     notes: list[str] = field(default_factory=list)
+    sections: dict = field(default_factory=dict)
     _orientation: Orientation | None = field(default=None, repr=False)
 
     @property
@@ -342,12 +346,17 @@ def run_variant(project_root, variant: str | Variant, variants_file=None,
     result = VariantResult(block, adj, CheckResiduals(*(np.zeros(0),) * 5), 0.0, list(block.notes))
     result.checks = evaluate_checks(block, result.geometry)
     result.seconds = time.perf_counter() - t0
-    if not adj.solution.converged:
-        result.notes.append(f"the adjustment did not converge in {v.max_iterations} iterations")
-    bad = int((result.checks.status != 0).sum())
-    if bad:
-        result.notes.append(f"{bad} check-point measurements could not be projected into their strips")
+    add_notes(result)
     return result
 
 
-__all__ = ["CheckResiduals", "VariantResult", "evaluate_checks", "read_measurements", "run_variant"]
+def add_notes(result: VariantResult) -> None:
+    """The remarks of an adjusted variant: not converged, check points that could not be projected."""
+    if not result.adjustment.solution.converged:
+        result.notes.append(f"the adjustment did not converge in {result.variant.max_iterations} iterations")
+    bad = int((result.checks.status != 0).sum())
+    if bad:
+        result.notes.append(f"{bad} check-point measurements could not be projected into their strips")
+
+
+__all__ = ["CheckResiduals", "VariantResult", "add_notes", "evaluate_checks", "read_measurements", "run_variant"]

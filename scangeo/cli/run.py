@@ -27,7 +27,9 @@ def add_parser(subparsers, common) -> None:
                     "(when points.csv has none, or with --match), clean blunders, diagnose problem strips and breaks, "
                     "compare the strategies, rectify the recommended one (with the mosaic) and write the report. "
                     "A laser project's stages: check, patches, clean, compare, apply (the corrected strips as LAZ) "
-                    "and report. "
+                    "and report. A platform of line scanners and a laser: the image stages with patches (the "
+                    "laser's) after match, every variant adjusted jointly with the laser's patches, and apply "
+                    "(the laser strips corrected) after rectify. "
                     "A rerun does only what changed since the last run; a killed run resumes where it stopped "
                     "(PROJECT/results/run.json, docs/run.md). Settings: PROJECT/run.toml or --config with "
                     "[match], [clean], [compare] and [rectify] tables, as the stage commands read them. Exit codes: "
@@ -78,7 +80,8 @@ def summary_lines(result) -> list[str]:
     for o in result.stages:
         detail = f" ({o.seconds:.0f} s; {o.reason})" if o.status == "ran" else (f" ({o.reason})" if o.reason else "")
         lines.append(f"{o.name:9s} {o.status}{detail}")
-    laser = any(o.name == "patches" for o in result.stages)
+    names = {o.name for o in result.stages}
+    laser = "patches" in names and "diagnose" not in names  # a laser project (a platform's has both)
     lines += laser_summary_lines(result) if laser else []
     clean = result.summary_of("clean") if not laser else {}
     if clean:
@@ -116,6 +119,8 @@ def summary_lines(result) -> list[str]:
                      + "".join(f"; strip {sid} along {c.get('rms_along_px') or float('nan'):.2f} / across "
                                f"{c.get('rms_across_px') or float('nan'):.2f} px"
                                for sid, c in v.get("strips", {}).items() if c.get("n")))
+    if "patches" in names and not laser:  # a platform's laser strips, adjusted with the images
+        lines += [f"laser {line}" for line in corrected_lines(result)]
     rectify = result.summary_of("rectify")
     if rectify:
         lines.append(f"orthoimages: {result.root / rectify['folder']} ({len(rectify['orthoimages'])} GeoTIFFs, "
@@ -144,11 +149,16 @@ def laser_summary_lines(result) -> list[str]:
     compare = result.summary_of("compare")
     if compare:
         lines.append(f"recommended variant: {compare['recommended']} ({compare['why']})")
+    return lines + corrected_lines(result)
+
+
+def corrected_lines(result) -> list[str]:
+    """The apply stage's figures: the laser strip differences before and after, the corrected strips."""
     applied = result.summary_of("apply")
-    if applied:
-        lines.append(f"strip differences {_cm(applied.get('strip_differences_rms_m'))}; on flat cells "
-                     f"{_cm(applied.get('strip_differences_flat_rms_m'))}; check patches "
-                     f"{_cm(applied.get('check_patches_rms_m'))}")
-        lines.append(f"corrected strips: {result.root / applied['folder']} ({len(applied['strips'])} LAZ, "
-                     "STAC items beside them)")
-    return lines
+    if not applied:
+        return []
+    return [f"strip differences {_cm(applied.get('strip_differences_rms_m'))}; on flat cells "
+            f"{_cm(applied.get('strip_differences_flat_rms_m'))}; check patches "
+            f"{_cm(applied.get('check_patches_rms_m'))}",
+            f"corrected strips: {result.root / applied['folder']} ({len(applied['strips'])} LAZ, "
+            "STAC items beside them)"]

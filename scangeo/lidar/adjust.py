@@ -381,8 +381,9 @@ def build(
 
     ``models`` and ``lines``: the GPS/IMU models of another block and the id each strip is served under
     (the laser strips of a platform: the image block's models of their flight lines,
-    :mod:`scangeo.lidar.joint`); None: the variant's models of the laser strips."""
-    if variant.strategy in ("P", "S", "SE") and any(m.breaks_lines for m in variant.strips):
+    :mod:`scangeo.lidar.joint`, whose breaks are times already); None: the variant's models of the laser
+    strips."""
+    if models is None and variant.strategy in ("P", "S", "SE") and any(m.breaks_lines for m in variant.strips):
         raise LidarError(f"variant {variant.name}: breaks_lines of a laser strip (it has no lines): give breaks_times")
     mode = _mode(project, options)
     unit, popt, prior = _search_settings(project, options, mode)

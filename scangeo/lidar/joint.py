@@ -34,6 +34,7 @@ from scangeo.io.project import FlightLine, LaserSensor, Project
 from scangeo.lidar.adjust import LaserBlock, build
 from scangeo.lidar.evaluation import Evaluation, apply, evaluate
 from scangeo.lidar.options import LaserOptions
+from scangeo.lidar.patches import TiePatch
 from scangeo.lidar.search import StripFound
 from scangeo.lsq.engine import Adjustment, adjust
 from scangeo.lsq.parameters import Parameters
@@ -99,7 +100,8 @@ def _flight_line(lines: dict[str, FlightLine], strip: str) -> str:
 
 def build_joint(project: Project, variant: Variant, options: LaserOptions | None = None,
                 patches: Path | None = None, found: dict[str, StripFound] | None = None,
-                callback: ProgressCallback = no_progress) -> JointBlock:
+                callback: ProgressCallback = no_progress, ties: list[TiePatch] | None = None,
+                exclude: frozenset[tuple[str, str]] = frozenset()) -> JointBlock:
     """The image block of ``variant`` and the laser block on its GPS/IMU models, as one problem.
 
     Parameters
@@ -116,6 +118,11 @@ def build_joint(project: Project, variant: Variant, options: LaserOptions | None
         The laser strips' patches of an earlier search (None: search now).
     callback : callable
         Progress of the patch search.
+    ties : list of TiePatch, optional
+        The tie patches of ``found`` (:func:`scangeo.lidar.adjust.tie_patches`; the same for every variant,
+        computed once by a caller that adjusts several; None: found here).
+    exclude : frozenset of (str, str)
+        ``(laser strip, patch)`` observations left out (set aside by a cleaning).
 
     Returns
     -------
@@ -133,7 +140,8 @@ def build_joint(project: Project, variant: Variant, options: LaserOptions | None
     if patches is None and (project.root / PATCHES_FILE).exists():
         patches = project.root / PATCHES_FILE
     lines = {s.id: _flight_line(view.flight_lines, s.id) for s in view.strips}
-    laser = build(view, options, variant, patches, callback, found=found, models=image.models, lines=lines)
+    laser = build(view, options, variant, patches, callback, found=found, exclude=exclude, ties=ties,
+                  models=image.models, lines=lines)
     params = Parameters()
     for b in image.parameters:
         params.insert(b)
@@ -151,16 +159,20 @@ def adjust_joint(block: JointBlock, callback: ProgressCallback = no_progress) ->
 
 
 def run_joint(project: Project | str | Path, variant: Variant, options: LaserOptions | None = None,
-              found: dict[str, StripFound] | None = None, callback: ProgressCallback = no_progress) -> JointResult:
+              found: dict[str, StripFound] | None = None, callback: ProgressCallback = no_progress,
+              ties: list[TiePatch] | None = None, exclude: frozenset[tuple[str, str]] = frozenset(),
+              out: Path | None = None) -> JointResult:
     """Build, adjust and evaluate the joint block of ``variant`` (:func:`build_joint`, :func:`adjust_joint`):
-    the image side's check residuals and the laser strips' differences and check patches before and after."""
+    the image side's check residuals and the laser strips' differences and check patches before and after;
+    ``out``: the corrected laser strips written there as ``ID.laz`` (:func:`scangeo.lidar.evaluation.apply`)."""
     project = Project.from_user_input(project)
-    block = build_joint(project, variant, options, found=found, callback=scaled(callback, 0.0, 0.4))
+    block = build_joint(project, variant, options, found=found, callback=scaled(callback, 0.0, 0.4), ties=ties,
+                        exclude=exclude)
     adjustment = adjust_joint(block, scaled(callback, 0.4, 0.7))
     images = VariantResult(block.image, adjustment, CheckResiduals(*(np.zeros(0),) * 5), 0.0,
                            list(block.image.notes) + list(block.laser.notes))
     images.checks = evaluate_checks(block.image, images.geometry)
-    after = apply(block.laser, adjustment.parameters.values(), None, scaled(callback, 0.7, 1.0))
+    after = apply(block.laser, adjustment.parameters.values(), out, scaled(callback, 0.7, 1.0))
     return JointResult(block, adjustment, images, evaluate(block.laser, adjustment, after))
 
 

@@ -23,11 +23,13 @@ from typing import Any
 
 from scangeo.adjustment.variants import laser_variants
 from scangeo.errors import InputFileError
+from scangeo.io.project import Project
 from scangeo.lidar.adjust import find_patches
 from scangeo.lidar.control import read_patch_ground
-from scangeo.lidar.evaluation import corrected_path
+from scangeo.lidar.evaluation import Evaluation, corrected_path
 from scangeo.lidar.found_io import read_found, write_found
 from scangeo.lidar.las_header import check_las_file
+from scangeo.lidar.search import StripFound
 from scangeo.pipeline.fingerprints import relative_name
 from scangeo.pipeline.stages import Context, Stage
 from scangeo.progress import ProgressCallback
@@ -85,8 +87,15 @@ def _check(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], li
 
 
 def _patches(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
-    found = find_patches(ctx.project, laser_options(ctx.project), ground_file(ctx.project), progress)
-    path = write_found(ctx.root / FOUND, found)
+    return search_patches(ctx.root, ctx.project, ground_file(ctx.project), progress)
+
+
+def search_patches(root: Path, project: Project, ground: Path | None,
+                   progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
+    """The patch search over every strip of the laser ``project`` (with the control and check patches of
+    ``ground``), written to ``root/results/patches/found.npz``; the stage's summary and output."""
+    found = find_patches(project, laser_options(project), ground, progress)
+    path = write_found(root / FOUND, found)
     summary = {"strips": {sid: {"returns": f.count, "planar_cells": int(f.cells.cells.size),
                                 "patches": int(f.patches.cells.size)} for sid, f in found.items()}}
     return summary, [path]
@@ -123,18 +132,27 @@ def _apply(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], li
     _, variants = laser_variants(ctx.root)
     folder = ctx.root / STRIPS
     done = adjust_laser_variant(ctx.project, variants[name], _found(ctx), read_cleaning(ctx.root), folder, progress)
-    ev = done.evaluation
-    grid = (write_differences(ctx.root / DIFFERENCES, ev.before, ev.after, ctx.project.crs)
-            if ev.before.dz.size else None)
-    files = [corrected_path(folder, s.id) for s in ctx.project.strips]
-    spans = {sid: [f.t_start, f.t_end] for sid, f in done.block.found.items()}
-    items = write_pointcloud_items(ctx.root, name, files, ctx.project.crs, spans)
-    summary = {"variant": name, "folder": relative_name(folder, ctx.root),
-               "strips": [relative_name(f, ctx.root) for f in files],
-               "stac_items": [relative_name(p, ctx.root) for p in items],
-               "strip_differences_rms_m": (done.result.evaluation or {}).get("strip_differences_rms_m"),
-               "strip_differences_flat_rms_m": (done.result.evaluation or {}).get("strip_differences_flat_rms_m"),
-               "check_patches_rms_m": (done.result.evaluation or {}).get("check_patches_rms_m")}
+    return corrected_outputs(ctx.root, ctx.project, name, done.evaluation, done.block.found,
+                             done.result.evaluation or {})
+
+
+def corrected_outputs(root: Path, project: Project, name: str, ev: Evaluation, found: dict[str, StripFound],
+                      figures: dict[str, Any]) -> tuple[dict[str, Any], list[Path]]:
+    """What the apply stage writes beside the corrected strips (``results/strips/ID.laz`` of the laser
+    ``project``, written by the adjustment): the strip differences before and after
+    (``results/differences.tif``), a STAC Item per strip; the stage's summary (``figures``: the
+    evaluation's, metres) and outputs."""
+    folder = root / STRIPS
+    grid = write_differences(root / DIFFERENCES, ev.before, ev.after, project.crs) if ev.before.dz.size else None
+    files = [corrected_path(folder, s.id) for s in project.strips]
+    spans = {sid: [f.t_start, f.t_end] for sid, f in found.items()}
+    items = write_pointcloud_items(root, name, files, project.crs, spans)
+    summary = {"variant": name, "folder": relative_name(folder, root),
+               "strips": [relative_name(f, root) for f in files],
+               "stac_items": [relative_name(p, root) for p in items],
+               "strip_differences_rms_m": figures.get("strip_differences_rms_m"),
+               "strip_differences_flat_rms_m": figures.get("strip_differences_flat_rms_m"),
+               "check_patches_rms_m": figures.get("check_patches_rms_m")}
     return json.loads(json.dumps(summary, default=float)), [*files, *items, *([grid] if grid else [])]
 
 
@@ -172,4 +190,4 @@ LASER_STAGES: tuple[Stage, ...] = (
 LASER_NAMES = tuple(s.name for s in LASER_STAGES)
 
 
-__all__ = ["FOUND", "LASER_NAMES", "LASER_STAGES", "STRIPS"]
+__all__ = ["FOUND", "LASER_NAMES", "LASER_STAGES", "STRIPS", "corrected_outputs", "search_patches"]

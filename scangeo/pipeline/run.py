@@ -27,11 +27,13 @@ from scangeo.io.toml_config import load_toml
 from scangeo.pipeline.fingerprints import changes, file_stamps, relative_name, stage_fingerprint
 from scangeo.pipeline.laser import LASER_NAMES, LASER_STAGES
 from scangeo.pipeline.manifest import Manifest
+from scangeo.pipeline.platform import PLATFORM_NAMES, PLATFORM_STAGES
 from scangeo.pipeline.settings import SETTINGS_FILE, read_settings
 from scangeo.pipeline.settings import settings_file as settings_file_of
 from scangeo.pipeline.stages import NAMES, STAGES, Context, RunSettings, Stage, tie_points
 from scangeo.progress import ProgressCallback, no_progress, scaled
 from scangeo.reports.unchecked import UNCHECKED
+from scangeo.strategy.platform import joins_a_laser
 from scangeo.version import __version__
 
 log = logging.getLogger(__name__)
@@ -155,8 +157,11 @@ def _look_angles(root: Path) -> str | None:
 
 
 def stages_of(project: Project) -> tuple[tuple[Stage, ...], tuple[str, ...]]:
-    """The stages of a project and their names: an image project's or a laser project's."""
-    return (LASER_STAGES, LASER_NAMES) if project.is_laser else (STAGES, NAMES)
+    """The stages of a project and their names: an image project's, a laser project's, or a platform's of
+    line scanners and a laser (:mod:`scangeo.pipeline.platform`)."""
+    if project.is_laser:
+        return LASER_STAGES, LASER_NAMES
+    return (PLATFORM_STAGES, PLATFORM_NAMES) if joins_a_laser(project) else (STAGES, NAMES)
 
 
 def _forward_only(progress: ProgressCallback) -> ProgressCallback:
@@ -174,7 +179,7 @@ def _forward_only(progress: ProgressCallback) -> ProgressCallback:
 def _plan(root: Path, settings: RunSettings, manifest: Manifest, until: str | None,
           stages: tuple[Stage, ...] = STAGES) -> tuple[list[Stage], str]:
     """The stages of this call, and why match is in or out."""
-    if stages is not STAGES:
+    if "match" not in {s.name for s in stages}:
         plan = list(stages)
         return (plan[: [s.name for s in plan].index(until) + 1] if until is not None else plan), ""
     if settings.force_match:
@@ -186,7 +191,7 @@ def _plan(root: Path, settings: RunSettings, manifest: Manifest, until: str | No
             why = "points.csv has no tie points" if tie_points(root) == 0 else ""
         except ScangeoError:  # points.csv or ground.csv cannot be read: the check stage says why
             why = ""
-    plan = [s for s in STAGES if s.name != "match" or why]
+    plan = [s for s in stages if s.name != "match" or why]
     if until is not None:
         plan = plan[: [s.name for s in plan].index(until) + 1]
     return plan, why
@@ -378,9 +383,9 @@ def _recommended(ctx: Context) -> dict[str, Any] | None:
         out["orthoimages"] = rectify["orthoimages"]
         out["stac_items"] = rectify["stac_items"]
     applied = ctx.records.get("apply", {}).get("summary")
-    if applied and applied.get("variant") == name:
+    if applied and applied.get("variant") == name:  # a laser's strips (a platform's beside its orthoimages)
         out["corrected_strips"] = applied["strips"]
-        out["stac_items"] = applied["stac_items"]
+        out["stac_items"] = [*out.get("stac_items", []), *applied["stac_items"]]
     return out
 
 

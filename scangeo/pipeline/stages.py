@@ -17,6 +17,7 @@ import numpy as np
 
 from scangeo.adjustment.diagnosis.diagnose import diagnose
 from scangeo.adjustment.diagnosis.output import write_diagnosis
+from scangeo.adjustment.results import run_variant
 from scangeo.errors import InputFileError, ProjectFileError
 from scangeo.io.points import GroundPoints, ImagePoints
 from scangeo.io.project import Project
@@ -35,6 +36,7 @@ from scangeo.reports.stac import write_stac_items
 from scangeo.reports.tables import write_comparison
 from scangeo.strategy.cleaning import CleaningOptions, clean
 from scangeo.strategy.comparison import compare_project
+from scangeo.strategy.crossvalidation import VariantRunner
 from scangeo.strategy.default_variants import write_diagnosed_variants
 from scangeo.textfile import read_text
 
@@ -246,7 +248,14 @@ def _diagnose(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any],
 # -- compare -----------------------------------------------------------------------------------------------
 
 def _compare(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
-    c = compare_project(ctx.root, ctx.root / "variants.toml", folds=ctx.settings.folds, callback=progress)
+    return compare_variants(ctx, progress, run_variant)
+
+
+def compare_variants(ctx: Context, progress: ProgressCallback,
+                     runner: VariantRunner) -> tuple[dict[str, Any], list[Path]]:
+    """The compare stage with ``runner`` adjusting each variant (a platform with a laser: the joint one)."""
+    c = compare_project(ctx.root, ctx.root / "variants.toml", folds=ctx.settings.folds, callback=progress,
+                        runner=runner)
     outputs = write_comparison(c)
     evidence = (c.crossvalidation or {}).get("evidence") or {}
     if c.recommended:
@@ -344,4 +353,5 @@ def stage(name: str) -> Stage:
     raise KeyError(name)
 
 
-__all__ = ["Context", "NAMES", "RunSettings", "STAGES", "Stage", "VARIANTS_MARKER", "stage", "tie_points"]
+__all__ = ["Context", "NAMES", "RunSettings", "STAGES", "Stage", "VARIANTS_MARKER", "compare_variants", "stage",
+           "tie_points"]

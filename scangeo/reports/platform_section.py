@@ -22,6 +22,51 @@ def _angles(values, sigmas) -> str:
     return ", ".join(f"{v:.4f} ± {s:.4f}" if s else f"{v:.4f}" for v, s in zip(values, sigmas))
 
 
+def _listed(d: dict, key: str) -> list | None:
+    return None if d.get(key) is None else [d[key]]
+
+
+def _cm(value) -> str:
+    return "-" if value is None else f"{100.0 * value:.1f}"
+
+
+def laser_section(results: Path, variant: str) -> html.Section | None:
+    """The laser strips of a platform adjusted jointly with its images (``report.json``'s ``laser``).
+
+    Parameters
+    ----------
+    results : Path
+        ``PROJECT/results``.
+    variant : str
+        The variant whose joint adjustment is shown (the recommended one).
+
+    Returns
+    -------
+    html.Section or None
+        The strip differences on flat cells before and after, per laser strip and over all, and the check
+        patches; None when the variant's report.json has no laser side.
+    """
+    path = results / variant / "report.json"
+    laser = json.loads(path.read_text()).get("laser") if path.exists() else None
+    if not laser:
+        return None
+    sec = html.Section(f"The laser strips ({variant}, adjusted with the images)", "laser")
+    flat, checks, patches = laser["strip_differences_flat_rms_m"], laser["check_patches_rms_m"], laser["patches"]
+    sec.parts.append(html.paragraph(
+        f"The laser {laser['sensor']}'s tie patches ({patches['tie']}) and control patches ({patches['control']}) "
+        "observed the flight lines' GPS/IMU corrections together with the images' points, in one adjustment. "
+        "Strip differences: the height differences of overlapping laser strips on planar cells (flat cells), "
+        f"rms in cm; over all strips {_cm(flat['before'])} before, {_cm(flat['after'])} after."))
+    rows = [[sid, str(s["flat_cells"]), _cm(s["before_m"]), _cm(s["after_m"])] for sid, s in laser["strips"].items()]
+    sec.parts.append(html.table(["laser strip", "flat cells shared with other strips", "before (cm)", "after (cm)"],
+                                rows, "laser-strips"))
+    if checks.get("count"):
+        sec.parts.append(html.paragraph(
+            f"Check patches ({checks['count']} patch and strip pairs): mean normal distance of the surveyed points "
+            f"to each strip's plane, rms {_cm(checks['before'])} cm before, {_cm(checks['after'])} cm after."))
+    return sec
+
+
 def platform_section(results: Path, variant: str) -> html.Section | None:
     """The platform section for ``variant`` (None: not a platform, or the variant's report.json has none).
 
@@ -40,7 +85,8 @@ def platform_section(results: Path, variant: str) -> html.Section | None:
     path = results / variant / "report.json"
     if not path.exists():
         return None
-    platform = json.loads(path.read_text()).get("platform")
+    report = json.loads(path.read_text())
+    platform = report.get("platform")
     if not platform:
         return None
     sec = html.Section(f"The platform ({variant})", "platform")
@@ -52,8 +98,19 @@ def platform_section(results: Path, variant: str) -> html.Section | None:
     for sid, s in platform["sensors"].items():
         rows.append([sid, _angles(s["boresight_deg"], s.get("boresight_sigma_deg")),
                      _angles(s["lever_arm_m"], s.get("lever_arm_sigma_m")), f"{s['time_offset_s']:.4f}"])
+    laser = report.get("laser")
+    if laser:  # adjusted jointly with the images (scangeo.strategy.platform)
+        m = laser["mounting"]
+        rows.append([f"{laser['sensor']} (laser)", _angles(m["boresight_deg"], m.get("boresight_sigma_deg")),
+                     _angles(m["lever_arm_m"], m.get("lever_arm_sigma_m")), "-"])
     sec.parts.append(html.table(["sensor", "boresight roll, pitch, heading (deg)", "lever arm x, y, z (m)",
                                  "time offset (s)"], rows, "platform-sensors"))
+    if laser:
+        m = laser["mounting"]
+        offset = _angles([m["range_offset_m"]], _listed(m, "range_offset_sigma_m"))
+        index = _angles([m["scan_index_deg"]], _listed(m, "scan_index_sigma_deg"))
+        sec.parts.append(html.paragraph(f"The laser {laser['sensor']}: range offset {offset} m, scan-angle index "
+                                        f"{index} deg."))
     rel = platform.get("relative_mountings", [])
     if rel:
         rows = []
@@ -80,6 +137,8 @@ def platform_section(results: Path, variant: str) -> html.Section | None:
             sisters = [x for x in lines.get(s["flight_line"], []) if x != sid]
             through = (f"its flight line {s['flight_line']}'s trajectory corrections (shared with "
                        f"{', '.join(sisters)})" if sisters else f"its flight line {s['flight_line']}")
+            if laser:
+                through += f" and the laser {laser['sensor']}'s patches on its flight line"
             mount = (f" and its mounting from the relative-mounting prior to {priors[s['sensor']]['reference']}"
                      if s["sensor"] in priors else "")
             reach = "" if median is None else f": propagated ground precision {median:.3f} m (median, 1 sigma)"
@@ -91,4 +150,4 @@ def platform_section(results: Path, variant: str) -> html.Section | None:
     return sec
 
 
-__all__ = ["platform_section"]
+__all__ = ["laser_section", "platform_section"]

@@ -17,7 +17,9 @@ variant's ``results/NAME/``), and writes one self-contained HTML file (figures e
 8. when ``scangeo match`` measured points: their map and counts (:mod:`scangeo.reports.matching`);
 9. a quicklook: the recommended variant's mosaic with the strips' footprints and the check points
    (:mod:`scangeo.reports.quicklook`; a note when the mosaic is not there yet);
-10. a platform's: the co-registration of its sensors per flight line (:mod:`scangeo.reports.coregistration_section`).
+10. a platform's: the co-registration of its sensors per flight line (:mod:`scangeo.reports.coregistration_section`);
+    its sensors' mountings (:mod:`scangeo.reports.platform_section`) and, when its laser strips were
+    adjusted with the images, their strip differences before and after (the laser section).
 
 The residual vectors of every variant also go to a GeoPackage (:mod:`scangeo.reports.geopackage`).
 """
@@ -52,7 +54,7 @@ from scangeo.reports.diagnosis_section import diagnosis_section
 from scangeo.reports.geopackage import write_geopackage
 from scangeo.reports.laser import write_laser_report
 from scangeo.reports.matching import match_section
-from scangeo.reports.platform_section import platform_section
+from scangeo.reports.platform_section import laser_section, platform_section
 from scangeo.reports.quicklook import quicklook_section
 from scangeo.reports.reliability import reliability_section
 from scangeo.reports.residual_vectors import ResidualVectors, check_vectors
@@ -307,7 +309,7 @@ def write_report(
     folder = Path(out) if out else root / "results"
     if not (root / "points.csv").exists() and not (root / "results" / "comparison.json").exists():
         folder.mkdir(parents=True, exist_ok=True)  # no points: a direct georeferencing, unchecked
-        frames = {s.id: strip_frame(project, s.id) for s in project.strips}
+        frames = {s.id: strip_frame(project, s.id) for s in project.image_strips}
         return ReportFiles(write_unchecked_report(project, frames, folder), None, 1)
     comparison = read_comparison(root / "results")
     folder.mkdir(parents=True, exist_ok=True)
@@ -349,6 +351,9 @@ def write_report(
     platform = platform_section(root / "results", chosen) if project.is_platform else None
     if platform is not None:  # sensors' mountings, relative mountings, strips without control
         sections.insert(3, platform)
+    laser = laser_section(root / "results", chosen) if project.laser_strips else None
+    if laser is not None:  # a platform's laser strips adjusted with the images
+        sections.insert(4 if platform is not None else 3, laser)
     sections.append(_notes_section(project, comparison))
     shown = [n for n in dict.fromkeys([comparison.reference, comparison.best]) if n in names]
     sections.append(reliability_section(project.root / "results", shown))  # MDB and external reliability maps

@@ -24,7 +24,7 @@ from scangeo.errors import DTMError, InputFileError, ProjectFileError, ScangeoEr
 from scangeo.io.project import Project
 from scangeo.progress import ProgressCallback, no_progress, scaled
 from scangeo.reports.correlations import correlated_pairs
-from scangeo.strategy.crossvalidation import cross_validate, held_out_residuals
+from scangeo.strategy.crossvalidation import VariantRunner, cross_validate, held_out_residuals
 from scangeo.strategy.default_variants import ensure_variants_file
 from scangeo.strategy.evidence import Residuals
 from scangeo.truth.true_error import Truth
@@ -72,7 +72,8 @@ def summarise(result: VariantResult, truth: Truth | None = None) -> VariantSumma
 @strips_read_once()  # its variants and folds read each trajectory once
 def compare_project(project_root, variants_file=None, *, reference: str = "SE", names: list[str] | None = None,
                     problem_strip: str | None = None, breaks_lines: tuple[float, ...] | None = None,
-                    folds: int = 4, callback: ProgressCallback = no_progress) -> Comparison:
+                    folds: int = 4, callback: ProgressCallback = no_progress,
+                    runner: VariantRunner = run_variant) -> Comparison:
     """Adjust every variant of the project, write each one's results, and compare them.
 
     Parameters
@@ -88,6 +89,10 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
     folds : folds of the cross-validation over the control points, which with the check points recommends
         a variant (:mod:`scangeo.strategy.crossvalidation`, :mod:`scangeo.strategy.evidence`; 0: none).
     callback : progress ``callback(done, total, message)``.
+    runner : adjusts one variant, as :func:`~scangeo.adjustment.results.run_variant` (the default) does;
+        a platform with a laser scanner hands in its joint adjustment
+        (:class:`scangeo.strategy.platform.JointRunner`). A variant it raises a
+        :class:`~scangeo.errors.ScangeoError` for (not an input file's) is a failed variant with that error.
     """
     project = Project.from_user_input(project_root)
     root = project.root
@@ -109,7 +114,7 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
     for i, name in enumerate(chosen):
         sub = scaled(callback, i, i + 1, len(chosen))
         try:
-            result = run_variant(project, variants[name], path,
+            result = runner(project, variants[name], path,
                                  lambda d, t, m="", sub=sub, name=name: sub(d, t, f"{name}: {m}"))
             write_results(result)
             summaries.append(summarise(result, truth))
@@ -122,10 +127,10 @@ def compare_project(project_root, variants_file=None, *, reference: str = "SE", 
         callback(i + 1, len(chosen), f"{name}: done")
     if reference not in chosen:
         reference = chosen[0]
-    comparison = Comparison(str(root), str(path), reference, [s.id for s in project.strips], summaries,
+    comparison = Comparison(str(root), str(path), reference, [s.id for s in project.image_strips], summaries,
                             truth is not None)
     if folds >= 2:
-        cv = cross_validate(root, variants, summaries, folds, path, callback, checks)
+        cv = cross_validate(root, variants, summaries, folds, path, callback, checks, runner)
         comparison.crossvalidation = cv.as_dict()
         log.info("recommended: %s (%s)", cv.recommended, cv.reason)
     return comparison

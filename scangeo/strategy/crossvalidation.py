@@ -37,13 +37,14 @@ from __future__ import annotations
 import glob
 import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from scangeo.adjustment.plausibility import sigma0_warning
-from scangeo.adjustment.results import run_variant
+from scangeo.adjustment.results import VariantResult, run_variant
 from scangeo.adjustment.variants import Variant
 from scangeo.errors import ScangeoError
 from scangeo.io.points import GroundPoints
@@ -51,6 +52,10 @@ from scangeo.progress import ProgressCallback, no_progress
 from scangeo.strategy.evidence import Evidence, Residuals, TieBreak, weigh
 
 log = logging.getLogger(__name__)
+
+#: What adjusts one variant: ``runner(project, variant, variants_file, callback) -> VariantResult``
+#: (:func:`scangeo.adjustment.results.run_variant`, or a platform's joint adjustment with its laser)
+VariantRunner = Callable[..., VariantResult]
 
 
 @dataclass
@@ -128,9 +133,11 @@ def held_out_residuals(result, fold: list[str]) -> Residuals:
 
 def cross_validate(project_root, variants: dict[str, Variant], summaries, folds: int = 4, variants_file=None,
                    callback: ProgressCallback = no_progress,
-                   checks: dict[str, Residuals] | None = None) -> CrossValidation:
+                   checks: dict[str, Residuals] | None = None,
+                   runner: VariantRunner = run_variant) -> CrossValidation:
     """Cross-validate every variant of ``summaries`` and recommend one (module docstring); ``folds`` >= 2.
-    ``checks``: per adjusted variant, its check-point residuals (the other evidence)."""
+    ``checks``: per adjusted variant, its check-point residuals (the other evidence); ``runner``: what
+    adjusts a variant (:data:`VariantRunner`; a platform's joint adjustment with its laser)."""
     root = Path(project_root)
     ground = GroundPoints.read(root / "ground.csv") if (root / "ground.csv").exists() else None
     control = [str(p) for p, r in zip(ground.point, ground.role) if str(r) == "control"] if ground is not None else []
@@ -145,7 +152,7 @@ def cross_validate(project_root, variants: dict[str, Variant], summaries, folds:
         try:
             for j, fold in enumerate(parts):
                 callback(i * len(parts) + j, total, f"cross-validation: {name}, fold {j + 1}/{len(parts)}")
-                held.append(held_out_residuals(run_variant(root, held_out(v, fold), variants_file), fold))
+                held.append(held_out_residuals(runner(root, held_out(v, fold), variants_file), fold))
         except ScangeoError as exc:
             log.warning("cross-validation of %s failed: %s", name, exc)
             cv.errors[name] = str(exc)
@@ -175,4 +182,5 @@ def cross_validate(project_root, variants: dict[str, Variant], summaries, folds:
     return cv
 
 
-__all__ = ["CrossValidation", "aic_of", "cross_validate", "folds_of", "held_out", "held_out_residuals", "recommend"]
+__all__ = ["CrossValidation", "VariantRunner", "aic_of", "cross_validate", "folds_of", "held_out", "held_out_residuals",
+           "recommend"]
