@@ -59,6 +59,7 @@ from scangeo.strategy.cleaning import Cleaning, CleaningOptions, clean
 from scangeo.strategy.comparison import compare_project
 from scangeo.strategy.default_variants import write_diagnosed_variants
 from scangeo.strategy.laser import adjust_laser_variant
+from scangeo.strategy.platform import joins_a_laser, joint_runner
 
 
 @dataclass
@@ -315,6 +316,8 @@ def compare(project: str | Path | Project, *, variants_file: str | Path | None =
 
     Without a variants file, the default variants are written to ``PROJECT/variants.toml`` for the
     problem strip and its breaks: those given, else those the diagnosis finds (:func:`diagnose`).
+    On a platform with laser strips beside its image strips, the laser's patches are searched and every
+    variant is adjusted jointly with them (:mod:`scangeo.strategy.platform`; BE and ME fail there).
 
     Parameters
     ----------
@@ -364,10 +367,12 @@ def compare(project: str | Path | Project, *, variants_file: str | Path | None =
         raise ArgumentError("{folds}: " + str(exc).split(": ", 1)[1].replace("{", "{{").replace("}", "}}"),
                             folds=folds) from None
     loaded = Project.from_user_input(project)
+    # a platform's laser strips beside its images: every variant adjusted jointly (scangeo.strategy.platform)
+    runner = joint_runner(loaded) if joins_a_laser(loaded) else run_variant
     comparison = compare_project(loaded, variants_file, reference=reference_variant,
                                  names=list(names) if names is not None else None, problem_strip=problem_strip,
                                  breaks_lines=tuple(breaks_lines) if breaks_lines else None, folds=folds,
-                                 callback=progress)
+                                 callback=progress, runner=runner)
     files = write_comparison(comparison)
     return ComparisonRun(comparison, files, write_report(loaded, callback=progress) if report else None)
 

@@ -28,10 +28,10 @@ import numpy as np
 from scangeo.adjustment.results import VariantResult, add_notes
 from scangeo.adjustment.variants import Variant, find_variant
 from scangeo.io.project import Project
-from scangeo.lidar.adjust import calibration_of, tie_patches
+from scangeo.lidar.adjust import calibration_of, find_patches, tie_patches
 from scangeo.lidar.differences import Differences
 from scangeo.lidar.groups import laser_calibration_keys
-from scangeo.lidar.joint import JointResult, laser_part, run_joint
+from scangeo.lidar.joint import PATCHES_FILE, JointResult, laser_part, run_joint
 from scangeo.lidar.options import LaserOptions
 from scangeo.lidar.patches import TiePatch
 from scangeo.lidar.search import StripFound
@@ -171,4 +171,27 @@ class JointRunner:
         return result
 
 
-__all__ = ["JointRunner", "joins_a_laser", "laser_summary", "per_strip"]
+def joint_runner(project: Project, callback: ProgressCallback = no_progress) -> JointRunner:
+    """A :class:`JointRunner` on the laser strips' patches searched now (with the control and check patches
+    of ``patches.csv``): for a comparison outside ``scangeo run``, which searches them once in its
+    ``patches`` stage.
+
+    Parameters
+    ----------
+    project : Project
+        A platform with line scanners and a laser (:func:`joins_a_laser`).
+    callback : callable
+        Progress of the search.
+
+    Returns
+    -------
+    JointRunner
+        Ready to hand to :func:`scangeo.strategy.comparison.compare_project`.
+    """
+    options = LaserOptions.from_table(project.adjustment, str(project.file))
+    patches = project.root / PATCHES_FILE
+    found = find_patches(laser_part(project), options, patches if patches.exists() else None, callback)
+    return JointRunner(found, options=options)
+
+
+__all__ = ["JointRunner", "joins_a_laser", "joint_runner", "laser_summary", "per_strip"]

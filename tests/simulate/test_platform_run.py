@@ -120,3 +120,17 @@ def test_the_report_has_the_laser_section(platform_run):
     html = (root / "results" / "report.html").read_text()
     assert 'id="laser"' in html and "lidar-02" in html
     assert "lidar (laser)" in html  # the platform section's sensors table lists the laser
+
+
+def test_scangeo_compare_alone_adjusts_jointly_as_the_run_does(platform_run, tmp_path):
+    """The compare command on the platform (its own patch search) gives the run's joint figures."""
+    import scangeo
+
+    root, result = platform_run
+    copy = tmp_path / "platform"
+    shutil.copytree(root, copy, ignore=shutil.ignore_patterns("results"))
+    c = scangeo.compare(copy, variants_file=copy / "variants.toml", names=["SE"], folds=0, report=False).comparison
+    assert c.strips == [s.id for s in Project.load(copy).image_strips]
+    assert c.variant("SE").sigma0 == pytest.approx(result.summary_of("compare")["variants"]["SE"]["sigma0"], rel=1e-9)
+    laser = json.loads((copy / "results" / "SE" / "report.json").read_text())["laser"]
+    assert laser["strip_differences_flat_rms_m"]["after"] < 0.5 * laser["strip_differences_flat_rms_m"]["before"]
