@@ -541,21 +541,26 @@ def choose_model(root, data: PatternData, search: Fit, options: SelectionOptions
     :mod:`~.attribution`): by the BIC beyond :data:`~.attribution.ADOPT_BIC` (:func:`~.attribution.adopt`),
     then, a competing one, by the split model's criterion beyond :data:`~.attribution.AMBIGUOUS_BIC`
     (:func:`~.attribution.preferred_by_split_model`; with ``refine``, which asks the split model's opinion of
-    every competing alternative, :func:`split_model_opinion`). Returns the model, its attribution checks and
-    the alternatives adopted in turn."""
+    every competing alternative, :func:`split_model_opinion`), again from each model so adopted until the
+    split model prefers none of its alternatives (never a model twice). Returns the model, its attribution
+    checks and the alternatives adopted in turn."""
     fit, checks, adopted = adopt(data, search, attribution_checks(data, search, options), options)
     if refine is None or not any(c.strip is not None for c in checks):
         return fit, checks, adopted
     say("diagnosis: the split model's opinion of the other attributions")
     split_model_opinion(root, checks, _bic_breaks(data, fit), dtm_height_points, refine.position_degree)
-    better = preferred_by_split_model(checks)
-    if better is None or better.fit is None:
-        return fit, checks, adopted
-    fit = better.fit
-    fit.alternatives = alternatives(data, fit, options)
-    checks = attribution_checks(data, fit, options)
-    adopted.append(better)
-    if any(c.strip is not None for c in checks):
+    seen = {repr(_bic_breaks(data, fit))}
+    for _ in range(len(data.strips)):  # from each adopted model, its own alternatives asked again
+        better = preferred_by_split_model(checks)
+        if better is None or better.fit is None or repr(_bic_breaks(data, better.fit)) in seen:
+            break
+        fit = better.fit
+        seen.add(repr(_bic_breaks(data, fit)))
+        fit.alternatives = alternatives(data, fit, options)
+        checks = attribution_checks(data, fit, options)
+        adopted.append(better)
+        if not any(c.strip is not None for c in checks):
+            break
         split_model_opinion(root, checks, _bic_breaks(data, fit), dtm_height_points, refine.position_degree)
     return fit, checks, adopted
 

@@ -37,6 +37,7 @@ doubt, and :meth:`StripProbe.bic` returns None: the caller fits that model with
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -189,8 +190,23 @@ class CurrentFit:
         return _criterion(self.index, parts, rho, n_breaks)[0]
 
 
+#: the least residual degrees of freedom a model with breaks must leave in every channel: below it the
+#: channel's variance estimate ``RSS / n`` collapses (at none left the breaks fit the rows exactly, RSS
+#: about 1e-25, and the deviance ``n log(RSS / n)`` runs to minus hundreds per row), and the criterion would
+#: buy any break that saturates a channel (the 2-strip test block of 200 lines, 11 tie points: breaks on
+#: both strips "beat" none by 1461). Such a model is not scored (its criterion is infinite).
+MIN_REDUNDANCY = 5
+
+
+def saturated(n: int, rank: int, n_breaks: int) -> bool:
+    """Whether a model with ``n_breaks`` breaks leaves a channel of ``n`` rows and ``rank`` unknowns fewer than
+    :data:`MIN_REDUNDANCY` residual degrees of freedom (a model without breaks, the reference, is always scored)."""
+    return n_breaks > 0 and n - rank < MIN_REDUNDANCY
+
+
 def _criterion(index: BlockIndex, parts, rho: dict[str, float] | None, n_breaks: int) -> tuple[float, float]:
-    """(BIC, deviance) from every channel's residual sum of squares and rank (:func:`~.patterns.evaluate`)."""
+    """(BIC, deviance) from every channel's residual sum of squares and rank (:func:`~.patterns.evaluate`);
+    infinite for a model that saturates a channel (:func:`saturated`)."""
     data = index.data
     deviance, k, n_total = 0.0, 0, 0.0
     for c, name in enumerate(data.channels):
@@ -198,6 +214,8 @@ def _criterion(index: BlockIndex, parts, rho: dict[str, float] | None, n_breaks:
         if n == 0:
             continue
         rss, rank = parts[c]
+        if saturated(n, rank, n_breaks):
+            return math.inf, -math.inf
         p = rho.get(name, 0.0) if rho is not None else 0.0
         neff = n * (1.0 - p) / (1.0 + p)
         deviance += neff * np.log(max(rss, 1e-300) / n)

@@ -37,7 +37,7 @@ from functools import partial
 
 import numpy as np
 
-from scangeo.adjustment.diagnosis.local_fit import MARGIN, BlockIndex, CurrentFit, StripProbe, strip_nodes
+from scangeo.adjustment.diagnosis.local_fit import MARGIN, BlockIndex, CurrentFit, StripProbe, saturated, strip_nodes
 from scangeo.blas import one_thread
 
 #: chi^2 quantile (1 degree of freedom, 95 %) for the profile-likelihood interval of a break.
@@ -97,8 +97,6 @@ class Fit:
     residuals: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
     #: the other attributions of its problem strips (:func:`alternatives`), when :func:`select_breaks` made it
     alternatives: list[Alternative] = field(repr=False, default_factory=list)
-    #: the least residual degrees of freedom it leaves a channel (rows less rank; None: not computed)
-    redundancy: int | None = None
 
 
 @dataclass
@@ -182,12 +180,14 @@ def _serial_rho(resid: np.ndarray, strip: np.ndarray, line: np.ndarray) -> float
 @one_thread()  # designs of a few thousand rows x ~100 columns (scangeo/blas.py)
 def evaluate(data: PatternData, breaks, rho: dict[str, float] | None = None, degree: int = 1,
              constant=()) -> Fit:
-    """Least-squares fit of the strip functions for ``breaks`` (``constant``: strips held constant), with its BIC."""
+    """Least-squares fit of the strip functions for ``breaks`` (``constant``: strips held constant), with its BIC
+    (infinite for a model with breaks that saturates a channel: :func:`~.local_fit.saturated`)."""
     A, _ = design(data, breaks, degree, constant)
     coef = np.zeros(A.shape[1])
     resid = data.value.copy()
     deviance, k, rss, neff = 0.0, 0, {}, {}
-    redundancy: int | None = None
+    nb = sum(len(b) for b in breaks)
+    saturating = False
     for c, name in enumerate(data.channels):
         rows = data.channel == c
         if not rows.any():
@@ -200,16 +200,16 @@ def evaluate(data: PatternData, breaks, rho: dict[str, float] | None = None, deg
         resid[rows] = r
         n = int(rows.sum())
         rss[name] = float(r @ r)
-        redundancy = n - int(rank) if redundancy is None else min(redundancy, n - int(rank))
+        saturating |= saturated(n, int(rank), nb)
         p = rho.get(name, 0.0) if rho is not None else 0.0
         neff[name] = n * (1.0 - p) / (1.0 + p)
         deviance += neff[name] * np.log(max(rss[name], 1e-300) / n)
         k += int(rank)
-    nb = sum(len(b) for b in breaks)
     k += nb
     n_total = sum(neff.values())
-    return Fit(tuple(tuple(float(v) for v in b) for b in breaks), deviance + k * np.log(max(n_total, 2.0)),
-               deviance, k, rss, neff, dict(rho or {}), tuple(sorted(constant)), coef, resid, redundancy=redundancy)
+    bic = math.inf if saturating else deviance + k * np.log(max(n_total, 2.0))
+    return Fit(tuple(tuple(float(v) for v in b) for b in breaks), bic,
+               deviance, k, rss, neff, dict(rho or {}), tuple(sorted(constant)), coef, resid)
 
 
 def residual_correlation(data: PatternData, fit: Fit) -> dict[str, float]:
