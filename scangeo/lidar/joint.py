@@ -169,11 +169,19 @@ def run_joint(project: Project | str | Path, variant: Variant, options: LaserOpt
     block = build_joint(project, variant, options, found=found, callback=scaled(callback, 0.0, 0.4), ties=ties,
                         exclude=exclude)
     adjustment = adjust_joint(block, scaled(callback, 0.4, 0.7))
-    images = VariantResult(block.image, adjustment, CheckResiduals(*(np.zeros(0),) * 5), 0.0,
-                           list(block.image.notes) + list(block.laser.notes))
-    images.checks = evaluate_checks(block.image, images.geometry)
+    images = image_side(block, adjustment)
     after = apply(block.laser, adjustment.parameters.values(), out, scaled(callback, 0.7, 1.0))
     return JointResult(block, adjustment, images, evaluate(block.laser, adjustment, after))
 
 
-__all__ = ["JointBlock", "JointResult", "PATCHES_FILE", "adjust_joint", "build_joint", "laser_part", "run_joint"]
+def image_side(block: JointBlock, adjustment: Adjustment) -> VariantResult:
+    """The image side of an adjusted joint block: the adjusted orientation and the check points' residuals
+    (the laser's strips are not corrected: :func:`scangeo.lidar.evaluation.apply` does that)."""
+    images = VariantResult(block.image, adjustment, CheckResiduals(*(np.zeros(0),) * 5), 0.0,
+                           list(block.image.notes) + list(block.laser.notes))
+    images.checks = evaluate_checks(block.image, images.geometry)
+    return images
+
+
+__all__ = ["JointBlock", "JointResult", "PATCHES_FILE", "adjust_joint", "build_joint", "image_side", "laser_part",
+           "run_joint"]

@@ -6,7 +6,9 @@ patches, clean, diagnose, compare, rectify, apply, report.
 - ``check``: the image inputs as for an image project, and every laser strip's LAS/LAZ header;
 - ``patches``: the laser strips' patch search (with the control and check patches of ``patches.csv``),
   once per run, ``results/patches/found.npz`` (:func:`scangeo.pipeline.laser.search_patches`);
-- ``clean``, ``diagnose``: on the image points, as for an image project;
+- ``clean``, ``diagnose``: on the image points, as for an image project; a variants.toml the run writes
+  gets two variants more (:data:`scangeo.strategy.platform.LINE_VARIANTS`: a position polynomial of degree
+  1 and 2 on every flight line, which the laser's patches observe along the whole line);
 - ``compare``: every variant adjusted **jointly** (:class:`scangeo.strategy.platform.JointRunner`): the
   images' tie and control points and the laser's tie and control patches on the same GPS/IMU corrections
   of the flight lines; the cross-validation, the recommendation, every variant's ``orientation.json`` and
@@ -25,14 +27,18 @@ from pathlib import Path
 from typing import Any
 
 from scangeo.adjustment.variants import read_variants
+from scangeo.atomic import write_text
+from scangeo.errors import ProjectFileError
 from scangeo.lidar.found_io import read_found
 from scangeo.lidar.joint import PATCHES_FILE, laser_part, run_joint
 from scangeo.lidar.las_header import check_las_file
+from scangeo.pipeline.fingerprints import file_stamps
 from scangeo.pipeline.laser import FOUND, LASER_STAGES, STRIPS, corrected_outputs, search_patches
 from scangeo.pipeline.stages import Context, Stage, compare_variants, no_points, stage
 from scangeo.progress import ProgressCallback, scaled
 from scangeo.strategy.laser import laser_options
-from scangeo.strategy.platform import JointRunner
+from scangeo.strategy.platform import LINE_VARIANTS, JointRunner
+from scangeo.textfile import read_text
 
 
 def _patches_file(ctx: Context) -> Path | None:
@@ -61,6 +67,17 @@ def _check(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], li
 
 def _patches(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
     return search_patches(ctx.root, laser_part(ctx.project), _patches_file(ctx), progress)
+
+
+def _diagnose(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
+    """The image diagnosis; a variants.toml it writes gets the laser's variants too (``LINE_VARIANTS``)."""
+    summary, outputs = stage("diagnose").work(ctx, progress)
+    path = ctx.root / "variants.toml"
+    if summary["variants"] == "written from the diagnosis":
+        write_text(path, read_text(path, "a TOML file", ProjectFileError) + LINE_VARIANTS)
+        summary["variants"] += ", with P1_LINES and P2_LINES (a position polynomial on every flight line)"
+        summary["variants_sha256"] = file_stamps([path], ctx.root)["variants.toml"]["sha256"]
+    return summary, outputs
 
 
 def _compare(ctx: Context, progress: ProgressCallback) -> tuple[dict[str, Any], list[Path]]:
@@ -101,7 +118,9 @@ PLATFORM_STAGES: tuple[Stage, ...] = (
     Stage("patches", 0.20, (), lambda c: c.base_files() + _laser_files(c), _search_options, _patches,
           "planar patches in every laser strip, tie patches between overlapping strips"),
     stage("clean"),
-    stage("diagnose"),
+    replace(stage("diagnose"), work=_diagnose,
+            doc="problem strips and breaks from an SE adjustment of the cleaned image measurements; variants.toml "
+                "with the laser's P1_LINES and P2_LINES"),
     _joined(stage("compare"), after=("patches", "clean", "diagnose"), work=_compare,
             doc="every variant adjusted jointly with the laser's patches, compared, cross-validated; the "
                 "recommended variant"),

@@ -95,10 +95,14 @@ def folds_of(control_ids, k: int) -> list[list[str]]:
     return [ids[i::k] for i in range(k) if ids[i::k]]
 
 
+#: the name of a variant with a fold held out is the variant's with this suffix
+HELD_OUT = "-cv"
+
+
 def held_out(variant: Variant, fold: list[str]) -> Variant:
     """The variant with the fold's points turned into check points (exact ids, glob characters escaped)."""
     extra = tuple((glob.escape(p), "check") for p in fold)
-    return replace(variant, name=f"{variant.name}-cv", roles=variant.roles + extra)
+    return replace(variant, name=f"{variant.name}{HELD_OUT}", roles=variant.roles + extra)
 
 
 def aic_of(summary) -> float | None:
@@ -182,5 +186,5 @@ def cross_validate(project_root, variants: dict[str, Variant], summaries, folds:
     return cv
 
 
-__all__ = ["CrossValidation", "VariantRunner", "aic_of", "cross_validate", "folds_of", "held_out", "held_out_residuals",
-           "recommend"]
+__all__ = ["HELD_OUT", "CrossValidation", "VariantRunner", "aic_of", "cross_validate", "folds_of", "held_out",
+           "held_out_residuals", "recommend"]

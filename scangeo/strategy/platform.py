@@ -30,12 +30,14 @@ from scangeo.adjustment.variants import Variant, find_variant
 from scangeo.io.project import Project
 from scangeo.lidar.adjust import calibration_of, find_patches, tie_patches
 from scangeo.lidar.differences import Differences
+from scangeo.lidar.evaluation import apply, evaluate
 from scangeo.lidar.groups import laser_calibration_keys
-from scangeo.lidar.joint import PATCHES_FILE, JointResult, laser_part, run_joint
+from scangeo.lidar.joint import PATCHES_FILE, JointResult, adjust_joint, build_joint, image_side, laser_part
 from scangeo.lidar.options import LaserOptions
 from scangeo.lidar.patches import TiePatch
 from scangeo.lidar.search import StripFound
-from scangeo.progress import ProgressCallback, no_progress
+from scangeo.progress import ProgressCallback, no_progress, scaled
+from scangeo.strategy.crossvalidation import HELD_OUT
 
 
 def joins_a_laser(project: Project) -> bool:
@@ -149,7 +151,8 @@ class JointRunner:
 
     def __call__(self, project_root, variant: str | Variant, variants_file=None,
                  callback: ProgressCallback = no_progress) -> VariantResult:
-        """The variant adjusted jointly: its image side with ``sections["laser"]`` (:func:`laser_summary`).
+        """The variant adjusted jointly: its image side with ``sections["laser"]`` (:func:`laser_summary`; not
+        for a cross-validation's fold, named ``NAME-cv``: the laser strips are not corrected for it).
 
         Raises
         ------
@@ -163,12 +166,38 @@ class JointRunner:
             self.options = LaserOptions.from_table(project.adjustment, str(project.file))
         if v.strategy not in ("BE", "ME") and self.ties is None:  # the same tie patches for every variant
             self.ties = tie_patches(laser_part(project), self.options, self.found)
-        joint = run_joint(project, v, self.options, self.found, callback, self.ties, self.exclude, self.out)
-        result = joint.images
+        block = build_joint(project, v, self.options, found=self.found, callback=scaled(callback, 0.0, 0.4),
+                            ties=self.ties, exclude=self.exclude)
+        adjustment = adjust_joint(block, scaled(callback, 0.4, 0.7))
+        result = image_side(block, adjustment)
+        if not v.name.endswith(HELD_OUT):  # a cross-validation fold: its held-out image points are all it gives
+            after = apply(block.laser, adjustment.parameters.values(), self.out, scaled(callback, 0.7, 1.0))
+            joint = JointResult(block, adjustment, result, evaluate(block.laser, adjustment, after))
+            result.sections["laser"] = self.laser[v.name] = laser_summary(joint)
         result.seconds = time.perf_counter() - t0
         add_notes(result)
-        result.sections["laser"] = self.laser[v.name] = laser_summary(joint)
         return result
+
+
+#: The variants a platform's laser adds to the diagnosis's (``scangeo run`` appends them to the variants.toml
+#: it writes): the laser's patches observe the GPS/IMU along each whole flight line, to the centimetre in
+#: height, and a drift inside a flight line that the images' diagnosis does not single out (no problem strip)
+#: still misfits them under a constant per flight line (SE), pulling the shared corrections off.
+LINE_VARIANTS = """
+[variants.P1_LINES]
+strategy = "P"
+description = "position polynomial of degree 1 on every flight line (the laser's patches observe it); DTM heights"
+position_degree = 1
+dtm_heights = true
+dtm_height_points = ["*"]
+
+[variants.P2_LINES]
+strategy = "P"
+description = "position polynomial of degree 2 on every flight line (the laser's patches observe it); DTM heights"
+position_degree = 2
+dtm_heights = true
+dtm_height_points = ["*"]
+"""
 
 
 def joint_runner(project: Project, callback: ProgressCallback = no_progress) -> JointRunner:
@@ -194,4 +223,4 @@ def joint_runner(project: Project, callback: ProgressCallback = no_progress) -> 
     return JointRunner(found, options=options)
 
 
-__all__ = ["JointRunner", "joins_a_laser", "joint_runner", "laser_summary", "per_strip"]
+__all__ = ["LINE_VARIANTS", "JointRunner", "joins_a_laser", "joint_runner", "laser_summary", "per_strip"]

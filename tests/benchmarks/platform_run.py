@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import resource
 import shutil
 import subprocess
 import tempfile
@@ -39,6 +40,12 @@ def _true(comparison: dict) -> dict[str, float | None]:
     return out
 
 
+def _children() -> float:
+    """CPU seconds (user + system) of this process's finished child processes."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--preset", default="platform_quick")
@@ -58,10 +65,11 @@ def main() -> None:
         shutil.rmtree(root, ignore_errors=True)
         shutil.copytree(sim, root)
 
-    t = time.process_time()
+    t, children = time.process_time(), _children()
     result = run(joint_root)
     cpu_run = time.process_time() - t
-    print(f"scangeo run: {cpu_run:.1f} CPU s in this process ({result.seconds:.1f} s wall)")
+    print(f"scangeo run: {cpu_run:.1f} CPU s in this process, {_children() - children:.1f} in its child processes "
+          f"({result.seconds:.1f} s wall)")
     for o in result.stages:
         print(f"  {o.name:9s} {o.status:10s} {o.seconds:7.1f} s wall")
     print(f"recommended: {result.recommended}")

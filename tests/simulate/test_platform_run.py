@@ -25,17 +25,15 @@ from scangeo.lidar.options import LaserOptions
 from scangeo.orientation.file import load_orientation
 from scangeo.pipeline.laser import FOUND
 from scangeo.pipeline.run import run as run_pipeline
+from scangeo.pipeline.stages import VARIANTS_MARKER
 from scangeo.truth.true_error import Truth
 
-#: DG, BE (refused by the joint block), SE and a degree-1 position polynomial per flight line; two folds (a short run)
+#: BE (refused by the joint block), SE and a degree-1 position polynomial per flight line; two folds (a short run)
 VARIANTS = """[defaults]
 gps_sigma_m = [0.05, 0.05, 0.10]
 imu_sigma_deg = [0.003, 0.003, 0.005]
 constant_sigma_m = 5.0
 snooping = false
-
-[variants.DG]
-strategy = "DG"
 
 [variants.BE]
 strategy = "BE"
@@ -51,11 +49,23 @@ position_degree = 1
 
 @pytest.fixture(scope="module")
 def platform_run(platform_block, tmp_path_factory):
+    """The run to the diagnosis (which writes variants.toml), then with this module's variants to the end."""
     root = tmp_path_factory.mktemp("platform_run") / "platform"
     shutil.copytree(platform_block.root, root)
-    (root / "variants.toml").write_text(VARIANTS)
     (root / "run.toml").write_text("[compare]\nfolds = 2\n")
-    return root, run_pipeline(root)
+    diagnosed = run_pipeline(root, until="diagnose")
+    written = (root / "variants.toml").read_text(), read_variants(root / "variants.toml")
+    (root / "variants.toml").write_text(VARIANTS)
+    return root, run_pipeline(root), diagnosed, written
+
+
+def test_the_diagnosis_adds_the_lasers_variants(platform_run):
+    """A variants.toml the run writes on such a platform has the per flight line polynomials the laser observes."""
+    _, _, diagnosed, written = platform_run
+    assert diagnosed.ran == ["check", "patches", "clean", "diagnose"]
+    text, variants = written
+    assert text.startswith(VARIANTS_MARKER) and {"SE", "P1_LINES", "P2_LINES"} <= set(variants)
+    assert (variants["P1_LINES"].position_degree, variants["P2_LINES"].position_degree) == (1, 2)
 
 
 def _ground_error(project: Project, truth: Truth, geometry) -> float:
@@ -65,9 +75,8 @@ def _ground_error(project: Project, truth: Truth, geometry) -> float:
 
 
 def test_the_run_takes_the_platform_end_to_end(platform_run):
-    root, result = platform_run
-    assert [s.name for s in result.stages if s.status == "ran"] == ["check", "patches", "clean", "diagnose",
-                                                                    "compare", "apply", "report"]
+    root, result, _, _ = platform_run
+    assert result.ran == ["compare", "apply", "report"]  # the rest up to date
     compare = result.summary_of("compare")
     assert "joint adjustment takes per flight line models" in compare["variants"]["BE"]["error"]
     assert compare["recommended"] in ("SE", "P1")
@@ -81,7 +90,7 @@ def test_the_run_takes_the_platform_end_to_end(platform_run):
 def test_the_joint_orientation_beats_the_imager_alone(platform_run):
     """The recommended variant's orientation.json (the run's joint adjustment) against the imager alone with the
     same variant, in true ground error over the image strips."""
-    root, result = platform_run
+    root, result, _, _ = platform_run
     name = result.recommended
     project = Project.load(root)
     truth = Truth.load(project)
@@ -97,7 +106,7 @@ def test_the_joint_orientation_beats_the_imager_alone(platform_run):
 
 
 def test_the_laser_strips_no_worse_than_the_laser_alone(platform_run):
-    root, result = platform_run
+    root, result, _, _ = platform_run
     name = result.recommended
     project = Project.load(root)
     report = json.loads((root / "results" / name / "report.json").read_text())
@@ -116,7 +125,7 @@ def test_the_laser_strips_no_worse_than_the_laser_alone(platform_run):
 
 
 def test_the_report_has_the_laser_section(platform_run):
-    root, result = platform_run
+    root, result, _, _ = platform_run
     html = (root / "results" / "report.html").read_text()
     assert 'id="laser"' in html and "lidar-02" in html
     assert "lidar (laser)" in html  # the platform section's sensors table lists the laser
@@ -126,7 +135,7 @@ def test_scangeo_compare_alone_adjusts_jointly_as_the_run_does(platform_run, tmp
     """The compare command on the platform (its own patch search) gives the run's joint figures."""
     import scangeo
 
-    root, result = platform_run
+    root, result, _, _ = platform_run
     copy = tmp_path / "platform"
     shutil.copytree(root, copy, ignore=shutil.ignore_patterns("results"))
     c = scangeo.compare(copy, variants_file=copy / "variants.toml", names=["SE"], folds=0, report=False).comparison
