@@ -21,7 +21,6 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -136,17 +135,14 @@ class JointRunner:
         ``(laser strip, patch)`` observations left out.
     options : LaserOptions, optional
         The patch settings (default: the project's ``[adjustment]``).
-    out : Path, optional
-        Where the corrected laser strips are written (``ID.laz``); None: corrected in memory only.
     """
 
     found: dict[str, StripFound]
     exclude: frozenset[tuple[str, str]] = frozenset()
     options: LaserOptions | None = None
-    out: Path | None = None
     #: the tie patches of ``found`` (found at the first call: the same for every variant)
     ties: list[TiePatch] | None = None
-    #: per variant name its laser side (:func:`laser_summary`; held-out folds under NAME-cv)
+    #: per variant name its laser side (:func:`laser_summary`; none for the cross-validation's folds)
     laser: dict[str, dict] = field(default_factory=dict)
 
     def __call__(self, project_root, variant: str | Variant, variants_file=None,
@@ -171,7 +167,7 @@ class JointRunner:
         adjustment = adjust_joint(block, scaled(callback, 0.4, 0.7))
         result = image_side(block, adjustment)
         if not v.name.endswith(HELD_OUT):  # a cross-validation fold: its held-out image points are all it gives
-            after = apply(block.laser, adjustment.parameters.values(), self.out, scaled(callback, 0.7, 1.0))
+            after = apply(block.laser, adjustment.parameters.values(), None, scaled(callback, 0.7, 1.0))
             joint = JointResult(block, adjustment, result, evaluate(block.laser, adjustment, after))
             result.sections["laser"] = self.laser[v.name] = laser_summary(joint)
         result.seconds = time.perf_counter() - t0
