@@ -54,10 +54,12 @@ def simulate_truth_project(root, terrain):
     truth = read_trajectory(root / "truth" / "trajectory_01.csv", crs=project.trajectory_crs or project.crs)
     spline = OrientationSpline.from_trajectory(truth.to_project(project.map_frame.frame), project.knot_spacing)
     doc = direct_orientation(project)
-    m = doc.mounting
+    (sid, setup), = doc.sensors.items()
+    m = setup.mounting
+    true = Mounting(m.lever_arm_B, np.radians(errors["true_boresight_deg"]), m.time_offset)
     doc = dataclasses.replace(
         doc, variant="TRUTH", adjusted=True, sigma0=1.0,
-        mounting=Mounting(m.lever_arm_B, np.radians(errors["true_boresight_deg"]), m.time_offset),
+        sensors={sid: dataclasses.replace(setup, mounting=true)},
         strips={"01": dataclasses.replace(doc.strips["01"], spline=spline)})
     write_orientation(doc, res / "orientation.json")
     return root
