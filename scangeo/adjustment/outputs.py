@@ -41,6 +41,8 @@ from scangeo.trajectory.stream import GpsImuStream, ProjectTrajectory
 _ANGULAR = ("roll", "pitch", "heading", "omega")
 #: A platform's co-registration grids in a variant's results folder (module docstring).
 COREGISTRATION_FILE = "coregistration.json"
+#: A variant's report in its results folder (module docstring; :func:`read_report`).
+REPORT_FILE = "report.json"
 
 
 def _num(x):
@@ -268,12 +270,24 @@ def _write_folder(result: VariantResult, tmp: Path) -> None:
     write_reliability(result, tmp)
     with open(tmp / "residuals.csv", "w", newline="") as f:  # inside write_results' atomic folder
         csv.writer(f).writerows(residual_rows(result))
-    (tmp / "report.json").write_text(json.dumps(report_dict(result), indent=1))
+    (tmp / REPORT_FILE).write_text(json.dumps(report_dict(result), indent=1))
     if result.block.project.is_platform:
         grids = [c.as_dict() for c in coregistration(result)]
         (tmp / COREGISTRATION_FILE).write_text(json.dumps({"schema": "scangeo.coregistration/1", "unit": "m",
                                                            "strips": grids}, indent=1))
 
 
-__all__ = ["COREGISTRATION_FILE", "coefficient_table", "platform_summary", "report_dict", "residual_rows",
-           "write_results"]
+def read_report(results: Path, name: str) -> dict:
+    """Variant ``name``'s ``report.json`` under ``results`` (``PROJECT/results``), or {} when it has none.
+
+    Returns
+    -------
+    dict
+        What :func:`report_dict` wrote for the variant (empty when the variant was not written).
+    """
+    path = Path(results) / name / REPORT_FILE
+    return json.loads(path.read_text(encoding="utf-8")) if path.exists() else {}
+
+
+__all__ = ["COREGISTRATION_FILE", "REPORT_FILE", "coefficient_table", "platform_summary", "read_report", "report_dict",
+           "residual_rows", "write_results"]

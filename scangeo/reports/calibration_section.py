@@ -18,12 +18,12 @@ what it bought (the rms against the reference's).
 from __future__ import annotations
 
 import csv
-import json
 from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
 
+from scangeo.adjustment.outputs import read_report
 from scangeo.adjustment.summary import Comparison
 from scangeo.errors import ScangeoError
 from scangeo.io.points import ImagePoints
@@ -35,16 +35,11 @@ def _fmt(value, digits: int = 4) -> str:
     return "–" if value is None else f"{value:.{digits}g}"
 
 
-def _report(results: Path, name: str) -> dict:
-    path = results / name / "report.json"
-    return json.loads(path.read_text()) if path.exists() else {}
-
-
 def _calibrated(results: Path, c: Comparison) -> dict[str, dict]:
     out = {}
     for v in c.variants:
         if v.error is None:
-            cal = _report(results, v.name).get("calibration", {})
+            cal = read_report(results, v.name).get("calibration", {})
             if cal.get("parameters") or cal.get("tests"):
                 out[v.name] = cal
     return out

@@ -10,9 +10,9 @@ A one-sensor project, or a variant without a platform section, has no such secti
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
+from scangeo.adjustment.outputs import read_report
 from scangeo.rectify.coregistration_layer import layer_path
 from scangeo.reports import html
 
@@ -54,10 +54,7 @@ def coregistration_section(results: Path, variant: str) -> html.Section | None:
     html.Section or None
         A table per flight line.
     """
-    path = Path(results) / variant / "report.json"
-    if not path.exists():
-        return None
-    platform = json.loads(path.read_text(encoding="utf-8")).get("platform") or {}
+    platform = read_report(results, variant).get("platform") or {}
     rows = coregistration_rows(platform)
     if not rows:
         return None

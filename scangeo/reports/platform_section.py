@@ -8,9 +8,9 @@ sensor has one).
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
+from scangeo.adjustment.outputs import read_report
 from scangeo.reports import html
 
 
@@ -46,8 +46,7 @@ def laser_section(results: Path, variant: str) -> html.Section | None:
         The strip differences on flat cells before and after, per laser strip and over all, and the check
         patches; None when the variant's report.json has no laser side.
     """
-    path = results / variant / "report.json"
-    laser = json.loads(path.read_text()).get("laser") if path.exists() else None
+    laser = read_report(results, variant).get("laser")
     if not laser:
         return None
     sec = html.Section(f"The laser strips ({variant}, adjusted with the images)", "laser")
@@ -82,10 +81,7 @@ def platform_section(results: Path, variant: str) -> html.Section | None:
     html.Section or None
         Tables of the sensors, the relative mountings and the strips; the notes on strips without control.
     """
-    path = results / variant / "report.json"
-    if not path.exists():
-        return None
-    report = json.loads(path.read_text())
+    report = read_report(results, variant)
     platform = report.get("platform")
     if not platform:
         return None

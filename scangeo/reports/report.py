@@ -26,12 +26,12 @@ The residual vectors of every variant also go to a GeoPackage (:mod:`scangeo.rep
 from __future__ import annotations
 
 import datetime
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from scangeo.adjustment.outputs import read_report
 from scangeo.adjustment.summary import Comparison
 from scangeo.atomic import write_text
 from scangeo.io.points import GroundPoints
@@ -104,11 +104,6 @@ def _rms_title(c: Comparison, name: str, sid: str) -> str:
         return f"{name}: no check points"
     return (f"{name}: check rms along {ch['rms_along_px']:.2f} px, across {ch['rms_across_px']:.2f} px "
             f"(n = {ch['n']})")
-
-
-def _variant_report(project: Project, name: str) -> dict:
-    path = project.root / "results" / name / "report.json"
-    return json.loads(path.read_text()) if path.exists() else {}
 
 
 def _colours(c: Comparison) -> dict[str, str]:
@@ -268,7 +263,7 @@ def _notes_section(project: Project, c: Comparison) -> html.Section:
         if v.error:
             sec.parts.append(html.paragraph(f"the adjustment failed: {v.error}", "warn"))
             continue
-        r = _variant_report(project, v.name)
+        r = read_report(project.root / "results", v.name)
         reg = [
             f"{n['unknown']} [{n['component']}]: pseudo-observation with sigma {n['sigma']:g} ({n['reason']})"
             for n in r.get("regularisation", [])
