@@ -548,20 +548,24 @@ def choose_model(root, data: PatternData, search: Fit, options: SelectionOptions
     if refine is None or not any(c.strip is not None for c in checks):
         return fit, checks, adopted
     say("diagnosis: the split model's opinion of the other attributions")
-    split_model_opinion(root, checks, _bic_breaks(data, fit), dtm_height_points, refine.position_degree)
-    seen = {repr(_bic_breaks(data, fit))}
+    chosen = _bic_breaks(data, fit)
+    split_model_opinion(root, checks, chosen, dtm_height_points, refine.position_degree)
+    seen = [chosen]
     for _ in range(len(data.strips)):  # from each adopted model, its own alternatives asked again
         better = preferred_by_split_model(checks)
-        if better is None or better.fit is None or repr(_bic_breaks(data, better.fit)) in seen:
+        if better is None or better.fit is None:
             break
+        chosen = _bic_breaks(data, better.fit)
+        if chosen in seen:
+            break
+        seen.append(chosen)
         fit = better.fit
-        seen.add(repr(_bic_breaks(data, fit)))
         fit.alternatives = alternatives(data, fit, options)
         checks = attribution_checks(data, fit, options)
         adopted.append(better)
         if not any(c.strip is not None for c in checks):
             break
-        split_model_opinion(root, checks, _bic_breaks(data, fit), dtm_height_points, refine.position_degree)
+        split_model_opinion(root, checks, chosen, dtm_height_points, refine.position_degree)
     return fit, checks, adopted
 
 
