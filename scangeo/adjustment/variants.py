@@ -32,10 +32,11 @@ LASER_CALIBRATION = ("boresight", "lever_arm", "range_offset", "index_error")
 CALIBRATION = (*IMAGE_CALIBRATION, "range_offset")
 #: The keys a laser variant takes by default (beneath a variants file's [defaults]): the priors of the
 #: paper's strip adjustment (correction coefficients of degree >= 1 and attitude constants "= 0" within
-#: 0.5 m / 0.01 deg), the boresight calibrated, data snooping 4 units a round.
+#: 0.5 m / 0.01 deg), the boresight calibrated, data snooping 4 units a round on the linear model (engine.py).
 LASER_DEFAULTS: dict[str, object] = {
     "coefficient_sigma_m": 0.5, "coefficient_sigma_deg": 0.01, "constant_sigma_deg": 0.01,
     "calibrate": ["boresight"], "rejections_per_round": 4, "independent_rejections": False, "max_iterations": 30,
+    "snooping_method": "linear",
 }
 #: The variants file of a laser project without one (the paper's models).
 LASER_VARIANTS = "laser_variants.toml"
@@ -100,8 +101,9 @@ class Variant:
     rejections_per_round: int = setting(32, ge=1, unit="1", doc="units removed per re-solution, at most")
     independent_rejections: bool = setting(True, doc="only units whose w-tests cannot influence each other "
                                            "are removed in one round (1 per round: Baarda's)")
-    snooping_method: str = setting("update", choices=("update", "resolve"),
-                                   doc="re-solution after a removal: low-rank update or full")
+    snooping_method: str = setting("update", choices=("update", "linear", "resolve"),
+                                   doc="re-solution after a removal: low-rank update, the same on the linear "
+                                       "model until no w is left (laser default), or full")
     max_iterations: int = setting(20, ge=1, unit="1", doc="Gauss-Newton iterations at most")
     backend: str = setting("auto", choices=("auto", "cholmod", "superlu"), doc="sparse solver")
 

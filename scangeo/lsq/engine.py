@@ -16,6 +16,12 @@ How the adjustment is solved again after a removal (``SnoopingOptions.method``):
   inversion) and tested again: the reported statistics are always those of a full solution, and a
   w that the full solution puts above the critical value is snooped as before. A removal that
   leaves an unknown undetermined (it needs regularisation) is solved in full at once.
+- ``"linear"``: as ``"update"``, but the new solution after a removal is that of the current state's
+  linear model (no linearisation: ``removal.py``, linear rounds); when no w exceeds the critical value
+  any more, the nonlinear model's solution (the chord iteration through every removal since) is
+  tested again, then the full solution as above. For nearly linear problems with many rounds (the
+  laser's strip adjustment: planes and small corrections), where the linearisations were most of the
+  time.
 - ``"resolve"``: a full solution and selected inversion after every removal (the reference).
 """
 from __future__ import annotations
@@ -40,6 +46,10 @@ from scangeo.progress import ProgressCallback, no_progress, scaled
 log = logging.getLogger(__name__)
 
 
+#: How the adjustment is solved again after a removal (module docstring).
+METHODS = ("update", "linear", "resolve")
+
+
 @dataclass(frozen=True)
 class SnoopingOptions:
     """Data snooping: ``critical_value`` of |w|, at most ``max_rejections`` units, ``per_round`` per
@@ -62,8 +72,9 @@ class SnoopingOptions:
     separability: bool = True
 
     def __post_init__(self) -> None:
-        if self.method not in ("update", "resolve"):
-            raise AdjustmentError(f"snooping method must be 'update' or 'resolve', not {self.method!r}")
+        if self.method not in METHODS:
+            raise AdjustmentError(f"snooping method must be one of {', '.join(map(repr, METHODS))}, "
+                                  f"not {self.method!r}")
 
 
 @dataclass(frozen=True)
@@ -188,6 +199,8 @@ def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
         if not worst:
             if update is None or update.removed.size == 0:
                 break
+            if not update.polished and update.polish():
+                continue  # the w-tests again, at the nonlinear model's solution
             # no w above the critical value with the updated statistics: confirm with a full solution
             solver.parameters.set_values(update.values)
             active = update.active
@@ -217,10 +230,10 @@ def adjust(parameters: Parameters, groups: Sequence[ObservationGroup],
             1.0,
             f"data snooping: {len(rejections)} rejected",
         )
-        if snooping.method == "update":
+        if snooping.method in ("update", "linear"):
             if update is None:
                 update = RemovalUpdate(solver, solution, stats.leverages, _tested_rows(solution))
-            if update.remove(rows, snooping.max_update_rows):
+            if update.remove(rows, snooping.max_update_rows, linear=snooping.method == "linear"):
                 continue
             solver.parameters.set_values(update.values)  # refactorise from the latest values
             active, update = update.active, None

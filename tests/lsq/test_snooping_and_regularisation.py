@@ -124,9 +124,11 @@ def _full_solution(solver, active):
     return solution, Statistics(solution)
 
 
-def test_removal_update_is_exact_on_a_linear_problem():
+@pytest.mark.parametrize("linear", [False, True])
+def test_removal_update_is_exact_on_a_linear_problem(linear):
     # removing observations by the low-rank update gives the solution and the w-tests of a full
-    # re-solution, one removal and two (cumulative) removals after the factorisation
+    # re-solution, one removal and two (cumulative) removals after the factorisation; the linear
+    # rounds' model is the problem itself here, so they are exact too, without a linearisation
     rng = np.random.default_rng(4)
     truth, group = levelling_network(rng, n_points=20, n_lines=70, blunders=[(5, 0.03), (33, -0.03)])
     solver = Solver(levelling_parameters(truth), [group], SolverOptions())
@@ -134,7 +136,8 @@ def test_removal_update_is_exact_on_a_linear_problem():
     stats = Statistics(solution)
     update = RemovalUpdate(solver, solution, stats.leverages, np.ones(group.n_rows, bool))
     for rows in ([5], [33]):
-        assert update.remove(np.array(rows))
+        assert update.remove(np.array(rows), linear=linear)
+        assert update.polished is not linear
         reference, ref_stats = _full_solution(Solver(levelling_parameters(truth), [group], SolverOptions()),
                                               update.active)
         for name in truth:
@@ -146,8 +149,8 @@ def test_removal_update_is_exact_on_a_linear_problem():
         np.testing.assert_allclose(w[act], w_ref[act], rtol=1e-8, atol=1e-8)
 
 
-def test_removal_update_follows_a_nonlinear_problem():
-    # trilateration: the chord iteration converges to the full solution within its tolerance
+def _trilateration():
+    """One point P (truth 120, 90) from 6 stations, a 0.5 m blunder in the fourth distance; solved."""
     stations = np.array([[0, 0], [400, 0], [0, 300], [500, 450], [-200, 250], [250, -300]], float)
     p = np.array([120.0, 90.0])
     d = np.hypot(*(p - stations).T) + np.array([0.003, -0.002, 0.001, 0.5, -0.002, 0.001])
@@ -156,7 +159,13 @@ def test_removal_update_follows_a_nonlinear_problem():
     group = Distances(stations, d, 0.003)
     solver = Solver(params, [group], SolverOptions())
     solution = solver.solve()
-    stats = Statistics(solution)
+    return params, group, solver, solution, Statistics(solution)
+
+
+def test_removal_update_follows_a_nonlinear_problem():
+    # trilateration: the chord iteration converges to the full solution within its tolerance
+    params, group, solver, solution, stats = _trilateration()
+    p = np.array([120.0, 90.0])
     update = RemovalUpdate(solver, solution, stats.leverages, np.ones(group.n_rows, bool))
     assert update.remove(np.array([3]))
     reference, ref_stats = _full_solution(Solver(params, [group], SolverOptions()), update.active)
@@ -167,7 +176,72 @@ def test_removal_update_follows_a_nonlinear_problem():
     assert np.abs(update.values[Unknown("P")] - p).max() < 0.01   # the blunder is gone
 
 
-@pytest.mark.parametrize("method", ["update", "resolve"])
+def test_linear_rounds_then_the_polish_are_the_chord_iteration_to_the_bit():
+    # trilateration, the 0.5 m blunder removed: the linear model's residuals (the w-tests of the next round)
+    # stay within the second-order terms of the step (the removal moves P by about 0.2 m; a distance's
+    # curvature is 1 / rho, rho >= 150 m: |dr| <= step^2 / (2 rho), in units of the 3 mm sigma), and the
+    # polish takes the very chord steps of a removal without linear rounds: the same bits
+    params, group, solver, solution, stats = _trilateration()
+    tested = np.ones(group.n_rows, bool)
+    chord = RemovalUpdate(solver, solution, stats.leverages, tested)
+    linear = RemovalUpdate(solver, solution, stats.leverages, tested)
+    assert chord.remove(np.array([3])) and chord.polished
+    assert linear.remove(np.array([3]), linear=True) and not linear.polished
+    assert chord.linear_steps == 0 and linear.steps == 0 and linear.linear_steps >= 1
+    step = np.linalg.norm(chord.values[Unknown("P")] - solution.parameters[Unknown("P")].values)
+    assert 0.05 < step < 0.5
+    act = chord.active[0]
+    w_linear, w_chord = linear.w_tests()[0][act], chord.w_tests()[0][act]
+    second_order = step**2 / (2 * 150.0) / 0.003 / np.sqrt(1 - stats.leverages[act]).min()
+    assert 0 < np.abs(w_linear - w_chord).max() < second_order
+    assert linear.polish() and linear.polished
+    np.testing.assert_array_equal(linear.values[Unknown("P")], chord.values[Unknown("P")])
+    np.testing.assert_array_equal(linear.w_tests()[0], chord.w_tests()[0])
+
+
+def _station_network(rng, n_points=12, blunders=()):
+    """Points each measured by distances from 6 of 10 fixed stations (one group per point, 1-2 km
+    apart); ``blunders``: (point, row, size in m)."""
+    stations = rng.uniform(-1500, 1500, (10, 2))
+    params, groups, truth = Parameters(), [], {}
+    for i in range(n_points):
+        p = rng.uniform(-500, 500, 2)
+        sel = rng.choice(10, 6, replace=False)
+        d = np.hypot(*(p - stations[sel]).T) + 0.003 * rng.standard_normal(6)
+        for point, row, size in blunders:
+            if point == i:
+                d[row] += size
+        key = Unknown(f"Q{i}")
+        truth[key] = p
+        params.add(key, p + rng.normal(0, 2.0, 2))
+        g = Distances(stations[sel], d, 0.003, key)
+        g.name = f"distances Q{i}"
+        g.ids = np.array([f"Q{i}-S{j}" for j in sel])
+        groups.append(g)
+    return params, groups, truth
+
+
+def test_linear_rounds_snoop_as_the_chord_iteration_on_a_nonlinear_network():
+    # 12 points, 7 blunders of 5-30 cm in 5 of them, 4 units a round (two rounds: the 7 and a good
+    # observation beside a blunder of the second, four blind a round): the linear rounds reject the same
+    # observations in the same rounds; the statistics are those of the last full solution in both
+    rng = np.random.default_rng(3)
+    blunders = [(0, 1, 0.3), (2, 0, -0.2), (2, 4, 0.15), (5, 2, 0.1), (7, 3, -0.05), (9, 5, 0.25), (9, 0, 0.08)]
+    params, groups, truth = _station_network(rng, blunders=blunders)
+    results = {m: adjust(params, groups, SolverOptions(), SnoopingOptions(method=m, per_round=4))
+               for m in ("update", "linear")}
+    upd, lin = results["update"], results["linear"]
+    blundered = {str(groups[point].ids[row]) for point, row, _ in blunders}
+    assert blundered <= {r.id for r in upd.rejections} and len(upd.rejections) == 8 and upd.snooping_rounds == 2
+    assert [(r.id, r.round) for r in lin.rejections] == [(r.id, r.round) for r in upd.rejections]
+    np.testing.assert_allclose([r.w for r in lin.rejections], [r.w for r in upd.rejections], rtol=1e-3)
+    assert lin.statistics.sigma0 == pytest.approx(upd.statistics.sigma0, rel=1e-9)
+    for key in truth:
+        np.testing.assert_allclose(lin.parameters[key].values, upd.parameters[key].values, atol=1e-6)
+    assert lin.full_solutions == upd.full_solutions
+
+
+@pytest.mark.parametrize("method", ["update", "linear", "resolve"])
 def test_removal_that_leaves_an_unknown_undetermined_is_regularised(method, caplog):
     # PX is tied to the network only by the two lines of one observation unit; one holds a blunder.
     # Removing the unit leaves PX undetermined: the update declines, the full solution regularises PX
@@ -194,7 +268,7 @@ def test_removal_that_leaves_an_unknown_undetermined_is_regularised(method, capl
 
 def test_update_and_resolve_snoop_alike_on_a_levelling_network():
     flagged = {}
-    for method in ("update", "resolve"):
+    for method in ("update", "linear", "resolve"):
         rng = np.random.default_rng(9)
         truth, group = levelling_network(rng, n_points=30, n_lines=150, blunders=[(i, 0.03) for i in (2, 50, 77, 120)])
         result = adjust(levelling_parameters(truth), [group], SolverOptions(), SnoopingOptions(method=method))
@@ -204,3 +278,8 @@ def test_update_and_resolve_snoop_alike_on_a_levelling_network():
     np.testing.assert_allclose([r.w for r in upd.rejections], [r.w for r in ref.rejections], rtol=1e-8)
     assert upd.statistics.sigma0 == pytest.approx(ref.statistics.sigma0, rel=1e-10)
     assert upd.full_solutions == 2 and ref.full_solutions == 5
+    lin = flagged["linear"]   # the linear rounds: exact on a linear problem, no linearisation between solutions
+    assert [r.id for r in lin.rejections] == [r.id for r in ref.rejections]
+    np.testing.assert_allclose([r.w for r in lin.rejections], [r.w for r in ref.rejections], rtol=1e-8)
+    assert lin.statistics.sigma0 == pytest.approx(ref.statistics.sigma0, rel=1e-10)
+    assert lin.full_solutions == 2
