@@ -103,6 +103,11 @@ class RemovalUpdate:
         self._B: np.ndarray = np.zeros((self._tested.size, 0))  # J_tested N^-1 V^T
         self._S_inv: np.ndarray = np.zeros((0, 0))
         self._h: np.ndarray | None = None                   # the leverages of this state (leverages())
+        # for the leverages, kept from one state to the next: M = B S^-1 and e = diag(B S^-1 B^T) of the
+        # first ``M.shape[1]`` columns, with that state's S^-1
+        self._M: np.ndarray = np.zeros((self._tested.size, 0))
+        self._e: np.ndarray = np.zeros(self._tested.size)
+        self._M_S_inv: np.ndarray = np.zeros((0, 0))
         # per column, the active rows that observe it (an orphaned unknown gets a pseudo-observation)
         nonzero = self._Js.data != 0
         self._observers = np.bincount(self._Js.indices[nonzero], minlength=solver.layout.n)
@@ -157,7 +162,7 @@ class RemovalUpdate:
         self.removed = np.concatenate([self.removed, rows])
         self._V, self._VU, self._B = V, VU, B
         self._sign = np.concatenate([self._sign, -np.ones(rows.size), np.ones(R.shape[0])])
-        S = -np.diag(self._sign) - 0.5 * (VU + VU.T)
+        S = self._S_full()
         with one_thread():  # k x k, k up to a few hundred: OpenBLAS's threads only cost (scangeo/blas.py)
             smallest = float(np.min(np.abs(np.linalg.eigvalsh(S))))
             if smallest < MIN_EIGENVALUE:
@@ -256,14 +261,42 @@ class RemovalUpdate:
     # -- tests ----------------------------------------------------------------------------------
     def leverages(self) -> np.ndarray:
         """``h'_i = j_i N'^-1 j_i^T`` of every tested row of the stack (NaN for the others); computed
-        once per state (the w-tests and each unit's separability test of a round read the same), read-only."""
+        once per state (the w-tests and each unit's separability test of a round read the same), read-only.
+
+        ``diag(B S^-1 B^T)`` is carried from the last state on by the bordered inverse of ``S``: with the
+        columns ``o`` known (``M = B_o S_oo^-1``) and ``n`` new, ``C = S_on``, ``G = S_oo^-1 C``, the
+        Schur complement ``Z = S_nn - C^T G`` and ``Y = B_n - M C``, the diagonal grows by
+        ``diag(Y Z^-1 Y^T)`` and ``M`` becomes ``[M - Y Z^-1 G^T, Y Z^-1]``: tested rows x old x new
+        columns per state instead of tested rows x all columns squared (the montafon block's mission
+        variant: 12 new of up to 256 columns a round). The first state after a full solution is the
+        direct product, as before."""
         if self._h is None:
-            B = self._B
+            B, k_old = self._B, self._M.shape[1]
+            if k_old == 0:
+                M = B @ self._S_inv
+                e = np.einsum("ik,ik->i", M, B)
+            else:
+                C = self._S_full()[:k_old, k_old:]
+                B_new = B[:, k_old:]
+                with one_thread():
+                    G = self._M_S_inv @ C
+                    Z = self._S_full()[k_old:, k_old:] - C.T @ G
+                    Z_inv = np.linalg.inv(0.5 * (Z + Z.T))
+                Y = B_new - self._M @ C
+                YZ = Y @ Z_inv
+                e = self._e + np.einsum("ik,ik->i", YZ, Y)
+                M = np.hstack([self._M - YZ @ G.T, YZ])
+            self._M, self._e, self._M_S_inv = M, e, self._S_inv
             h = np.full(self._residuals.size, np.nan)
-            h[self._tested] = self._h0 + np.einsum("ik,ik->i", B @ self._S_inv, B)
+            h[self._tested] = self._h0 + e
             h.setflags(write=False)
             self._h = h
         return self._h
+
+    def _S_full(self) -> np.ndarray:
+        """``S = -C - V U`` of every removal since the last full solution (symmetrised, as inverted)."""
+        VU = self._VU
+        return -np.diag(self._sign) - 0.5 * (VU + VU.T)
 
     def coupling_correction(self, rows_a: np.ndarray, rows_b: np.ndarray) -> np.ndarray:
         """``j_b (N'^-1 - N^-1) j_a^T = B_b S^-1 B_a^T`` for tested (global) rows: what the removals since
