@@ -149,16 +149,27 @@ class Evaluation:
         }
 
 
-def evaluate(block: LaserBlock, result: Adjustment, after: dict[str, StripPatches]) -> Evaluation:
+def _difference_args(block: LaserBlock) -> tuple[float, float, float, float]:
+    popt = _options(block)[0]
+    return popt.size, popt.flat_deg, popt.max_angle_deg, popt.max_offset
+
+
+def differences_before(block: LaserBlock) -> Differences:
+    """The strip differences of the block's strips as found (before any correction): the same for every
+    variant set up on the same patches with the same settings."""
+    return strip_differences({s: f.cells for s, f in block.found.items()}, *_difference_args(block))
+
+
+def evaluate(block: LaserBlock, result: Adjustment, after: dict[str, StripPatches],
+             before: Differences | None = None) -> Evaluation:
+    """The figures of the adjusted block; ``before``: :func:`differences_before` of a block on the same
+    patches and settings (None: computed here)."""
     initial = block.parameters.values()
     final = result.parameters.values()
-    popt = _options(block)[0]
-    args = (popt.size, popt.flat_deg, popt.max_angle_deg, popt.max_offset)
-    before, after_d = common_rows(
-        strip_differences({s: f.cells for s, f in block.found.items()}, *args), strip_differences(after, *args)
-    )
+    before_d, after_d = common_rows(before if before is not None else differences_before(block),
+                                    strip_differences(after, *_difference_args(block)))
     return Evaluation(
-        before,
+        before_d,
         after_d,
         check_patches(block, initial),
         check_patches(block, final),

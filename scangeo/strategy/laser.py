@@ -26,7 +26,8 @@ from scangeo.atomic import write_csv, write_text
 from scangeo.errors import InputFileError, ScangeoError
 from scangeo.io.project import Project
 from scangeo.lidar.adjust import LaserBlock, build, find_patches, run, tie_patches
-from scangeo.lidar.evaluation import Evaluation, apply, evaluate
+from scangeo.lidar.differences import Differences
+from scangeo.lidar.evaluation import Evaluation, apply, differences_before, evaluate
 from scangeo.lidar.options import LaserOptions
 from scangeo.lidar.patches import TiePatch
 from scangeo.lidar.result import LaserResult, laser_result
@@ -85,17 +86,21 @@ class AdjustedVariant:
     adjustment: Adjustment
     evaluation: Evaluation
     result: LaserResult
+    #: the strip differences before any correction (``lidar.evaluation.differences_before``), for the next variant
+    before: Differences | None = None
 
 
 def adjust_laser_variant(project: Project, variant: Variant, found: dict[str, StripFound] | None = None,
                          exclude: frozenset[tuple[str, str]] = frozenset(), out: Path | None = None,
                          callback: ProgressCallback = no_progress, ties: list[TiePatch] | None = None,
-                         **overrides) -> AdjustedVariant:
+                         before: Differences | None = None, **overrides) -> AdjustedVariant:
     """Set up, adjust and evaluate one variant; ``out``: the corrected strips written there as LAZ.
 
     ``found`` : the patches of an earlier search (None: search the strips now).
     ``exclude`` : ``(strip, patch)`` observations left out (:func:`clean_laser`).
     ``ties`` : the tie patches of ``found`` with these settings (``lidar.adjust.tie_patches``; None: found here).
+    ``before`` : the strip differences of ``found`` before any correction, with these settings (an earlier
+    variant's ``AdjustedVariant.before``; None: computed here).
     ``overrides`` : replace ``[adjustment]`` settings (None: keep).
     """
     options = laser_options(project, **overrides)
@@ -103,8 +108,9 @@ def adjust_laser_variant(project: Project, variant: Variant, found: dict[str, St
                   exclude=exclude, ties=ties)
     adjustment = run(block, scaled(callback, 0.4, 0.7))
     after = apply(block, adjustment.parameters.values(), out, scaled(callback, 0.7, 1.0))
-    evaluation = evaluate(block, adjustment, after)
-    return AdjustedVariant(block, adjustment, evaluation, laser_result(block, adjustment, evaluation))
+    before = before if before is not None else differences_before(block)
+    evaluation = evaluate(block, adjustment, after, before)
+    return AdjustedVariant(block, adjustment, evaluation, laser_result(block, adjustment, evaluation), before)
 
 
 # --- cleaning ------------------------------------------------------------------------------------------------
@@ -232,6 +238,7 @@ def compare_laser(project: Project | Path | str, variants: dict[str, Variant] | 
     done: dict[Variant, str] = {}
     one_mission = len({s.mission for s in project.strips}) == 1
     ties: list[TiePatch] | None = None
+    before: Differences | None = None   # the strips' differences as found: the same for every variant
     n = len(variants)
     for k, (name, variant) in enumerate(variants.items()):
         sub = scaled(callback, k / n, (k + 1) / n)
@@ -249,7 +256,9 @@ def compare_laser(project: Project | Path | str, variants: dict[str, Variant] | 
                 found = find_patches(project, laser_options(project), ground_file(project), scaled(sub, 0.0, 0.5))
             if ties is None:  # the same tie patches for every variant (33 CPU s on the montafon block)
                 ties = tie_patches(project, laser_options(project), found)
-            results[name] = adjust_laser_variant(project, variant, found, exclude, callback=sub, ties=ties).result
+            done_variant = adjust_laser_variant(project, variant, found, exclude, callback=sub, ties=ties,
+                                                before=before)
+            results[name], before = done_variant.result, done_variant.before
         except InputFileError:
             raise  # a defect of the project's files fails every variant alike
         except ScangeoError as exc:
