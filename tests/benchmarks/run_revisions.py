@@ -14,7 +14,8 @@ Then the outputs of the first run of each: every file under ``results/`` but the
 the HTML report after its timings are taken out; printed: the files that differ and how much.
 
 Run: python tests/benchmarks/run_revisions.py --baseline REV [--preset vienna2000 | --project DIR]
-[--reps 2] [--load 0] [--cache DIR] [--with-results] [-- EXTRA RUN ARGUMENTS, e.g. --from compare --until compare]
+[--reps 2] [--load 0] [--cache DIR] [--with-results] [--warm SMALL_PROJECT]
+[-- EXTRA RUN ARGUMENTS, e.g. --from compare --until compare]
 """
 from __future__ import annotations
 
@@ -172,6 +173,9 @@ def main() -> None:
     ap.add_argument("--with-results", action="store_true", help="copy the project's results/ too (to run from a "
                     "later stage: -- --from compare --until compare)")
     ap.add_argument("--cache", type=Path, default=Path("/tmp/scangeo-bench-revisions"))
+    ap.add_argument("--warm", type=Path, help="a small project each code runs once first, untimed (with the same "
+                    "arguments and --with-results): numba's cache of a freshly unpacked baseline is empty, and "
+                    "compiling would be counted against it")
     ap.add_argument("extra", nargs="*", help="more arguments of `scangeo run` (after --)")
     args = ap.parse_args()
     args.cache.mkdir(parents=True, exist_ok=True)
@@ -186,6 +190,10 @@ def main() -> None:
         time.sleep(3.0)
     print(f"{source}: `scangeo run {' '.join(args.extra)}`; {args.load} busy-loop processes beside it; "
           f"OPENBLAS_CORETYPE={os.environ.get('OPENBLAS_CORETYPE')}", flush=True)
+    if args.warm is not None:
+        for k, (name, code) in enumerate(routes.items()):
+            c, w = run(code, fresh(args.warm, args.cache / "runs" / f"warm-{k}", args.with_results), args.extra)
+            print(f"warm {name:25s} CPU {c:8.1f} s  wall {w:8.1f} s  ({args.warm}, not counted)", flush=True)
     cpu: dict[str, list[float]] = {n: [] for n in routes}
     first: dict[str, Path] = {}
     try:
