@@ -94,11 +94,12 @@ def strip_differences(
 
 def _codes(*diffs: Differences) -> list[np.ndarray]:
     """One integer per row (cell, first strip, second strip), the same for the same row of any of ``diffs``."""
-    strips = np.unique(np.concatenate([np.concatenate([d.a, d.b]).astype(str) for d in diffs]))
+    pairs = [(d.a.astype(str), d.b.astype(str)) for d in diffs]
+    strips = np.unique(np.concatenate([x for pair in pairs for x in pair]))
     cells = np.unique(np.concatenate([d.cell for d in diffs]))   # cell keys reach 2^62: numbered here
     n = max(strips.size, 1)
-    return [(np.searchsorted(cells, d.cell).astype(np.int64) * n + np.searchsorted(strips, d.a.astype(str))) * n
-            + np.searchsorted(strips, d.b.astype(str)) for d in diffs]
+    return [(np.searchsorted(cells, d.cell).astype(np.int64) * n + np.searchsorted(strips, a)) * n
+            + np.searchsorted(strips, b) for d, (a, b) in zip(diffs, pairs)]
 
 
 def common_rows(before: Differences, after: Differences) -> tuple[Differences, Differences]:

@@ -114,9 +114,9 @@ class RemovalUpdate:
         self._residuals = system.residuals
         self._jacobian = system.jacobian
         self.cost = system.cost
-        # the last state of the nonlinear model (values, residuals, Jacobian, cost): where the chord iteration
+        # the last state of the nonlinear model (values, residuals, Jacobian): where the chord iteration
         # starts; the current state above runs ahead of it by linear rounds
-        self._nonlinear = (self.values, self._residuals, self._jacobian, self.cost)
+        self._nonlinear = (self.values, self._residuals, self._jacobian)
         #: True while the current state is the nonlinear model's (no linear round since the last chord iteration)
         self.polished = True
         self.steps = 0
@@ -232,7 +232,7 @@ class RemovalUpdate:
 
     def _solve(self) -> bool:
         solver, opts = self.solver, self.solver.options
-        values, residuals, J, _ = self._nonlinear
+        values, residuals, J = self._nonlinear
         r = residuals * np.concatenate(self.active)
         cost = float(r @ r)
         for _ in range(MAX_STEPS):
@@ -241,7 +241,7 @@ class RemovalUpdate:
             self.steps += 1
             if float(step @ -gradient) < opts.chi2_tolerance:  # converged (the solver's test)
                 self.values, self._residuals, self._jacobian, self.cost = values, r, J, cost
-                self._nonlinear = (values, r, J, cost)
+                self._nonlinear = (values, r, J)
                 return True
             trial = solver.layout.add_step(values, step / self.scale)
             try:
@@ -276,11 +276,12 @@ class RemovalUpdate:
                 M = B @ self._S_inv
                 e = np.einsum("ik,ik->i", M, B)
             else:
-                C = self._S_full()[:k_old, k_old:]
+                S = self._S_full()
+                C = S[:k_old, k_old:]
                 B_new = B[:, k_old:]
                 with one_thread():
                     G = self._M_S_inv @ C
-                    Z = self._S_full()[k_old:, k_old:] - C.T @ G
+                    Z = S[k_old:, k_old:] - C.T @ G
                     Z_inv = np.linalg.inv(0.5 * (Z + Z.T))
                 Y = B_new - self._M @ C
                 YZ = Y @ Z_inv
